@@ -1,0 +1,304 @@
+"""Closed-loop models: what plants produce and what metrics read.
+
+A Loop's numbers are CasADi expressions of the tunable parameters, so one Loop serves
+the NLP (symbols) and the evaluation of a tuned design (numbers). Two kinds exist:
+
+* :class:`ContinuousLoop` — ẋ = A x + B r, position y = C x (Koren's reference-pulse loop);
+* :class:`SampledLoop` — a continuous :class:`IntegratorLag` plant behind a zero-order
+  hold, position sampled every T, a proportional position controller with an integer
+  computation delay (Koren's sampled-data loop, Fig 4), discretised exactly.
+
+Both give the characteristic polynomial, stability conditions, frequency response from
+reference to position, and exact step-error integrals.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import casadi as ca
+
+from feedtune import linalg
+from feedtune.signals import ErrorIntegrals, sample_error_integrals, second_order_error_integrals
+
+MAX_HORIZON_SAMPLES = 50_000
+
+
+@dataclass(frozen=True)
+class Drive:
+    """Physical data of the axis that some metrics need, beyond the loop dynamics.
+
+    Attributes
+    ----------
+    time_constant : float or None
+        Time constant τ [s] of a first-order velocity drive (Koren eq 3), if the drive is one.
+    blu : float or None
+        Basic length unit, one encoder pulse [m].
+    max_velocity : float or None
+        Maximum axis velocity V_m [m/s].
+    counter_bits : int or None
+        Width of the feedback counter read every sample, sign bit included.
+    """
+
+    time_constant: float | None = None
+    blu: float | None = None
+    max_velocity: float | None = None
+    counter_bits: int | None = None
+
+    @property
+    def max_pulse_rate(self) -> float | None:
+        """f_m = V_m / BLU [pulses/s] (Koren eq 1)."""
+        if self.blu is None or self.max_velocity is None:
+            return None
+        return self.max_velocity / self.blu
+
+
+@dataclass(frozen=True)
+class IntegratorLag:
+    """Velocity drive 1/(1 + sτ) integrating to position; states [position, velocity].
+
+    Koren eqs 3–4 with the drive constant K_m folded into the loop gain.
+    """
+
+    time_constant: float
+
+    def discretise(self, period):
+        """Exact zero-order-hold transition (Φ, Γ) over one period T [s]."""
+        tau = self.time_constant
+        x = ca.exp(-period / tau)  # X of Koren eq 18
+        phi = ca.vertcat(ca.horzcat(1, tau * (1 - x)), ca.horzcat(0, x))
+        gamma = ca.vertcat(period - tau * (1 - x), 1 - x)
+        return phi, gamma
+
+
+class _LoopBase:
+    """Shared algebra of both loop kinds; subclasses set the matrices."""
+
+    discrete: bool
+    state_matrix: object
+    input_matrix: object
+    position_row: object
+
+    @property
+    def order(self) -> int:
+        return self.state_matrix.shape[0]
+
+    @cached_property
+    def characteristic_polynomial(self) -> list:
+        """Monic closed-loop characteristic polynomial, highest power first."""
+        return linalg.characteristic_polynomial(self.state_matrix)
+
+    def stability_conditions(self) -> list:
+        """Expressions all positive iff the closed loop is asymptotically stable.
+
+        Hurwitz (Liénard–Chipart) conditions; for a sampled loop, of the polynomial mapped
+        by z = (1 + w)/(1 − w), so the same test reads the unit circle.
+        """
+        poly = self.characteristic_polynomial
+        if self.discrete:
+            poly = linalg.bilinear_to_continuous(poly)
+        return linalg.hurwitz_conditions(poly)
+
+
+@dataclass(frozen=True, eq=False)
+class ContinuousLoop(_LoopBase):
+    """Continuous closed loop ẋ = A x + B r, position = C x.
+
+    Attributes
+    ----------
+    state_matrix, input_matrix, position_row
+        A, B, C of the closed loop from the position reference r [m] to position [m].
+    velocity_constant
+        C_v = lim s·G_open(s) [1/s], the open-loop gain of a type-1 loop (Koren eq 5).
+    drive : Drive
+    """
+
+    state_matrix: object
+    input_matrix: object
+    position_row: object
+    velocity_constant: object
+    drive: Drive = field(default_factory=Drive)
+    discrete = False
+    period = None
+
+    def frequency_response(self, omega):
+        """Re and Im of position/reference at s = jω, ω [rad/s]."""
+        n = self.order
+        re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), self.input_matrix)
+        return ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
+
+    def natural_frequency(self):
+        """ω_n = √a0 [rad/s] of s² + a1 s + a0 (second-order loops; Koren eq 10)."""
+        return ca.sqrt(self.characteristic_polynomial[2])
+
+    def damping_ratio(self):
+        """ζ = a1 / (2√a0) of s² + a1 s + a0 (second-order loops; Koren eq 9)."""
+        _, a1, a0 = self.characteristic_polynomial
+        return a1 / (2 * ca.sqrt(a0))
+
+    @property
+    def has_exact_step_error(self) -> bool:
+        return self.order == 2
+
+    @cached_property
+    def step_error_integrals(self) -> ErrorIntegrals:
+        """Exact IAE/ISE/ITAE of the error after a 1 m position step (second-order loops)."""
+        if self.order != 2:
+            raise NotImplementedError("exact step-error integrals need a second-order loop")
+        _, a1, a0 = self.characteristic_polynomial
+        # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
+        de0 = -ca.mtimes(self.position_row, self.input_matrix)
+        return second_order_error_integrals(a1, a0, 1.0, de0)
+
+
+@dataclass(frozen=True, eq=False)
+class SampledLoop(_LoopBase):
+    """Sampled-data position loop (Koren Fig 4), exact between samples.
+
+    Every period T the position is sampled, the error e(n) = r − x(nT) times the gain K
+    becomes the velocity command, which a zero-order hold applies ``delay`` periods later.
+    State at sample n: [position, velocity, c(n−1), ..., c(n−delay)].
+
+    Attributes
+    ----------
+    plant : IntegratorLag
+    gain : expression
+        Position-loop gain K [1/s] (Koren eq 5).
+    period : expression
+        Sampling period T [s].
+    delay : int
+        Computation delay in whole samples.
+    drive : Drive
+    horizon : float
+        Time [s] after which every loop in the tuning box has settled; step integrals are
+        summed over ``horizon / period_min`` samples.
+    period_min : float
+        Smallest period [s] the tuner may choose.
+    """
+
+    plant: IntegratorLag
+    gain: object
+    period: object
+    delay: int = 0
+    drive: Drive = field(default_factory=Drive)
+    horizon: float = 1.0
+    period_min: float = 1e-3
+    discrete = True
+
+    @property
+    def velocity_constant(self):
+        """C_v = K [1/s]: the open loop K·ZOH·1/(s(1+sτ)) is type 1 with gain K."""
+        return self.gain
+
+    @cached_property
+    def _matrices(self):
+        phi_p, gamma_p = self.plant.discretise(self.period)
+        k = self.gain
+        n = 2 + self.delay
+        phi = ca.MX.zeros(n, n)
+        gamma = ca.MX.zeros(n, 1)
+        # feedback u = kx·state + kr·r applied over the coming period
+        if self.delay == 0:
+            kx = ca.horzcat(-k, 0)
+            kr = k
+        else:
+            kx = ca.horzcat(ca.DM.zeros(1, n - 1), 1)
+            kr = 0
+        plant_rows = ca.horzcat(phi_p, ca.DM.zeros(2, self.delay)) + ca.mtimes(gamma_p, kx)
+        phi[0:2, :] = plant_rows
+        gamma[0:2, 0] = gamma_p * kr
+        if self.delay > 0:
+            phi[2, 0] = -k  # c(n) = K (r − x(n))
+            gamma[2, 0] = k
+            for i in range(1, self.delay):
+                phi[2 + i, 1 + i] = 1
+        return phi, gamma, kx, kr
+
+    @property
+    def state_matrix(self):
+        return self._matrices[0]
+
+    @property
+    def input_matrix(self):
+        return self._matrices[1]
+
+    @property
+    def position_row(self):
+        return ca.horzcat(1, ca.DM.zeros(1, self.order - 1))
+
+    def frequency_response(self, omega):
+        """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]."""
+        n = self.order
+        wt = omega * self.period
+        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
+                                      ca.sin(wt) * ca.DM.eye(n), self.input_matrix)
+        return re[0], im[0]
+
+    def _log_pole_pair(self):
+        """(ln|z|², ω_n²T²) of the two closed-loop poles; second-order loops only."""
+        _, c1, c0 = self.characteristic_polynomial
+        discriminant = c1**2 - 4 * c0
+        # complex pair a·e^{±jθ}: ω_n T = √(ln²a + θ²); real pair: ω_n T = √(ln z1 · ln z2)
+        a = ca.sqrt(ca.fmax(c0, 1e-300))
+        theta = ca.acos(ca.fmin(ca.fmax(-c1 / (2 * a), -1), 1))
+        root = ca.sqrt(ca.fmax(discriminant, 0))
+        z1 = ca.fmax((-c1 + root) / 2, 1e-300)
+        z2 = ca.fmax((-c1 - root) / 2, 1e-300)
+        wn2 = ca.if_else(discriminant < 0, ca.log(a) ** 2 + theta**2, ca.log(z1) * ca.log(z2))
+        return ca.log(ca.fmax(c0, 1e-300)), wn2
+
+    def natural_frequency(self):
+        """ω_n [rad/s] of the equivalent s-plane pole pair s = ln(z)/T (Koren eqs 17–19)."""
+        return ca.sqrt(self._log_pole_pair()[1]) / self.period
+
+    def damping_ratio(self):
+        """ζ = αT / √((αT)² + (ωT)²), Koren eq 19, extended to real pole pairs."""
+        log_c0, wn2 = self._log_pole_pair()
+        return -log_c0 / (2 * ca.sqrt(wn2))
+
+    @property
+    def has_exact_step_error(self) -> bool:
+        return True
+
+    @property
+    def horizon_samples(self) -> int:
+        samples = math.ceil(self.horizon / self.period_min)
+        if samples > MAX_HORIZON_SAMPLES:
+            raise ValueError(
+                f"a step response over {self.horizon:.3g} s at periods down to "
+                f"{self.period_min:.3g} s needs {samples} samples (limit "
+                f"{MAX_HORIZON_SAMPLES}); raise the minimum sampling period or gain")
+        return samples
+
+    @cached_property
+    def step_error_integrals(self) -> ErrorIntegrals:
+        """Exact IAE/ISE/ITAE after a 1 m position step, intersample included.
+
+        Summed sample by sample over ``horizon_samples`` with a CasADi fold; inside each
+        sample the error is α + βs + γe^{−s}, s = σ/τ, integrated in closed form.
+        """
+        n = self.order
+        tau = self.plant.time_constant
+        state = ca.SX.sym("state", n + 4)  # [x, v, buffer..., iae, ise, itae, t]
+        phi_s = ca.SX.sym("phi", n, n)
+        gamma_s = ca.SX.sym("gamma", n)
+        kx_s = ca.SX.sym("kx", 1, n)
+        kr_s = ca.SX.sym("kr")
+        period_s = ca.SX.sym("period")
+        xi = state[:n]
+        u = ca.mtimes(kx_s, xi) + kr_s
+        position, velocity = xi[0], xi[1]
+        alpha = 1 - position - (velocity - u) * tau
+        beta = -u * tau
+        gamma = (velocity - u) * tau
+        pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 3])
+        nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s,
+                         state[n] + pieces.iae, state[n + 1] + pieces.ise,
+                         state[n + 2] + pieces.itae, state[n + 3] + period_s)
+        step = ca.Function("sample_step", [state, phi_s, gamma_s, kx_s, kr_s, period_s], [nxt])
+        phi, gamma_cl, kx, kr = self._matrices
+        final = step.fold(self.horizon_samples)(ca.DM.zeros(n + 4), phi, gamma_cl, kx, kr,
+                                                 self.period)
+        return ErrorIntegrals(final[n], final[n + 1], final[n + 2])
