@@ -1,0 +1,3 @@
+"""feedtune: tune CNC feed drives by optimisation."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,21 @@
+"""Registry of metrics: spec ``metric`` name → metric class, one module each."""
+
+from feedtune.objectives.counter_utilisation import CounterUtilisation
+from feedtune.objectives.damping_ratio import DampingRatio
+from feedtune.objectives.encoder_ratio import EncoderRatio
+from feedtune.objectives.iae import Iae
+from feedtune.objectives.ise import Ise
+from feedtune.objectives.itae import Itae
+from feedtune.objectives.min_radius import MinRadius
+from feedtune.objectives.min_radius_koren import MinRadiusKoren
+from feedtune.objectives.natural_frequency import NaturalFrequency
+from feedtune.objectives.radial_error import RadialError
+from feedtune.objectives.radial_error_koren import RadialErrorKoren
+from feedtune.objectives.sampling_ratio import SamplingRatio
+
+METRICS = {
+    metric.name: metric
+    for metric in (Iae, Ise, Itae, RadialError, RadialErrorKoren, DampingRatio,
+                   NaturalFrequency, MinRadius, MinRadiusKoren, EncoderRatio, SamplingRatio,
+                   CounterUtilisation)
+}

@@ -1,0 +1,40 @@
+"""The metric interface: a metric reads a Loop and returns an expression.
+
+A metric never sees a plant. It may decline a Loop (``supports``), for instance a
+damping ratio on a loop that is not second order. A metric that is a magnitude |x|
+returns :class:`Magnitude`; the tuner reformulates it smoothly (epigraph), so metrics
+never smooth anything themselves.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+from feedtune.expr import Magnitude  # noqa: F401  (re-exported for metric modules)
+from feedtune.model import SpecModel
+
+
+class NoOptions(SpecModel):
+    """A metric without options."""
+
+
+class Metric:
+    """Base of every metric module.
+
+    Class attributes: ``name`` (registry key), ``unit`` (SI), ``description``,
+    ``reference`` (paper and equation), ``Options`` (pydantic model of its spec options).
+    """
+
+    name: ClassVar[str]
+    unit: ClassVar[str]
+    description: ClassVar[str]
+    reference: ClassVar[str] = ""
+    Options: ClassVar[type[SpecModel]] = NoOptions
+
+    def supports(self, loop, options=None) -> bool:
+        """Whether this metric is defined on ``loop``."""
+        return True
+
+    def evaluate(self, loop, options):
+        """The metric's value on ``loop``: an expression, or a :class:`Magnitude`."""
+        raise NotImplementedError

@@ -1,0 +1,7 @@
+"""Registry of plants: spec ``plant.type`` → class. Add a plant here and in its own module."""
+
+from feedtune.plants.software_servo import SoftwareServo
+
+PLANTS = {
+    "software_servo": SoftwareServo,
+}

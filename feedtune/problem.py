@@ -1,0 +1,157 @@
+"""From a spec to a result: picks the plant and metrics from the registries, hands the
+tuner a loop factory and metric callables, and turns its outcome into a TuneResult."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import casadi as ca
+
+from feedtune.objectives import METRICS
+from feedtune.plants import PLANTS
+from feedtune.result import (ConstraintResult, MetricValue, SolverResult, StartResult, TunedValue,
+                             TuneResult, provenance)
+from feedtune.spec import Spec, SpecError
+from feedtune.tuner import Bound, Problem, Settings, Term, Variable
+
+
+def build_plant(spec: Spec):
+    """The plant object named by ``spec.plant.type``."""
+    return PLANTS[spec.plant.type](spec.plant)
+
+
+def resolve_tunables(spec: Spec, plant) -> tuple[list[Variable], dict[str, float], dict]:
+    """Free variables, fixed values and the (min, max) box of every tunable."""
+    variables, fixed, box, errors = [], {}, {}, []
+    for name, tunable in plant.tunables().items():
+        given = spec.tunables.get(name)
+        if given is not None and given.value is not None:
+            fixed[name] = given.value
+            box[name] = (given.value, given.value)
+            continue
+        lower = given.min if given and given.min is not None else tunable.min
+        upper = given.max if given and given.max is not None else tunable.max
+        initial = given.initial if given else None
+        if lower > upper:
+            errors.append((f"/tunables/{name}",
+                           f"bounds [{lower}, {upper}] {tunable.unit} are empty (defaults "
+                           f"[{tunable.min}, {tunable.max}] fill what the spec omits)"))
+            continue
+        if initial is not None and not lower <= initial <= upper:
+            errors.append((f"/tunables/{name}/initial", f"{initial} is outside [{lower}, {upper}]"))
+        box[name] = (lower, upper)
+        if lower == upper:
+            fixed[name] = lower
+        else:
+            variables.append(Variable(name, lower, upper, initial))
+    if errors:
+        raise SpecError(errors)
+    return variables, fixed, box
+
+
+def _options_dict(term) -> dict:
+    return term.model_dump(exclude={"metric", "weight", "min", "max"})
+
+
+def _label(name: str, options: dict) -> str:
+    return name if not options else name + "(" + ",".join(f"{k}={v}" for k, v in options.items()) + ")"
+
+
+def _value_fn(metric, options) -> Callable:
+    return lambda loop: metric.evaluate(loop, options)
+
+
+def _report_fn(metric, options) -> Callable:
+    def evaluate(loop):
+        try:
+            return metric.evaluate(loop, options)
+        except ValueError:  # e.g. a step horizon too long for this box: report null
+            return ca.MX(math.nan)
+
+    return evaluate
+
+
+def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
+    """Every metric the loop supports, with default options and each option set the spec uses."""
+    sets: dict[str, tuple] = {}
+    for name, metric_cls in METRICS.items():
+        metric = metric_cls()
+        candidates = []
+        try:
+            candidates.append(metric.Options())
+        except ValueError:  # options without defaults (a circle): only the spec's own
+            pass
+        for term in list(spec.objective) + list(spec.constraints):
+            if term.metric == name:
+                candidates.append(metric.Options(**_options_dict(term)))
+        unique = []
+        for options in candidates:
+            if options not in unique and metric.supports(probe_loop, options):
+                unique.append(options)
+        for i, options in enumerate(unique):
+            key = name if i == 0 else _label(name, options.model_dump())
+            sets[key] = (metric, options)
+    return sets
+
+
+def tune(spec: Spec) -> TuneResult:
+    """Solve ``spec``; a failed solve is a result with ``success`` false, never an exception.
+
+    Raises
+    ------
+    SpecError
+        When the spec cannot be turned into a problem (bounds, horizon).
+    """
+    plant = build_plant(spec)
+    variables, fixed, box = resolve_tunables(spec, plant)
+    tunables = plant.tunables()
+
+    def make_loop(values):
+        return plant.loop(values, box)
+
+    objective = [Term(term.metric, _value_fn(METRICS[term.metric](), term), term.weight)
+                 for term in spec.objective]
+    constraints = [Bound(_label(c.metric, _options_dict(c)), _value_fn(METRICS[c.metric](), c),
+                         c.min, c.max) for c in spec.constraints]
+    probe_loop = plant.loop({name: hi for name, (lo, hi) in box.items()}, box)
+    report_sets = _report_sets(spec, probe_loop)
+    reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
+    s = spec.solver
+    settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
+                        time_limit=s.time_limit, ipopt_options=s.ipopt_options)
+    try:
+        problem = Problem(variables, fixed, make_loop, objective, constraints, reports, settings)
+    except ValueError as exc:
+        raise SpecError([("/tunables", str(exc))]) from None
+    outcome = problem.solve()
+
+    tuned = {}
+    for name, tunable in tunables.items():
+        value = outcome.values[name]
+        lower, upper = box[name]
+        at_bound = None
+        if name not in fixed:
+            if value <= lower * (1 + 1e-6):
+                at_bound = "min"
+            elif value >= upper * (1 - 1e-6):
+                at_bound = "max"
+        tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=name in fixed,
+                                 min=lower, max=upper, at_bound=at_bound)
+    metrics = {key: MetricValue(metric=metric.name, value=outcome.reports[key], unit=metric.unit,
+                                options=options.model_dump())
+               for key, (metric, options) in report_sets.items()}
+    constraint_results = [
+        ConstraintResult(metric=c.metric, options=_options_dict(c), min=c.min, max=c.max,
+                         value=value, satisfied=ok)
+        for c, (_, value, ok) in zip(spec.constraints, outcome.constraints)]
+    solver = SolverResult(
+        return_status=outcome.return_status, message=outcome.message,
+        iterations=outcome.iterations, solve_time=outcome.solve_time,
+        build_time=outcome.build_time,
+        starts=[StartResult(**vars(start)) for start in outcome.starts])
+    return TuneResult(
+        name=spec.name, success=outcome.success, status=outcome.status, message=outcome.message,
+        objective=outcome.objective, tuned=tuned, metrics=metrics, constraints=constraint_results,
+        stability=outcome.stability, solver=solver, provenance=provenance(spec.sha256()),
+        spec=spec.model_dump(mode="json"))

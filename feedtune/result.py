@@ -1,0 +1,123 @@
+"""The result of a tuning: one type whatever happened, with provenance."""
+
+from __future__ import annotations
+
+import functools
+import os
+import platform
+import tempfile
+from typing import Any, Literal
+
+import casadi as ca
+from pydantic import ConfigDict, Field
+
+from feedtune.model import SpecModel
+
+Status = Literal["optimal", "acceptable", "infeasible", "iteration_limit", "time_limit", "error"]
+
+
+class ResultModel(SpecModel):
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+
+class TunedValue(ResultModel):
+    value: float = Field(description="Tuned value [unit]")
+    unit: str
+    fixed: bool = Field(description="True when the spec fixed this tunable")
+    min: float | None = Field(None, description="Lower bound searched [unit]")
+    max: float | None = Field(None, description="Upper bound searched [unit]")
+    at_bound: Literal["min", "max"] | None = Field(None, description="Bound the optimum lies on, if any")
+
+
+class MetricValue(ResultModel):
+    metric: str
+    value: float | None = Field(description="Value at the tuned point [unit]; null where undefined")
+    unit: str
+    options: dict[str, Any] = Field(default_factory=dict)
+
+
+class ConstraintResult(ResultModel):
+    metric: str
+    options: dict[str, Any] = Field(default_factory=dict)
+    min: float | None
+    max: float | None
+    value: float | None
+    satisfied: bool
+
+
+class StartResult(ResultModel):
+    index: int
+    status: Status
+    return_status: str
+    objective: float | None
+    iterations: int
+    solve_time: float = Field(description="[s]")
+    feasible: bool
+
+
+class SolverResult(ResultModel):
+    return_status: str = Field(description="IPOPT's own return status of the chosen start")
+    message: str
+    iterations: int = Field(description="IPOPT iterations of the chosen start")
+    solve_time: float = Field(description="Wall time of all starts [s]")
+    build_time: float = Field(description="Wall time to build the NLP [s]")
+    starts: list[StartResult]
+
+
+class Provenance(ResultModel):
+    feedtune: str
+    casadi: str
+    ipopt: str
+    python: str
+    spec_sha256: str = Field(description="SHA-256 of the canonical spec (sorted keys, defaults filled)")
+
+
+class TuneResult(ResultModel):
+    """Everything a tuning produced; ``success`` is true only for a feasible, stable optimum."""
+
+    name: str
+    success: bool
+    status: Status
+    message: str
+    objective: float | None = Field(description="Weighted objective at the tuned point [its terms' units]")
+    tuned: dict[str, TunedValue]
+    metrics: dict[str, MetricValue]
+    constraints: list[ConstraintResult]
+    stability: dict[str, Any]
+    solver: SolverResult
+    provenance: Provenance
+    spec: dict[str, Any] = Field(description="The canonical spec that was solved")
+
+
+@functools.cache
+def ipopt_version() -> str:
+    """IPOPT's version, read from its own log of a one-variable solve (stdout untouched)."""
+    path = os.path.join(tempfile.mkdtemp(prefix="feedtune-"), "ipopt.log")
+    x = ca.MX.sym("x")
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+            solver = ca.nlpsol("version_probe", "ipopt", {"x": x, "f": x**2},
+                               {"ipopt": {"print_level": 0, "output_file": path,
+                                          "file_print_level": 5}, "print_time": False})
+            solver(x0=1)
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+    try:
+        with open(path) as log:
+            for line in log:
+                if "Ipopt version" in line:
+                    return line.split("version")[1].split(",")[0].strip()
+    finally:
+        os.remove(path)
+        os.rmdir(os.path.dirname(path))
+    return "unknown"
+
+
+def provenance(spec_sha256: str) -> Provenance:
+    from feedtune import __version__
+
+    return Provenance(feedtune=__version__, casadi=ca.__version__, ipopt=ipopt_version(),
+                      python=platform.python_version(), spec_sha256=spec_sha256)

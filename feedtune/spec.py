@@ -1,0 +1,239 @@
+"""The JSON spec: pydantic models built from the plant and metric registries.
+
+A spec names a plant, which of its tunables are fixed or free (with bounds), the
+objective (weighted metric terms) and constraints (metric bounds), and solver settings.
+:func:`parse_spec` reads strict JSON and returns a :class:`Spec` or raises
+:class:`SpecError` listing every bad field by JSON pointer.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import Field, PositiveFloat, PositiveInt, ValidationError, create_model, model_validator
+
+from feedtune.model import SpecModel
+from feedtune.objectives import METRICS
+from feedtune.plants import PLANTS
+
+MAX_SPEC_BYTES = 1_000_000
+MAX_JSON_DEPTH = 32
+
+
+class SpecError(ValueError):
+    """A spec that cannot be used; ``errors`` is a list of (JSON pointer, message)."""
+
+    def __init__(self, errors: list[tuple[str, str]]):
+        self.errors = errors
+        super().__init__("; ".join(f"{p or '/'}: {m}" for p, m in errors))
+
+
+class TunableSpec(SpecModel):
+    """One tunable: fixed (``value``) or free within [min, max] (defaults: the plant's)."""
+
+    value: PositiveFloat | None = Field(None, description="Fix the tunable at this value [its unit]")
+    min: PositiveFloat | None = Field(None, description="Lower bound [its unit]")
+    max: PositiveFloat | None = Field(None, description="Upper bound [its unit]")
+    initial: PositiveFloat | None = Field(
+        None, description="First multistart point [its unit]; default: geometric mid-bound")
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.value is not None and (self.min is not None or self.max is not None
+                                       or self.initial is not None):
+            raise ValueError("give either 'value' or 'min'/'max'/'initial', not both")
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise ValueError(f"min ({self.min}) is greater than max ({self.max})")
+        return self
+
+
+class SolverSpec(SpecModel):
+    """IPOPT settings and multistart."""
+
+    multistart: PositiveInt = Field(8, le=256, description="Number of deterministic starting points [count]")
+    max_iter: PositiveInt = Field(500, description="IPOPT iteration limit per start [count]")
+    tol: PositiveFloat = Field(1e-9, description="IPOPT convergence tolerance on the scaled problem [1]")
+    time_limit: PositiveFloat = Field(60.0, description="Wall-clock limit per start [s]")
+    ipopt_options: dict[str, str | int | float] = Field(
+        default_factory=dict, description="Raw IPOPT options, passed through unchanged")
+
+
+def _camel(name: str) -> str:
+    return "".join(part.capitalize() for part in name.split("_"))
+
+
+def _objective_model(name, metric):
+    return create_model(
+        f"{_camel(name)}Objective", __base__=metric.Options,
+        metric=(Literal[name], Field(description=metric.description)),
+        weight=(PositiveFloat, Field(1.0, description=f"Weight of this term [1/({metric.unit})]")),
+    )
+
+
+def _constraint_model(name, metric):
+    def _has_bound(self):
+        if self.min is None and self.max is None:
+            raise ValueError("a constraint needs 'min', 'max' or both")
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise ValueError(f"min ({self.min}) is greater than max ({self.max})")
+        return self
+
+    return create_model(
+        f"{_camel(name)}Constraint", __base__=metric.Options,
+        __validators__={"_has_bound": model_validator(mode="after")(_has_bound)},
+        metric=(Literal[name], Field(description=metric.description)),
+        min=(float | None, Field(None, description=f"Lower bound [{metric.unit}]")),
+        max=(float | None, Field(None, description=f"Upper bound [{metric.unit}]")),
+    )
+
+
+def _tagged_union(models: tuple, tag: str):
+    """Discriminated union of ``models`` on field ``tag`` (a single model stands alone)."""
+    if len(models) == 1:
+        return models[0]
+    return Annotated[Union[models], Field(discriminator=tag)]
+
+
+PlantSpec = _tagged_union(tuple(plant.Params for plant in PLANTS.values()), "type")
+ObjectiveTerm = _tagged_union(tuple(_objective_model(n, m) for n, m in METRICS.items()), "metric")
+ConstraintSpec = _tagged_union(tuple(_constraint_model(n, m) for n, m in METRICS.items()), "metric")
+
+
+class Spec(SpecModel):
+    """A tuning problem: plant, tunables, objective, constraints, solver."""
+
+    name: str = Field(min_length=1, max_length=200, description="Name of this tuning problem")
+    description: str = Field("", max_length=10_000, description="Free text for people")
+    plant: PlantSpec
+    tunables: dict[str, TunableSpec] = Field(
+        default_factory=dict,
+        description="Tunables by name (see `feedtune plants`); omitted ones are free within "
+                    "the plant's default bounds")
+    objective: list[ObjectiveTerm] = Field(min_length=1, description="Weighted sum of metric terms to minimise")
+    constraints: list[ConstraintSpec] = Field(default_factory=list, description="Metric bounds that must hold")
+    solver: SolverSpec = Field(default_factory=SolverSpec)
+
+    def canonical_json(self) -> str:
+        """Sorted, compact JSON of the spec with every default filled in."""
+        return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+
+    def sha256(self) -> str:
+        return hashlib.sha256(self.canonical_json().encode()).hexdigest()
+
+
+# -- strict JSON -------------------------------------------------------------------------
+
+def _reject_constant(token: str):
+    raise ValueError(f"{token} is not valid JSON (use a finite number)")
+
+
+def _no_duplicates(pairs):
+    seen = {}
+    for key, value in pairs:
+        if key in seen:
+            raise ValueError(f"duplicate key {key!r}")
+        seen[key] = value
+    return seen
+
+
+def _depth(value: Any, limit: int, level: int = 0) -> int:
+    if level > limit:
+        return level
+    if isinstance(value, dict):
+        return max((_depth(v, limit, level + 1) for v in value.values()), default=level + 1)
+    if isinstance(value, list):
+        return max((_depth(v, limit, level + 1) for v in value), default=level + 1)
+    return level
+
+
+def load_json(data: bytes | str) -> Any:
+    """Parse strict JSON (no NaN/Infinity, no duplicate keys, UTF-8, size-limited)."""
+    if isinstance(data, bytes):
+        if len(data) > MAX_SPEC_BYTES:
+            raise SpecError([("", f"spec is {len(data)} bytes; the limit is {MAX_SPEC_BYTES}")])
+        try:
+            data = data.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise SpecError([("", f"spec is not UTF-8 text (byte {exc.start})")]) from None
+    if len(data) > MAX_SPEC_BYTES:
+        raise SpecError([("", f"spec is {len(data)} characters; the limit is {MAX_SPEC_BYTES}")])
+    if not data.strip():
+        raise SpecError([("", "spec is empty")])
+    try:
+        value = json.loads(data, parse_constant=_reject_constant, object_pairs_hook=_no_duplicates)
+    except json.JSONDecodeError as exc:
+        raise SpecError([("", f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}")]) from None
+    except RecursionError:
+        raise SpecError([("", f"JSON nested deeper than {MAX_JSON_DEPTH} levels")]) from None
+    except ValueError as exc:
+        raise SpecError([("", f"invalid JSON: {exc}")]) from None
+    if _depth(value, MAX_JSON_DEPTH) > MAX_JSON_DEPTH:
+        raise SpecError([("", f"JSON nested deeper than {MAX_JSON_DEPTH} levels")])
+    return value
+
+
+def _pointer(loc: tuple, raw: Any) -> str:
+    """JSON pointer of a pydantic error location, without union tags."""
+    parts = []
+    node = raw
+    for item in loc:
+        if isinstance(node, dict) and item in node:
+            node = node[item]
+        elif isinstance(node, list) and isinstance(item, int) and item < len(node):
+            node = node[item]
+        elif isinstance(item, str) and (item in PLANTS or item in METRICS or "[" in item):
+            continue  # discriminator tag or function-validator label, not a field
+        else:
+            node = None
+        parts.append(str(item).replace("~", "~0").replace("/", "~1"))
+    return "/" + "/".join(parts) if parts else ""
+
+
+def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
+    """Checks that need the registries: tunable names and bounds, metric applicability."""
+    from feedtune.problem import build_plant  # local: problem imports spec
+
+    errors = []
+    plant = build_plant(spec)
+    tunables = plant.tunables()
+    for name, tunable in spec.tunables.items():
+        if name not in tunables:
+            errors.append((f"/tunables/{name}",
+                           f"unknown tunable for this plant; known: {', '.join(tunables)}"))
+    loop = plant.loop({n: t.max for n, t in tunables.items()},
+                      {n: (t.min, t.max) for n, t in tunables.items()})
+    for section in ("objective", "constraints"):
+        for i, term in enumerate(getattr(spec, section)):
+            metric = METRICS[term.metric]()
+            if not metric.supports(loop, term):
+                errors.append((f"/{section}/{i}/metric",
+                               f"metric {term.metric!r} is not defined for this plant configuration"))
+    return errors
+
+
+def parse_spec(data: bytes | str | dict) -> Spec:
+    """Validate a spec (JSON text, bytes or an already parsed dict).
+
+    Raises
+    ------
+    SpecError
+        With one (JSON pointer, message) per problem found.
+    """
+    raw = data if isinstance(data, dict) else load_json(data)
+    if not isinstance(raw, dict):
+        raise SpecError([("", f"a spec is a JSON object, not {type(raw).__name__}")])
+    try:
+        spec = Spec.model_validate(raw)
+    except ValidationError as exc:
+        raise SpecError([(_pointer(e["loc"], raw), e["msg"]) for e in exc.errors()]) from None
+    errors = _semantic_errors(spec)
+    if errors:
+        raise SpecError(errors)
+    return spec
+
+
+def spec_json_schema() -> dict:
+    """JSON Schema of the spec, with units in the field descriptions."""
+    return Spec.model_json_schema()

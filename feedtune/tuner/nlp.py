@@ -1,0 +1,322 @@
+"""One CasADi NLP per problem, solved by IPOPT from deterministic starting points.
+
+The tuner sees only a loop factory and metric callables; it never names a plant or a
+metric. Free tunables are optimised as their logarithms (every tunable is positive, and
+gains and periods span decades). Magnitude terms |e| become epigraphs: a slack t with
+−t ≤ e ≤ t, so the NLP stays smooth. The loop's Hurwitz/Schur conditions are always
+constraints, and the final loop is checked with numpy eigenvalues.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import casadi as ca
+import numpy as np
+from scipy.stats import qmc
+
+from feedtune.expr import Magnitude
+from feedtune.validate.stability import check_stability
+
+STABILITY_MARGIN = 1e-9  # scaled Hurwitz conditions must exceed this
+FEASIBILITY_TOL = 1e-6  # relative tolerance when reporting whether a bound holds
+
+_STATUS = {
+    "Solve_Succeeded": "optimal",
+    "Solved_To_Acceptable_Level": "acceptable",
+    "Infeasible_Problem_Detected": "infeasible",
+    "Maximum_Iterations_Exceeded": "iteration_limit",
+    "Maximum_CpuTime_Exceeded": "time_limit",
+    "Maximum_WallTime_Exceeded": "time_limit",
+}
+SOLVED = ("optimal", "acceptable")
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A free tunable, optimised as ln(value) within [lower, upper] (both > 0)."""
+
+    name: str
+    lower: float
+    upper: float
+    initial: float | None = None
+
+
+@dataclass(frozen=True)
+class Term:
+    """Objective term ``weight · value(loop)``; ``value`` may return a Magnitude."""
+
+    label: str
+    value: Callable
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class Bound:
+    """Constraint ``lower ≤ value(loop) ≤ upper`` (None: unbounded on that side)."""
+
+    label: str
+    value: Callable
+    lower: float | None
+    upper: float | None
+
+
+@dataclass(frozen=True)
+class Settings:
+    multistart: int = 8
+    max_iter: int = 500
+    tol: float = 1e-9
+    time_limit: float = 60.0
+    ipopt_options: Mapping[str, object] = field(default_factory=dict)
+
+
+@dataclass
+class StartOutcome:
+    index: int
+    status: str
+    return_status: str
+    objective: float | None
+    iterations: int
+    solve_time: float
+    feasible: bool
+
+
+@dataclass
+class Outcome:
+    """What the tuner found: the best start, and what every start did."""
+
+    status: str
+    return_status: str
+    message: str
+    success: bool
+    values: dict[str, float]
+    objective: float | None
+    reports: dict[str, float | None]
+    constraints: list[tuple[Bound, float | None, bool]]
+    stability: dict
+    iterations: int
+    solve_time: float
+    build_time: float
+    starts: list[StartOutcome]
+
+
+def _number(x) -> float | None:
+    value = float(x)
+    return value if math.isfinite(value) else None
+
+
+def _within(value: float | None, lower: float | None, upper: float | None) -> bool:
+    if value is None:
+        return False
+    if lower is not None and value < lower - FEASIBILITY_TOL * max(1.0, abs(lower)):
+        return False
+    if upper is not None and value > upper + FEASIBILITY_TOL * max(1.0, abs(upper)):
+        return False
+    return True
+
+
+def _magnitude(value):
+    return (value.expr, True) if isinstance(value, Magnitude) else (value, False)
+
+
+def starting_points(variables: list[Variable], count: int) -> np.ndarray:
+    """Deterministic starts in log space: the initial/mid point, then a Halton sequence."""
+    lower = np.log([v.lower for v in variables])
+    upper = np.log([v.upper for v in variables])
+    first = np.array([math.log(v.initial) if v.initial else (lo + hi) / 2
+                      for v, lo, hi in zip(variables, lower, upper)])
+    points = [first]
+    if count > 1 and variables:
+        unit = qmc.Halton(len(variables), scramble=False).random(count)[1:]
+        points.extend(lower + unit * (upper - lower))
+    return np.array(points[:count]).reshape(-1, len(variables))
+
+
+class Problem:
+    """The NLP, built once; :meth:`solve` runs the multistart."""
+
+    def __init__(self, variables: list[Variable], fixed: Mapping[str, float],
+                 make_loop: Callable, objective: list[Term], constraints: list[Bound],
+                 reports: Mapping[str, Callable], settings: Settings):
+        started = time.perf_counter()
+        self.variables, self.fixed, self.settings = variables, dict(fixed), settings
+        self.objective_terms, self.bounds = objective, constraints
+        z = ca.MX.sym("log_tunables", len(variables))
+        values = {v.name: ca.exp(z[i]) for i, v in enumerate(variables)}
+        values.update({name: ca.MX(value) for name, value in fixed.items()})
+        loop = make_loop(values)
+        self.discrete = loop.discrete
+
+        term_exprs = [(_magnitude(t.value(loop)), t.weight) for t in objective]
+        bound_exprs = [_magnitude(b.value(loop)) for b in constraints]
+        stability = loop.stability_conditions()
+        raw_objective = sum((w * (ca.fabs(e) if mag else e) for (e, mag), w in term_exprs), ca.MX(0))
+        # numbers at the first start, for scaling
+        self.starts = starting_points(variables, settings.multistart)
+        z_ref = self.starts[0] if len(variables) else np.zeros(0)
+        probe = ca.Function("probe", [z], [raw_objective] + [e for (e, _), _ in term_exprs]
+                            + [e for e, _ in bound_exprs] + list(stability))
+        numbers = [float(v) for v in probe(z_ref)]
+        f_ref, numbers = numbers[0], numbers[1:]
+        term_ref = numbers[:len(term_exprs)]
+        bound_ref = numbers[len(term_exprs):len(term_exprs) + len(bound_exprs)]
+        stab_ref = numbers[len(term_exprs) + len(bound_exprs):]
+
+        def scale(*candidates):
+            finite = [abs(c) for c in candidates if c is not None and math.isfinite(c) and c != 0]
+            return max(finite) if finite else 1.0
+
+        f_scale = scale(f_ref)
+        slacks, slack_scale = [], []
+        f = ca.MX(0)
+        g, lbg, ubg = [], [], []
+        for ((expr, mag), weight), ref in zip(term_exprs, term_ref):
+            if mag:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
+                s = scale(ref)
+                t = ca.MX.sym(f"slack{len(slacks)}")
+                slacks.append(t)
+                slack_scale.append(s)
+                f += weight * s * t
+                g += [(expr - s * t) / s, (expr + s * t) / s]
+                lbg += [-ca.inf, 0]
+                ubg += [0, ca.inf]
+            else:
+                f += weight * expr
+        for (expr, mag), bound, ref in zip(bound_exprs, constraints, bound_ref):
+            s = scale(bound.lower, bound.upper, ref)
+            if mag and bound.lower is not None and bound.lower > 0:
+                g.append(expr**2 / s**2)
+                lbg.append((bound.lower / s) ** 2)
+                ubg.append((bound.upper / s) ** 2 if bound.upper is not None else ca.inf)
+            elif mag:
+                g.append(expr / s)
+                lbg.append(-bound.upper / s if bound.upper is not None else -ca.inf)
+                ubg.append(bound.upper / s if bound.upper is not None else ca.inf)
+            else:
+                g.append(expr / s)
+                lbg.append(bound.lower / s if bound.lower is not None else -ca.inf)
+                ubg.append(bound.upper / s if bound.upper is not None else ca.inf)
+        for condition, ref in zip(stability, stab_ref):
+            g.append(condition / scale(ref))
+            lbg.append(STABILITY_MARGIN)
+            ubg.append(ca.inf)
+
+        self.n_z = len(variables)
+        self.slack_scale = np.array(slack_scale)
+        w = ca.vertcat(z, *slacks)
+        self.lbw = np.concatenate([np.log([v.lower for v in variables]), np.zeros(len(slacks))])
+        self.ubw = np.concatenate([np.log([v.upper for v in variables]), np.full(len(slacks), np.inf)])
+        self.lbg, self.ubg = np.array(lbg, dtype=float), np.array(ubg, dtype=float)
+        self.slack_terms = ca.Function(
+            "slack_terms", [z], [ca.vertcat(ca.MX(0, 1), *[e for (e, mag), _ in term_exprs if mag])])
+        options = {
+            "ipopt": {"print_level": 0, "sb": "yes", "max_iter": settings.max_iter,
+                      "tol": settings.tol, "max_wall_time": settings.time_limit,
+                      **settings.ipopt_options},
+            "print_time": False,
+            "error_on_fail": False,
+        }
+        self.has_nlp = bool(variables)
+        if self.has_nlp:
+            self.solver = ca.nlpsol("feedtune", "ipopt",
+                                    {"x": w, "f": f / f_scale, "g": ca.vertcat(*g)}, options)
+        self.f_scale = f_scale
+        report_keys = list(reports)
+        report_exprs = []
+        for key in report_keys:
+            expr, mag = _magnitude(reports[key](loop))
+            report_exprs.append(ca.fabs(expr) if mag else expr)
+        self.report_keys = report_keys
+        self.evaluate = ca.Function(
+            "evaluate", [z],
+            [raw_objective, ca.vertcat(*[ca.fabs(e) if m else e for e, m in bound_exprs], ca.MX(0)),
+             ca.vertcat(*stability), loop.state_matrix, ca.vertcat(*report_exprs, ca.MX(0))])
+        self.build_time = time.perf_counter() - started
+
+    def _evaluate(self, z_value):
+        objective, bounds, conditions, matrix, reports = self.evaluate(z_value)
+        bounds = [_number(b) for b in np.asarray(bounds).ravel()[:len(self.bounds)]]
+        reports = [_number(r) for r in np.asarray(reports).ravel()[:len(self.report_keys)]]
+        return _number(objective), bounds, np.asarray(conditions).ravel(), np.asarray(matrix, dtype=float), reports
+
+    def _feasible(self, bounds, conditions, matrix) -> tuple[bool, dict]:
+        numeric = check_stability(matrix, self.discrete)
+        hurwitz_ok = bool(np.all(conditions > 0))
+        stability = {**numeric, "conditions_hold": hurwitz_ok}
+        stability["stable"] = bool(numeric["stable"] and hurwitz_ok)
+        ok = stability["stable"] and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
+        return ok, stability
+
+    def solve(self) -> Outcome:
+        starts: list[StartOutcome] = []
+        best = None  # (key, index, z, stats)
+        for index, z0 in enumerate(self.starts if self.has_nlp else [np.zeros(0)]):
+            started = time.perf_counter()
+            if self.has_nlp:
+                slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
+                solution = self.solver(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), lbx=self.lbw, ubx=self.ubw,
+                                       lbg=self.lbg, ubg=self.ubg)
+                stats = self.solver.stats()
+                z_opt = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
+                return_status = stats.get("return_status", "unknown")
+                status = _STATUS.get(return_status, "error")
+                iterations = int(stats.get("iter_count", 0))
+            else:
+                z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
+            elapsed = time.perf_counter() - started
+            objective, bounds, conditions, matrix, _ = self._evaluate(z_opt)
+            feasible, _ = self._feasible(bounds, conditions, matrix)
+            starts.append(StartOutcome(index, status, return_status, objective, iterations,
+                                       elapsed, feasible))
+            violation = self._violation(bounds, conditions)
+            solved = status in SOLVED and feasible and objective is not None
+            key = (0, objective, index) if solved else (1, violation, index)
+            if best is None or self._better(key, best[0]):
+                best = (key, index, z_opt, return_status, status)
+        _, index, z_opt, return_status, status = best
+        objective, bounds, conditions, matrix, reports = self._evaluate(z_opt)
+        feasible, stability = self._feasible(bounds, conditions, matrix)
+        success = status in SOLVED and feasible
+        if success:
+            message = f"start {index} of {len(starts)} gave the best feasible optimum"
+        elif status in SOLVED:
+            status = "infeasible"
+            broken = [b.label for v, b in zip(bounds, self.bounds) if not _within(v, b.lower, b.upper)]
+            if not stability["stable"]:
+                broken.append("closed-loop stability")
+            message = "no start satisfied every constraint; violated: " + ", ".join(broken)
+        else:
+            message = f"no start converged; best attempt (start {index}) ended with {return_status}"
+        values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
+        values.update(self.fixed)
+        return Outcome(
+            status=status, return_status=return_status, message=message, success=success,
+            values=values, objective=objective,
+            reports=dict(zip(self.report_keys, reports)),
+            constraints=[(b, v, _within(v, b.lower, b.upper)) for b, v in zip(self.bounds, bounds)],
+            stability=stability, iterations=starts[index].iterations,
+            solve_time=sum(s.solve_time for s in starts), build_time=self.build_time, starts=starts)
+
+    def _violation(self, bounds, conditions) -> float:
+        total = float(np.sum(np.maximum(0.0, -conditions)))
+        for value, b in zip(bounds, self.bounds):
+            if value is None:
+                return math.inf
+            scale = max(1.0, abs(b.lower or 0), abs(b.upper or 0))
+            if b.lower is not None:
+                total += max(0.0, b.lower - value) / scale
+            if b.upper is not None:
+                total += max(0.0, value - b.upper) / scale
+        return total
+
+    @staticmethod
+    def _better(key, best_key) -> bool:
+        if key[0] != best_key[0]:
+            return key[0] < best_key[0]
+        a, b = key[1], best_key[1]
+        if a is None or b is None:
+            return b is None and a is not None
+        return a < b - 1e-9 * max(1.0, abs(b))

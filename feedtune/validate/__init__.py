@@ -1,0 +1,1 @@
+"""Independent checks of a tuned design with numpy/scipy only (no CasADi)."""
