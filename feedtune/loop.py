@@ -21,7 +21,8 @@ from functools import cached_property
 import casadi as ca
 
 from feedtune import linalg
-from feedtune.signals import ErrorIntegrals, sample_error_integrals, second_order_error_integrals
+from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
+                              second_order_error_integrals)
 
 MAX_HORIZON_SAMPLES = 50_000
 
@@ -274,10 +275,12 @@ class SampledLoop(_LoopBase):
 
     @cached_property
     def step_error_integrals(self) -> ErrorIntegrals:
-        """Exact IAE/ISE/ITAE after a 1 m position step, intersample included.
+        """IAE/ISE/ITAE after a 1 m position step, intersample included.
 
         Summed sample by sample over ``horizon_samples`` with a CasADi fold; inside each
-        sample the error is α + βs + γe^{−s}, s = σ/τ, integrated in closed form.
+        sample the error is α + βs + γe^{−s}, s = σ/τ, integrated in closed form. The rest,
+        from the horizon to infinity, is summed in closed form too (:meth:`_tail`): exact for
+        ISE, and exact for IAE and ITAE once the error no longer changes sign.
         """
         n = self.order
         tau = self.plant.time_constant
@@ -301,4 +304,35 @@ class SampledLoop(_LoopBase):
         phi, gamma_cl, kx, kr = self._matrices
         final = step.fold(self.horizon_samples)(ca.DM.zeros(n + 4), phi, gamma_cl, kx, kr,
                                                  self.period)
-        return ErrorIntegrals(final[n], final[n + 1], final[n + 2])
+        tail = self._tail(final[:n], final[n + 3])
+        return ErrorIntegrals(final[n] + ca.fabs(tail.iae), final[n + 1] + tail.ise,
+                              final[n + 2] + ca.fabs(tail.itae))
+
+    def _tail(self, state, start_time) -> ErrorIntegrals:
+        """∫e, ∫e², ∫t·e from sample state ``state`` at ``start_time`` [s] to infinity.
+
+        With δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are
+        linear in δ (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing
+        over δ(k) = Φ^k δ gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov
+        equation. Returned in an ErrorIntegrals whose iae/itae are the signed ∫e, ∫t·e.
+        """
+        n = self.order
+        tau = self.plant.time_constant
+        phi, gamma_cl, kx, _ = self._matrices
+        eye = ca.DM.eye(n)
+        delta = state - ca.solve(eye - phi, gamma_cl)
+        e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
+        e_v = ca.horzcat(0, 1, ca.DM.zeros(1, n - 2))
+        # α, β, γ of the intersample error as rows acting on δ (zero at the settled state)
+        a_row = -e_x - tau * (e_v - kx)
+        b_row = -tau * kx
+        g_row = tau * (e_v - kx)
+        c1, c2, q = sample_moments(a_row, b_row, g_row, self.period / tau, tau)
+        geometric = ca.solve(eye - phi, eye)  # Σ Φ^k
+        weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
+        lyapunov = ca.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
+        p = ca.reshape(lyapunov, n, n)
+        sum_e = ca.mtimes([c1, geometric, delta])
+        sum_te = (start_time * sum_e + self.period * ca.mtimes([c1, weighted, delta])
+                  + ca.mtimes([c2, geometric, delta]))
+        return ErrorIntegrals(sum_e, ca.mtimes([delta.T, p, delta]), sum_te)

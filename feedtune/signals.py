@@ -147,3 +147,23 @@ def sample_error_integrals(alpha, beta, gamma, h, time_scale, t_start) -> ErrorI
            + 2 * alpha * gamma * (1 - eh) + 2 * beta * gamma * (1 - eh * (1 + h))
            + gamma**2 * (1 - eh**2) / 2)
     return ErrorIntegrals(time_scale * iae, time_scale * ise, time_scale * itae)
+
+
+def sample_moments(a, b, g, h, time_scale):
+    """Per-sample ∫e dt, ∫σ·e dσ and ∫e² dt when α, β, γ are linear forms a·δ, b·δ, g·δ.
+
+    Returns row vectors c1, c2 and the symmetric matrix Q with ∫e dt = c1·δ [m·s],
+    ∫σe dσ = c2·δ [m·s²] and ∫e² dt = δᵀQδ [m²·s] over one sample of length τh.
+    """
+    eh = ca.exp(-h)
+    tau = time_scale
+    c1 = tau * (a * h + b * h**2 / 2 + g * (1 - eh))
+    c2 = tau**2 * (a * h**2 / 2 + b * h**3 / 3 + g * (1 - (1 + h) * eh))
+
+    def sym(x, y):
+        return ca.mtimes(x.T, y) + ca.mtimes(y.T, x)
+
+    q = tau * (h * ca.mtimes(a.T, a) + h**2 / 2 * sym(a, b) + h**3 / 3 * ca.mtimes(b.T, b)
+               + (1 - eh) * sym(a, g) + (1 - eh * (1 + h)) * sym(b, g)
+               + (1 - eh**2) / 2 * ca.mtimes(g.T, g))
+    return c1, c2, q
