@@ -27,6 +27,10 @@ from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_mom
 MAX_HORIZON_SAMPLES = 50_000
 
 
+class HorizonError(ValueError):
+    """A step response would need more samples than MAX_HORIZON_SAMPLES."""
+
+
 @dataclass(frozen=True)
 class Drive:
     """Physical data of the axis that some metrics need, beyond the loop dynamics.
@@ -267,7 +271,7 @@ class SampledLoop(_LoopBase):
     def horizon_samples(self) -> int:
         samples = math.ceil(self.horizon / self.period_min)
         if samples > MAX_HORIZON_SAMPLES:
-            raise ValueError(
+            raise HorizonError(
                 f"a step response over {self.horizon:.3g} s at periods down to "
                 f"{self.period_min:.3g} s needs {samples} samples (limit "
                 f"{MAX_HORIZON_SAMPLES}); raise the minimum sampling period or gain")

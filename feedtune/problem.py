@@ -8,6 +8,7 @@ from typing import Callable
 
 import casadi as ca
 
+from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
 from feedtune.result import (ConstraintResult, MetricValue, SolverResult, StartResult, TunedValue,
@@ -66,7 +67,7 @@ def _report_fn(metric, options) -> Callable:
     def evaluate(loop):
         try:
             return metric.evaluate(loop, options)
-        except ValueError:  # e.g. a step horizon too long for this box: report null
+        except HorizonError:  # a step response too long for this box: report null
             return ca.MX(math.nan)
 
     return evaluate
@@ -122,7 +123,7 @@ def tune(spec: Spec) -> TuneResult:
                         time_limit=s.time_limit, ipopt_options=s.ipopt_options)
     try:
         problem = Problem(variables, fixed, make_loop, objective, constraints, reports, settings)
-    except ValueError as exc:
+    except HorizonError as exc:
         raise SpecError([("/tunables", str(exc))]) from None
     outcome = problem.solve()
 

@@ -17,7 +17,7 @@ from typing import NamedTuple
 import casadi as ca
 
 _TINY = 1e-300
-_NEWTON_STEPS = 12
+_NEWTON_STEPS = 8
 
 
 class ErrorIntegrals(NamedTuple):

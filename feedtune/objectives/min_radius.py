@@ -4,15 +4,21 @@ import casadi as ca
 
 from feedtune.objectives.base import Metric
 
+_BISECTIONS = 60
+
 
 class MinRadius(Metric):
-    """r_min [m]: the largest root of r·| |H(jV_m/r)| − 1 | = BLU/2.
+    """r_min [m]: a root of r·| |H(jV_m/r)| − 1 | = BLU/2, the largest in all practical cases.
 
     Koren's criterion (eqs 30–32: diametral error within one BLU at the maximum path
-    velocity V_m), solved exactly for the loop's own frequency response instead of the
-    leading term of eq 28. Newton's method on ln r, started at a radius where the error is
-    negligible, with exact derivatives through the implicit function. Reduces to eq 33 when
-    the ω² term dominates and to eq 39 (coefficient 4^(1/3)) at K = 1/(2τ).
+    velocity V_m), solved for the loop's own frequency response instead of the leading
+    term of eq 28. Reduces to eq 33 where the ω² term dominates and to eq 39 (coefficient
+    4^(1/3), see docs/errata.md) at K = 1/(2τ).
+
+    The root is bracketed between r = V_m/C_v (ω at the loop gain, where the error is of
+    the order of the following error V_m/C_v ≫ BLU) and r = 10⁴·V_m/C_v (error negligible),
+    located by bisection on ln r, and refined by Newton's method through CasADi's
+    rootfinder so that its derivatives are exact (implicit function theorem).
     """
 
     name = "min_radius"
@@ -28,11 +34,16 @@ class MinRadius(Metric):
         log_r = ca.MX.sym("log_r")
         radius = ca.exp(log_r)
         re, im = loop.frequency_response(v / radius)
-        error = radius * (ca.sqrt(re**2 + im**2) - 1)
-        residual = 0.5 * ca.log(error**2 + 1e-300) - ca.log(blu / 2)
-        free = [s for s in ca.symvar(residual) if not ca.is_equal(s, log_r)]
-        residual_fn = ca.Function("min_radius_residual", [log_r, *free], [residual])
-        solver = ca.rootfinder("min_radius", "newton", residual_fn,
-                               {"abstol": 1e-12, "max_iter": 60, "error_on_fail": False})
-        start = ca.log(10 * v / loop.velocity_constant)  # ω = C_v/10: error small, not lost to rounding
-        return ca.exp(solver(start, *free))
+        excess = radius * ca.fabs(ca.sqrt(re**2 + im**2) - 1) / (blu / 2) - 1  # > 0: too large
+        free = [s for s in ca.symvar(excess) if not ca.is_equal(s, log_r)]
+        excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
+        low = ca.log(v / loop.velocity_constant)
+        high = low + ca.log(1e4)
+        for _ in range(_BISECTIONS):
+            middle = (low + high) / 2
+            too_large = excess_fn(middle, *free) > 0
+            low = ca.if_else(too_large, middle, low)
+            high = ca.if_else(too_large, high, middle)
+        refine = ca.rootfinder("min_radius", "newton", excess_fn,
+                               {"abstol": 1e-12, "max_iter": 20, "error_on_fail": False})
+        return ca.exp(refine((low + high) / 2, *free))

@@ -25,7 +25,7 @@ from feedtune.model import SpecModel
 from feedtune.plants.base import Tunable
 
 #: sampled step responses are summed sample by sample over this many times (2τ + dead time)
-SETTLING_TIME_CONSTANTS = 40.0
+SETTLING_TIME_CONSTANTS = 20.0
 
 
 class SoftwareServoParams(SpecModel):

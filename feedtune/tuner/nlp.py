@@ -124,15 +124,17 @@ def _magnitude(value):
 
 def starting_points(variables: list[Variable], count: int) -> np.ndarray:
     """Deterministic starts in log space: the initial/mid point, then a Halton sequence."""
+    if not variables:
+        return np.zeros((1, 0))
     lower = np.log([v.lower for v in variables])
     upper = np.log([v.upper for v in variables])
     first = np.array([math.log(v.initial) if v.initial else (lo + hi) / 2
                       for v, lo, hi in zip(variables, lower, upper)])
     points = [first]
-    if count > 1 and variables:
+    if count > 1:
         unit = qmc.Halton(len(variables), scramble=False).random(count)[1:]
         points.extend(lower + unit * (upper - lower))
-    return np.array(points[:count]).reshape(-1, len(variables))
+    return np.array(points[:count])
 
 
 class Problem:
@@ -156,7 +158,7 @@ class Problem:
         raw_objective = sum((w * (ca.fabs(e) if mag else e) for (e, mag), w in term_exprs), ca.MX(0))
         # numbers at the first start, for scaling
         self.starts = starting_points(variables, settings.multistart)
-        z_ref = self.starts[0] if len(variables) else np.zeros(0)
+        z_ref = self.starts[0]
         probe = ca.Function("probe", [z], [raw_objective] + [e for (e, _), _ in term_exprs]
                             + [e for e, _ in bound_exprs] + list(stability))
         numbers = [float(v) for v in probe(z_ref)]
@@ -253,7 +255,7 @@ class Problem:
     def solve(self) -> Outcome:
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, stats)
-        for index, z0 in enumerate(self.starts if self.has_nlp else [np.zeros(0)]):
+        for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
             if self.has_nlp:
                 slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
