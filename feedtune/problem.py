@@ -96,8 +96,11 @@ def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
     return sets
 
 
-def tune(spec: Spec) -> TuneResult:
+def tune(spec: Spec, progress: Callable | None = None) -> TuneResult:
     """Solve ``spec``; a failed solve is a result with ``success`` false, never an exception.
+
+    ``progress(start, total)`` is called after each multistart start (see
+    :meth:`feedtune.tuner.Problem.solve`).
 
     Raises
     ------
@@ -123,9 +126,11 @@ def tune(spec: Spec) -> TuneResult:
                         time_limit=s.time_limit, ipopt_options=s.ipopt_options)
     try:
         problem = Problem(variables, fixed, make_loop, objective, constraints, reports, settings)
+        outcome = problem.solve(progress)
     except HorizonError as exc:
         raise SpecError([("/tunables", str(exc))]) from None
-    outcome = problem.solve()
+    except Exception as exc:  # noqa: BLE001 — a failure is a result, never a traceback
+        return _error_result(spec, f"{type(exc).__name__}: {exc}")
 
     tuned = {}
     for name, tunable in tunables.items():
@@ -156,3 +161,13 @@ def tune(spec: Spec) -> TuneResult:
         objective=outcome.objective, tuned=tuned, metrics=metrics, constraints=constraint_results,
         stability=outcome.stability, solver=solver, provenance=provenance(spec.sha256()),
         spec=spec.model_dump(mode="json"))
+
+
+def _error_result(spec: Spec, message: str) -> TuneResult:
+    """The result of a tuning that failed before IPOPT could report a status."""
+    return TuneResult(
+        name=spec.name, success=False, status="error", message=message, objective=None,
+        tuned={}, metrics={}, constraints=[], stability={"stable": False},
+        solver=SolverResult(return_status="not_run", message=message, iterations=0,
+                            solve_time=0.0, build_time=0.0, starts=[]),
+        provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"))

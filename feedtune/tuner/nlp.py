@@ -252,7 +252,8 @@ class Problem:
         ok = stability["stable"] and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
         return ok, stability
 
-    def solve(self) -> Outcome:
+    def solve(self, progress: Callable[[StartOutcome, int], None] | None = None) -> Outcome:
+        """Run every start; ``progress(start_outcome, total)`` is called after each."""
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, stats)
         for index, z0 in enumerate(self.starts):
@@ -273,6 +274,8 @@ class Problem:
             feasible, _ = self._feasible(bounds, conditions, matrix)
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
                                        elapsed, feasible))
+            if progress is not None:
+                progress(starts[-1], len(self.starts))
             violation = self._violation(bounds, conditions)
             solved = status in SOLVED and feasible and objective is not None
             key = (0, objective, index) if solved else (1, violation, index)
