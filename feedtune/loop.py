@@ -19,12 +19,14 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import casadi as ca
+import numpy as np
 
 from feedtune import linalg
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                               second_order_error_integrals)
 
 MAX_HORIZON_SAMPLES = 50_000
+SETTLED = 1e-13  # a numeric loop's step response is summed until its modes decay this far
 
 
 class HorizonError(ValueError):
@@ -153,6 +155,9 @@ class ContinuousLoop(_LoopBase):
         if self.order != 2:
             raise NotImplementedError("exact step-error integrals need a second-order loop")
         _, a1, a0 = self.characteristic_polynomial
+        if not ca.symvar(ca.veccat(ca.MX(a1), ca.MX(a0))) and not (
+                float(ca.evalf(a1)) > 0 and float(ca.evalf(a0)) > 0):
+            return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
         de0 = -ca.mtimes(self.position_row, self.input_matrix)
         return second_order_error_integrals(a1, a0, 1.0, de0)
@@ -267,14 +272,34 @@ class SampledLoop(_LoopBase):
     def has_exact_step_error(self) -> bool:
         return True
 
+    @cached_property
+    def _numeric_spectral_radius(self) -> float | None:
+        """max |pole| when the loop holds numbers only, else None (symbolic)."""
+        if ca.symvar(ca.veccat(ca.MX(self.gain), ca.MX(self.period))):
+            return None
+        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
+
     @property
     def horizon_samples(self) -> int:
+        """Samples summed one by one before the closed-form tail.
+
+        Symbolic loops: ``horizon / period_min``. Loops of numbers also run until the free
+        response has decayed by SETTLED (from the spectral radius), so what a result
+        reports is exact even for lightly damped loops.
+        """
         samples = math.ceil(self.horizon / self.period_min)
-        if samples > MAX_HORIZON_SAMPLES:
+        limit = MAX_HORIZON_SAMPLES
+        radius = self._numeric_spectral_radius
+        if radius is not None:
+            samples = math.ceil(self.horizon / float(ca.evalf(self.period)))
+            if 0 < radius < 1:
+                samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
+            limit = 10 * MAX_HORIZON_SAMPLES
+        if samples > limit:
             raise HorizonError(
                 f"a step response over {self.horizon:.3g} s at periods down to "
                 f"{self.period_min:.3g} s needs {samples} samples (limit "
-                f"{MAX_HORIZON_SAMPLES}); raise the minimum sampling period or gain")
+                f"{limit}); raise the minimum sampling period or gain")
         return samples
 
     @cached_property
@@ -286,6 +311,9 @@ class SampledLoop(_LoopBase):
         from the horizon to infinity, is summed in closed form too (:meth:`_tail`): exact for
         ISE, and exact for IAE and ITAE once the error no longer changes sign.
         """
+        radius = self._numeric_spectral_radius
+        if radius is not None and radius >= 1:
+            return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         n = self.order
         tau = self.plant.time_constant
         state = ca.SX.sym("state", n + 4)  # [x, v, buffer..., iae, ise, itae, t]

@@ -154,7 +154,7 @@ def tune(spec: Spec, progress: Callable | None = None) -> TuneResult:
     solver = SolverResult(
         return_status=outcome.return_status, message=outcome.message,
         iterations=outcome.iterations, solve_time=outcome.solve_time,
-        build_time=outcome.build_time,
+        build_time=outcome.build_time, evaluation_time=outcome.evaluation_time,
         starts=[StartResult(**vars(start)) for start in outcome.starts])
     return TuneResult(
         name=spec.name, success=outcome.success, status=outcome.status, message=outcome.message,
@@ -169,5 +169,5 @@ def _error_result(spec: Spec, message: str) -> TuneResult:
         name=spec.name, success=False, status="error", message=message, objective=None,
         tuned={}, metrics={}, constraints=[], stability={"stable": False},
         solver=SolverResult(return_status="not_run", message=message, iterations=0,
-                            solve_time=0.0, build_time=0.0, starts=[]),
+                            solve_time=0.0, build_time=0.0, evaluation_time=0.0, starts=[]),
         provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"))

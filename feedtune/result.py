@@ -61,6 +61,7 @@ class SolverResult(ResultModel):
     iterations: int = Field(description="IPOPT iterations of the chosen start")
     solve_time: float = Field(description="Wall time of all starts [s]")
     build_time: float = Field(description="Wall time to build the NLP [s]")
+    evaluation_time: float = Field(description="Wall time to evaluate every metric at the tuned point [s]")
     starts: list[StartResult]
 
 

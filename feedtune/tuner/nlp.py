@@ -100,6 +100,7 @@ class Outcome:
     iterations: int
     solve_time: float
     build_time: float
+    evaluation_time: float
     starts: list[StartOutcome]
 
 
@@ -226,23 +227,39 @@ class Problem:
             self.solver = ca.nlpsol("feedtune", "ipopt",
                                     {"x": w, "f": f / f_scale, "g": ca.vertcat(*g)}, options)
         self.f_scale = f_scale
-        report_keys = list(reports)
-        report_exprs = []
-        for key in report_keys:
-            expr, mag = _magnitude(reports[key](loop))
-            report_exprs.append(ca.fabs(expr) if mag else expr)
-        self.report_keys = report_keys
-        self.evaluate = ca.Function(
-            "evaluate", [z],
-            [raw_objective, ca.vertcat(*[ca.fabs(e) if m else e for e, m in bound_exprs], ca.MX(0)),
-             ca.vertcat(*stability), loop.state_matrix, ca.vertcat(*report_exprs, ca.MX(0))])
+        self.check = ca.Function(
+            "check", [z],
+            [raw_objective, ca.vertcat(ca.MX(0, 1), *[ca.fabs(e) if m else e for e, m in bound_exprs]),
+             ca.vertcat(*stability), loop.state_matrix])
+        self.make_loop, self.reports = make_loop, dict(reports)
         self.build_time = time.perf_counter() - started
 
     def _evaluate(self, z_value):
-        objective, bounds, conditions, matrix, reports = self.evaluate(z_value)
-        bounds = [_number(b) for b in np.asarray(bounds).ravel()[:len(self.bounds)]]
-        reports = [_number(r) for r in np.asarray(reports).ravel()[:len(self.report_keys)]]
-        return _number(objective), bounds, np.asarray(conditions).ravel(), np.asarray(matrix, dtype=float), reports
+        """What the NLP sees at ``z_value``: objective, bound values, conditions, matrix."""
+        objective, bounds, conditions, matrix = self.check(z_value)
+        bounds = [_number(b) for b in np.asarray(bounds).ravel()]
+        return _number(objective), bounds, np.asarray(conditions).ravel(), np.asarray(matrix, dtype=float)
+
+    def _evaluate_numeric(self, values: Mapping[str, float]):
+        """Objective, bounds, conditions, matrix and reports on the loop built from numbers.
+
+        A loop of numbers may size itself exactly (e.g. integrate a step response until it
+        has settled), so these are the values a result reports.
+        """
+        loop = self.make_loop(dict(values))
+
+        def number(value):
+            expr, mag = _magnitude(value)
+            return _number(ca.fabs(ca.evalf(expr)) if mag else ca.evalf(expr))
+
+        terms = [number(t.value(loop)) for t in self.objective_terms]
+        objective = (None if any(v is None for v in terms)
+                     else sum(t.weight * v for t, v in zip(self.objective_terms, terms)))
+        bounds = [number(b.value(loop)) for b in self.bounds]
+        conditions = np.array([float(ca.evalf(c)) for c in loop.stability_conditions()])
+        matrix = np.array(ca.evalf(loop.state_matrix), dtype=float)
+        reports = {key: number(fn(loop)) for key, fn in self.reports.items()}
+        return objective, bounds, conditions, matrix, reports
 
     def _feasible(self, bounds, conditions, matrix) -> tuple[bool, dict]:
         numeric = check_stability(matrix, self.discrete)
@@ -270,7 +287,7 @@ class Problem:
             else:
                 z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
             elapsed = time.perf_counter() - started
-            objective, bounds, conditions, matrix, _ = self._evaluate(z_opt)
+            objective, bounds, conditions, matrix = self._evaluate(z_opt)
             feasible, _ = self._feasible(bounds, conditions, matrix)
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
                                        elapsed, feasible))
@@ -282,8 +299,12 @@ class Problem:
             if best is None or self._better(key, best[0]):
                 best = (key, index, z_opt, return_status, status)
         _, index, z_opt, return_status, status = best
-        objective, bounds, conditions, matrix, reports = self._evaluate(z_opt)
+        started = time.perf_counter()
+        values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
+        values.update(self.fixed)
+        objective, bounds, conditions, matrix, reports = self._evaluate_numeric(values)
         feasible, stability = self._feasible(bounds, conditions, matrix)
+        evaluation_time = time.perf_counter() - started
         success = status in SOLVED and feasible
         if success:
             message = f"start {index} of {len(starts)} gave the best feasible optimum"
@@ -295,15 +316,14 @@ class Problem:
             message = "no start satisfied every constraint; violated: " + ", ".join(broken)
         else:
             message = f"no start converged; best attempt (start {index}) ended with {return_status}"
-        values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
-        values.update(self.fixed)
         return Outcome(
             status=status, return_status=return_status, message=message, success=success,
             values=values, objective=objective,
-            reports=dict(zip(self.report_keys, reports)),
+            reports=reports,
             constraints=[(b, v, _within(v, b.lower, b.upper)) for b, v in zip(self.bounds, bounds)],
             stability=stability, iterations=starts[index].iterations,
-            solve_time=sum(s.solve_time for s in starts), build_time=self.build_time, starts=starts)
+            solve_time=sum(s.solve_time for s in starts), build_time=self.build_time,
+            evaluation_time=evaluation_time, starts=starts)
 
     def _violation(self, bounds, conditions) -> float:
         total = float(np.sum(np.maximum(0.0, -conditions)))

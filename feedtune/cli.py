@@ -1,0 +1,568 @@
+"""The ``feedtune`` command line.
+
+``feedtune tune SPEC`` writes the result JSON, and only that, to stdout (or ``-o``);
+everything meant for people (the summary, errors, anything IPOPT or CasADi print)
+goes to stderr. Exit status: 0 a successful tuning, 1 a result with ``success`` false
+(still written), 2 a spec or file that cannot be used, 3 an internal error, 130
+interrupted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import json
+import os
+import re
+import sys
+import tempfile
+import traceback
+import typing
+from pathlib import Path
+from typing import Any, Iterator
+
+import click
+from pydantic.fields import FieldInfo
+from pydantic_core import PydanticUndefined, to_jsonable_python
+
+from feedtune import __version__
+
+#: exit statuses, also listed in ``feedtune --help``
+EXIT_OK, EXIT_NOT_SUCCESS, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+
+STDIN = "-"
+
+_EPILOG = ("Exit status: 0 success; 1 the tuning did not succeed (the result is still "
+           "written); 2 the spec or a file cannot be used; 3 internal error (please report).")
+
+
+# -- small helpers -----------------------------------------------------------------------
+
+def _err(message: str = "") -> None:
+    click.echo(message, err=True)
+
+
+def _fail(message: str, code: int = EXIT_BAD_INPUT) -> typing.NoReturn:
+    _err(f"error: {message}")
+    raise SystemExit(code)
+
+
+def _spec_errors(label: str, errors: list[tuple[str, str]]) -> typing.NoReturn:
+    """One ``error: LABEL: POINTER: message`` line per problem, then exit 2."""
+    for pointer, message in errors:
+        where = f"{label}: {pointer}" if pointer else label
+        _err(f"error: {where}: {message}")
+    raise SystemExit(EXIT_BAD_INPUT)
+
+
+def _label(spec: str) -> str:
+    return "<stdin>" if spec == STDIN else spec
+
+
+def _read_spec(spec: str) -> bytes:
+    """The bytes of SPEC (a path or ``-``), or exit 2 with the reason it cannot be read."""
+    from feedtune.spec import MAX_SPEC_BYTES
+
+    try:
+        if spec == STDIN:
+            data = click.get_binary_stream("stdin").read(MAX_SPEC_BYTES + 1)
+        else:
+            with open(spec, "rb") as handle:
+                data = handle.read(MAX_SPEC_BYTES + 1)
+    except FileNotFoundError:
+        _fail(f"{_label(spec)}: no such file")
+    except IsADirectoryError:
+        _fail(f"{_label(spec)}: is a directory, not a spec file")
+    except PermissionError:
+        _fail(f"{_label(spec)}: permission denied")
+    except OSError as exc:
+        _fail(f"{_label(spec)}: cannot read: {exc.strerror or exc}")
+    if len(data) > MAX_SPEC_BYTES:
+        _fail(f"{_label(spec)}: spec is larger than the limit of {MAX_SPEC_BYTES} bytes")
+    return data
+
+
+def _parse(spec: str):
+    """Read and parse SPEC, or print its errors and exit 2."""
+    from feedtune.spec import SpecError, parse_spec
+
+    data = _read_spec(spec)
+    try:
+        return parse_spec(data)
+    except SpecError as exc:
+        _spec_errors(_label(spec), exc.errors)
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same directory."""
+    directory = path.parent
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        try:
+            mode = path.stat().st_mode & 0o7777
+        except FileNotFoundError:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _check_output(output: str | None) -> Path | None:
+    """The output path (None for stdout); exit 2 now if it cannot be written later."""
+    if output is None or output == STDIN:
+        return None
+    path = Path(output)
+    if path.is_dir():
+        _fail(f"{output}: is a directory; give a file name for the output")
+    if not path.parent.is_dir():
+        _fail(f"{output}: directory {str(path.parent)!r} does not exist")
+    return path
+
+
+def _emit(data: bytes, path: Path | None) -> None:
+    """``data`` to stdout (path None) or atomically to ``path``; exit 2 if that fails."""
+    if path is None:
+        stream = click.get_binary_stream("stdout")
+        stream.write(data)
+        stream.flush()
+        return
+    try:
+        _write_atomic(path, data)
+    except OSError as exc:
+        _fail(f"{path}: cannot write: {exc.strerror or exc}")
+
+
+def _flush_c_stdio() -> None:
+    """Flush the C library's stdio buffers (IPOPT writes through them)."""
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None).fflush(None)
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """Send everything written to file descriptor 1 (C or Python) to stderr meanwhile."""
+    sys.stdout.flush()
+    _flush_c_stdio()
+    try:
+        saved = os.dup(1)
+    except OSError:  # no file descriptor 1: nothing to protect
+        saved = None
+    if saved is not None:
+        try:
+            os.dup2(2, 1)
+        except OSError:  # no file descriptor 2: send the solver's chatter nowhere
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, 1)
+            os.close(devnull)
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        sys.stderr.flush()
+        _flush_c_stdio()
+        if saved is not None:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
+def _g(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.6g}"
+
+
+def _unit(unit: str) -> str:
+    return f"[{unit}]"
+
+
+def _options_label(name: str, options: dict) -> str:
+    if not options:
+        return name
+    return name + "(" + ", ".join(f"{k}={v}" for k, v in options.items()) + ")"
+
+
+def _summary(result) -> list[str]:
+    """Human-readable lines describing a TuneResult (for stderr)."""
+    from feedtune.objectives import METRICS
+
+    lines = [f"{result.name}: {result.status}"
+             f"{'' if result.success else ' (not successful)'} — {result.message}"]
+    lines.append("tuned:")
+    width = max((len(n) for n in result.tuned), default=0)
+    for name, tuned in result.tuned.items():
+        notes = []
+        if tuned.fixed:
+            notes.append("fixed")
+        if tuned.at_bound:
+            bound = tuned.min if tuned.at_bound == "min" else tuned.max
+            notes.append(f"at {tuned.at_bound} bound {_g(bound)}")
+        note = f"  ({', '.join(notes)})" if notes else ""
+        lines.append(f"  {name:<{width}}  {_g(tuned.value)} {_unit(tuned.unit)}{note}")
+    lines.append(f"objective: {_g(result.objective)}")
+    if result.metrics:
+        lines.append("metrics:")
+        width = max(len(k) for k in result.metrics)
+        for key, metric in result.metrics.items():
+            lines.append(f"  {key:<{width}}  {_g(metric.value)} {_unit(metric.unit)}")
+    if result.constraints:
+        lines.append("constraints:")
+        for c in result.constraints:
+            bounds = []
+            if c.min is not None:
+                bounds.append(f"min {_g(c.min)}")
+            if c.max is not None:
+                bounds.append(f"max {_g(c.max)}")
+            metric = METRICS.get(c.metric)
+            unit = f" {_unit(metric.unit)}" if metric is not None else ""
+            verdict = "OK" if c.satisfied else "VIOLATED"
+            lines.append(f"  {_options_label(c.metric, c.options)} = {_g(c.value)}{unit}"
+                         f"  ({', '.join(bounds)})  {verdict}")
+    stability = result.stability or {}
+    stable = stability.get("stable")
+    text = "stable" if stable else ("UNSTABLE" if stable is not None else "unknown")
+    if "spectral_radius" in stability:
+        text += f", spectral radius {_g(stability['spectral_radius'])} [1] (z-plane poles)"
+    elif "spectral_abscissa" in stability:
+        text += f", spectral abscissa {_g(stability['spectral_abscissa'])} [1/s] (s-plane poles)"
+    lines.append(f"stability: {text}")
+    s = result.solver
+    lines.append(f"solver: IPOPT {s.return_status}, {s.iterations} iterations, "
+                 f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
+    return lines
+
+
+def _result_bytes(result) -> bytes:
+    return (result.model_dump_json(indent=2) + "\n").encode("utf-8")
+
+
+# -- describing registries ---------------------------------------------------------------
+
+_UNIT = re.compile(r"\[([^\[\]]+)\]")
+
+
+def _unit_of(description: str | None) -> str | None:
+    """The first ``[unit]`` in a field description, if any."""
+    match = _UNIT.search(description or "")
+    return match.group(1) if match else None
+
+
+def _choices(annotation: Any) -> list | None:
+    if typing.get_origin(annotation) is typing.Literal:
+        return list(typing.get_args(annotation))
+    return None
+
+
+def _limits(info: FieldInfo) -> list[str]:
+    limits = []
+    for item in info.metadata:
+        for attr, symbol in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+            value = getattr(item, attr, None)
+            if value is not None:
+                limits.append(f"{symbol} {value}")
+    return limits
+
+
+def _default(info: FieldInfo) -> tuple[bool, Any]:
+    """(required, default as JSON-able value)."""
+    if info.is_required():
+        return True, None
+    if info.default_factory is not None:
+        return False, to_jsonable_python(info.default_factory())
+    if info.default is PydanticUndefined:
+        return True, None
+    return False, to_jsonable_python(info.default)
+
+
+def _describe_fields(model) -> list[dict]:
+    fields = []
+    for name, info in model.model_fields.items():
+        required, default = _default(info)
+        fields.append({
+            "name": name,
+            "description": info.description or "",
+            "unit": _unit_of(info.description),
+            "required": required,
+            "default": default,
+            "choices": _choices(info.annotation),
+            "limits": _limits(info),
+        })
+    return fields
+
+
+def _first_line(text: str | None) -> str:
+    return (text or "").strip().splitlines()[0] if (text or "").strip() else ""
+
+
+def _techniques(params_model) -> list | None:
+    info = params_model.model_fields.get("technique")
+    return _choices(info.annotation) if info is not None else None
+
+
+def _plant_tunables(name: str, plant_cls) -> dict[str, dict]:
+    """Tunables of ``plant_cls`` per technique ("*" when the plant has no techniques)."""
+    params_model = plant_cls.Params
+    techniques = _techniques(params_model)
+    out = {}
+    for technique in techniques or [None]:
+        values = {"type": name}
+        if technique is not None:
+            values["technique"] = technique
+        # only the fields that select the structure matter to tunables(): no validation
+        plant = plant_cls(params_model.model_construct(**values))
+        out[technique or "*"] = {
+            tname: {"unit": t.unit, "description": t.description, "min": t.min, "max": t.max}
+            for tname, t in plant.tunables().items()}
+    return out
+
+
+def describe_plants() -> dict[str, dict]:
+    """Every registered plant: parameters and, per technique, tunables with default bounds."""
+    from feedtune.plants import PLANTS
+
+    plants = {}
+    for name, plant_cls in PLANTS.items():
+        module = sys.modules.get(plant_cls.__module__)
+        plants[name] = {
+            "summary": _first_line(getattr(module, "__doc__", None)),
+            "reference": _first_line(plant_cls.Params.__doc__),
+            "parameters": _describe_fields(plant_cls.Params),
+            "tunables": _plant_tunables(name, plant_cls),
+        }
+    return plants
+
+
+def describe_metrics() -> dict[str, dict]:
+    """Every registered metric: unit, description, reference and options."""
+    from feedtune.objectives import METRICS
+
+    return {
+        name: {"unit": m.unit, "description": m.description, "reference": m.reference,
+               "options": _describe_fields(m.Options)}
+        for name, m in METRICS.items()}
+
+
+def _field_lines(fields: list[dict], indent: str) -> list[str]:
+    lines = []
+    for f in fields:
+        if f["required"]:
+            default = "required"
+        else:
+            default = f"default {json.dumps(f['default'], ensure_ascii=False)}"
+        extra = []
+        if f["choices"] and len(f["choices"]) > 1:
+            extra.append("one of " + ", ".join(map(str, f["choices"])))
+        elif f["choices"]:
+            extra.append(f"= {f['choices'][0]}")
+        extra.extend(f["limits"])
+        tail = f"; {'; '.join(extra)}" if extra else ""
+        lines.append(f"{indent}{f['name']}  ({default}{tail})")
+        if f["description"]:
+            lines.append(f"{indent}    {f['description']}")
+    return lines
+
+
+# -- examples ----------------------------------------------------------------------------
+
+def examples_dir() -> Path:
+    """Bundled example specs: ``feedtune/examples`` in a wheel, ``examples/`` in the repo."""
+    import feedtune
+
+    package = Path(feedtune.__file__).resolve().parent
+    bundled = package / "examples"
+    return bundled if bundled.is_dir() else package.parent / "examples"
+
+
+def _examples() -> dict[str, Path]:
+    directory = examples_dir()
+    if not directory.is_dir():
+        return {}
+    return {p.stem: p for p in sorted(directory.glob("*.json")) if p.is_file()}
+
+
+def _shorten(text: str, width: int = 90) -> str:
+    text = " ".join(text.split())
+    sentence = text.split(". ")[0].rstrip(".")
+    if len(sentence) <= width:
+        return sentence
+    return sentence[: width - 1].rstrip() + "…"
+
+
+def _example_description(path: Path) -> str:
+    try:
+        data = json.loads(path.read_bytes())
+        return str(data.get("description", "")) if isinstance(data, dict) else ""
+    except (OSError, ValueError):
+        return "(unreadable)"
+
+
+# -- commands ----------------------------------------------------------------------------
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=_EPILOG)
+@click.version_option(__version__, "-V", "--version", prog_name="feedtune")
+def main() -> None:
+    """Tune CNC feed drives (gains [1/s], sampling periods [s], compensators) by
+    optimisation with CasADi and IPOPT.
+
+    A JSON spec names the plant, which tunables are free, what to minimise and what
+    must hold; all values are SI. Start with `feedtune examples`, `feedtune plants`
+    and `feedtune metrics`.
+    """
+    with contextlib.suppress(AttributeError, ValueError):
+        sys.stderr.reconfigure(errors="backslashreplace")
+
+
+@main.command(epilog=_EPILOG)
+@click.argument("spec", metavar="SPEC")
+@click.option("-o", "--output", metavar="RESULT",
+              help="Write the result JSON here (atomically) instead of stdout; '-' is stdout.")
+@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary to stderr.")
+def tune(spec: str, output: str | None, quiet: bool) -> None:
+    """Solve the tuning problem in SPEC (a JSON file, or '-' for stdin).
+
+    The result (tuned values with their units, every metric, constraints, stability,
+    IPOPT's status, provenance) is written as JSON, and nothing else, to stdout or
+    RESULT. A summary for people, and anything the solver prints, goes to stderr.
+    """
+    from feedtune.spec import SpecError
+
+    target = _check_output(output)
+    try:
+        with _stdout_to_stderr():
+            parsed = _parse(spec)
+            from feedtune.problem import tune as run_tune  # after parsing: slow import
+
+            result = run_tune(parsed)
+    except SpecError as exc:
+        _spec_errors(_label(spec), exc.errors)
+    except KeyboardInterrupt:
+        _fail("interrupted; no result written", 130)
+    except Exception as exc:  # a bug: say so, keep the traceback for the report
+        traceback.print_exc()
+        _fail(f"internal error in feedtune {__version__} ({type(exc).__name__}: {exc}); "
+              "please report it with the spec", EXIT_INTERNAL)
+    data = _result_bytes(result)
+    if not quiet:
+        for line in _summary(result):
+            _err(line)
+    _emit(data, target)
+    if target is not None and not quiet:
+        _err(f"wrote {target}")
+    raise SystemExit(EXIT_OK if result.success else EXIT_NOT_SUCCESS)
+
+
+@main.command(epilog=_EPILOG)
+@click.argument("spec", metavar="SPEC")
+def validate(spec: str) -> None:
+    """Check SPEC (a JSON file, or '-' for stdin) without solving it.
+
+    Checks the JSON, every field and unit range, tunable names, that each metric applies
+    to the plant, and that each tunable's bounds [its unit] are not empty. Prints
+    `ok: NAME` to stderr, or one `error: SPEC: /json/pointer: message` line per problem.
+    """
+    from feedtune.spec import SpecError
+
+    parsed = _parse(spec)
+    from feedtune.problem import build_plant, resolve_tunables  # after parsing: slow import
+
+    try:
+        resolve_tunables(parsed, build_plant(parsed))
+    except SpecError as exc:
+        _spec_errors(_label(spec), exc.errors)
+    _err(f"ok: {parsed.name}")
+
+
+@main.command()
+def schema() -> None:
+    """Print the JSON Schema of a spec (units are in the field descriptions)."""
+    from feedtune.spec import spec_json_schema
+
+    text = json.dumps(spec_json_schema(), indent=2, ensure_ascii=False) + "\n"
+    _emit(text.encode("utf-8"), None)
+
+
+@main.command()
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of text.")
+def plants(as_json: bool) -> None:
+    """List the plants: parameters (unit, default) and tunables with units and default
+    bounds for each technique."""
+    described = describe_plants()
+    if as_json:
+        _emit((json.dumps(described, indent=2, ensure_ascii=False) + "\n").encode("utf-8"), None)
+        return
+    lines = []
+    for name, plant in described.items():
+        lines.append(f"{name}: {plant['summary']}")
+        if plant["reference"]:
+            lines.append(f"  {plant['reference']}")
+        lines.append("  parameters (plant.*):")
+        lines.extend(_field_lines(plant["parameters"], "    "))
+        for technique, tunables in plant["tunables"].items():
+            heading = "tunables" if technique == "*" else f"tunables with technique {technique}"
+            lines.append(f"  {heading} (default bounds):")
+            width = max((len(t) for t in tunables), default=0)
+            for tname, t in tunables.items():
+                lines.append(f"    {tname:<{width}}  {_g(t['min'])} … {_g(t['max'])} "
+                             f"{_unit(t['unit'])}  {t['description']}")
+        lines.append("")
+    click.echo("\n".join(lines).rstrip("\n"))
+
+
+@main.command()
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of text.")
+def metrics(as_json: bool) -> None:
+    """List the metrics usable as objective terms or constraints, with units, references
+    and options."""
+    described = describe_metrics()
+    if as_json:
+        _emit((json.dumps(described, indent=2, ensure_ascii=False) + "\n").encode("utf-8"), None)
+        return
+    lines = []
+    for name, m in described.items():
+        lines.append(f"{name} {_unit(m['unit'])}: {m['description']}")
+        if m["reference"]:
+            lines.append(f"  reference: {m['reference']}")
+        if m["options"]:
+            lines.append("  options:")
+            lines.extend(_field_lines(m["options"], "    "))
+        lines.append("")
+    click.echo("\n".join(lines).rstrip("\n"))
+
+
+@main.command()
+@click.argument("name", required=False)
+@click.option("-o", "--output", metavar="PATH",
+              help="Copy the example spec here instead of printing it; '-' is stdout.")
+def examples(name: str | None, output: str | None) -> None:
+    """List the bundled example specs, or print (or copy) the one called NAME."""
+    known = _examples()
+    if name is None:
+        if not known:
+            _err(f"no examples found in {examples_dir()}")
+            return
+        width = max(len(stem) for stem in known)
+        for stem, path in known.items():
+            click.echo(f"{stem:<{width}}  {_shorten(_example_description(path))}")
+        return
+    stem = name[:-5] if name.endswith(".json") else name
+    if stem not in known:
+        listing = ", ".join(known) or f"none (looked in {examples_dir()})"
+        _fail(f"unknown example {name!r}; known: {listing}")
+    target = _check_output(output)
+    try:
+        data = known[stem].read_bytes()
+    except OSError as exc:
+        _fail(f"{known[stem]}: cannot read: {exc.strerror or exc}")
+    _emit(data, target)
+    if target is not None:
+        _err(f"wrote {target}")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
