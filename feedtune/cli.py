@@ -547,8 +547,9 @@ def examples(name: str | None, output: str | None) -> None:
             _err(f"no examples found in {examples_dir()}")
             return
         width = max(len(stem) for stem in known)
+        room = max(40, 100 - width - 2)  # lines of at most 100 characters
         for stem, path in known.items():
-            click.echo(f"{stem:<{width}}  {_shorten(_example_description(path))}")
+            click.echo(f"{stem:<{width}}  {_shorten(_example_description(path), room)}")
         return
     stem = name[:-5] if name.endswith(".json") else name
     if stem not in known:

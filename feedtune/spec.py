@@ -174,21 +174,50 @@ def load_json(data: bytes | str) -> Any:
     return value
 
 
+def _escape(token) -> str:
+    """One RFC 6901 reference token."""
+    return str(token).replace("~", "~0").replace("/", "~1")
+
+
+#: discriminator values pydantic puts into error locations (a lone model has no tag)
+_UNION_TAGS = (set(PLANTS) if len(PLANTS) > 1 else set()) | (set(METRICS) if len(METRICS) > 1 else set())
+
+
 def _pointer(loc: tuple, raw: Any) -> str:
-    """JSON pointer of a pydantic error location, without union tags."""
+    """JSON pointer of a pydantic error location.
+
+    Walks the input alongside the location: union tags (the value of the node's own
+    ``type``/``metric`` field) and union-member labels (``str``, ``int``, ...) are not
+    fields and are skipped; a key missing from an object is kept (a required field).
+    """
     parts = []
     node = raw
+    tag_seen = False  # a tag comes once, first, at the node it selects a model for
     for item in loc:
-        if isinstance(node, dict) and item in node:
+        if isinstance(node, dict):
+            tag = node.get("type", node.get("metric"))
+            if not tag_seen and item == tag and item in _UNION_TAGS:
+                tag_seen = True
+                continue
+            parts.append(_escape(item))
+            node = node.get(item)
+        elif isinstance(node, list) and isinstance(item, int) and 0 <= item < len(node):
+            parts.append(_escape(item))
             node = node[item]
-        elif isinstance(node, list) and isinstance(item, int) and item < len(node):
-            node = node[item]
-        elif isinstance(item, str) and (item in PLANTS or item in METRICS or "[" in item):
-            continue  # discriminator tag or function-validator label, not a field
         else:
-            node = None
-        parts.append(str(item).replace("~", "~0").replace("/", "~1"))
+            continue  # a union-member or validator label inside a non-container value
+        tag_seen = False
     return "/" + "/".join(parts) if parts else ""
+
+
+def _errors_by_pointer(errors: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """One entry per pointer: alternatives of a union become 'a or b'."""
+    merged: dict[str, list[str]] = {}
+    for pointer, message in errors:
+        merged.setdefault(pointer, [])
+        if message not in merged[pointer]:
+            merged[pointer].append(message)
+    return [(pointer, " or ".join(messages)) for pointer, messages in merged.items()]
 
 
 def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
@@ -200,7 +229,7 @@ def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
     tunables = plant.tunables()
     for name, tunable in spec.tunables.items():
         if name not in tunables:
-            errors.append((f"/tunables/{name}",
+            errors.append((f"/tunables/{_escape(name)}",
                            f"unknown tunable for this plant; known: {', '.join(tunables)}"))
     loop = plant.loop({n: t.max for n, t in tunables.items()},
                       {n: (t.min, t.max) for n, t in tunables.items()})
@@ -227,7 +256,8 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     try:
         spec = Spec.model_validate(raw)
     except ValidationError as exc:
-        raise SpecError([(_pointer(e["loc"], raw), e["msg"]) for e in exc.errors()]) from None
+        raise SpecError(_errors_by_pointer([(_pointer(e["loc"], raw), e["msg"])
+                                            for e in exc.errors()])) from None
     errors = _semantic_errors(spec)
     if errors:
         raise SpecError(errors)

@@ -16,7 +16,6 @@ from typing import Callable, Mapping
 
 import casadi as ca
 import numpy as np
-from scipy.stats import qmc
 
 from feedtune.expr import Magnitude
 from feedtune.validate.stability import check_stability
@@ -133,6 +132,8 @@ def starting_points(variables: list[Variable], count: int) -> np.ndarray:
                       for v, lo, hi in zip(variables, lower, upper)])
     points = [first]
     if count > 1:
+        from scipy.stats import qmc  # imported here: scipy.stats costs ~0.7 s to import
+
         unit = qmc.Halton(len(variables), scramble=False).random(count)[1:]
         points.extend(lower + unit * (upper - lower))
     return np.array(points[:count])
