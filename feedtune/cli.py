@@ -418,6 +418,13 @@ def main() -> None:
         sys.stderr.reconfigure(errors="backslashreplace")
 
 
+def _report_start(start, total: int) -> None:
+    """One stderr line per multistart start, so long tunings show progress."""
+    objective = "-" if start.objective is None else _g(start.objective)
+    _err(f"start {start.index + 1}/{total}: {start.status}, objective {objective}, "
+         f"{start.iterations} iterations, {start.solve_time:.3f} s")
+
+
 @main.command(epilog=_EPILOG)
 @click.argument("spec", metavar="SPEC")
 @click.option("-o", "--output", metavar="RESULT",
@@ -438,7 +445,7 @@ def tune(spec: str, output: str | None, quiet: bool) -> None:
             parsed = _parse(spec)
             from feedtune.problem import tune as run_tune  # after parsing: slow import
 
-            result = run_tune(parsed)
+            result = run_tune(parsed, progress=None if quiet else _report_start)
     except SpecError as exc:
         _spec_errors(_label(spec), exc.errors)
     except KeyboardInterrupt:

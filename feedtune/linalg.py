@@ -89,5 +89,12 @@ def complex_solve(real_part, imag_part, rhs):
     """Solve (R + jI) x = b for real b; returns (Re x, Im x)."""
     n = real_part.shape[0]
     block = ca.vertcat(ca.horzcat(real_part, -imag_part), ca.horzcat(imag_part, real_part))
-    solution = ca.solve(block, ca.vertcat(rhs, ca.DM.zeros(n, 1)))
+    solution = solve(block, ca.vertcat(rhs, ca.DM.zeros(n, 1)))
     return solution[:n], solution[n:]
+
+
+def solve(matrix, rhs):
+    """A⁻¹b; for MX with a symbolic QR that the NLP can expand to SX, else ``ca.solve``."""
+    if isinstance(matrix, ca.MX) or isinstance(rhs, ca.MX):
+        return ca.solve(ca.MX(matrix), ca.MX(rhs), "symbolicqr")
+    return ca.solve(matrix, rhs)

@@ -92,6 +92,11 @@ class _LoopBase:
     def order(self) -> int:
         return self.state_matrix.shape[0]
 
+    @property
+    def unrolled_steps(self) -> int:
+        """Loop steps inside the expressions built so far (a cost hint for the tuner)."""
+        return 0
+
     @cached_property
     def characteristic_polynomial(self) -> list:
         """Monic closed-loop characteristic polynomial, highest power first."""
@@ -272,6 +277,10 @@ class SampledLoop(_LoopBase):
     def has_exact_step_error(self) -> bool:
         return True
 
+    @property
+    def unrolled_steps(self) -> int:
+        return self.horizon_samples if "step_error_integrals" in self.__dict__ else 0
+
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:
         """max |pole| when the loop holds numbers only, else None (symbolic)."""
@@ -352,7 +361,7 @@ class SampledLoop(_LoopBase):
         tau = self.plant.time_constant
         phi, gamma_cl, kx, _ = self._matrices
         eye = ca.DM.eye(n)
-        delta = state - ca.solve(eye - phi, gamma_cl)
+        delta = state - linalg.solve(eye - phi, gamma_cl)
         e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
         e_v = ca.horzcat(0, 1, ca.DM.zeros(1, n - 2))
         # α, β, γ of the intersample error as rows acting on δ (zero at the settled state)
@@ -360,9 +369,9 @@ class SampledLoop(_LoopBase):
         b_row = -tau * kx
         g_row = tau * (e_v - kx)
         c1, c2, q = sample_moments(a_row, b_row, g_row, self.period / tau, tau)
-        geometric = ca.solve(eye - phi, eye)  # Σ Φ^k
+        geometric = linalg.solve(eye - phi, eye)  # Σ Φ^k
         weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
-        lyapunov = ca.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
+        lyapunov = linalg.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
         p = ca.reshape(lyapunov, n, n)
         sum_e = ca.mtimes([c1, geometric, delta])
         sum_te = (start_time * sum_e + self.period * ca.mtimes([c1, weighted, delta])

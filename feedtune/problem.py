@@ -123,7 +123,7 @@ def tune(spec: Spec, progress: Callable | None = None) -> TuneResult:
     reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
     s = spec.solver
     settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
-                        time_limit=s.time_limit, ipopt_options=s.ipopt_options)
+                        time_limit=s.time_limit, expand=s.expand, ipopt_options=s.ipopt_options)
     try:
         problem = Problem(variables, fixed, make_loop, objective, constraints, reports, settings)
         outcome = problem.solve(progress)
@@ -144,7 +144,7 @@ def tune(spec: Spec, progress: Callable | None = None) -> TuneResult:
                 at_bound = "max"
         tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=name in fixed,
                                  min=lower, max=upper, at_bound=at_bound)
-    metrics = {key: MetricValue(metric=metric.name, value=outcome.reports[key], unit=metric.unit,
+    metrics = {key: MetricValue(metric=metric.name, value=outcome.reports[key], unit=metric.unit_of(options),
                                 options=options.model_dump())
                for key, (metric, options) in report_sets.items()}
     constraint_results = [

@@ -56,6 +56,9 @@ class SolverSpec(SpecModel):
     max_iter: PositiveInt = Field(500, description="IPOPT iteration limit per start [count]")
     tol: PositiveFloat = Field(1e-9, description="IPOPT convergence tolerance on the scaled problem [1]")
     time_limit: PositiveFloat = Field(60.0, description="Wall-clock limit per start [s]")
+    expand: bool | None = Field(
+        None, description="Expand the NLP to CasADi SX before solving: faster solves, slower "
+                          "build; null (default) expands when step responses are short")
     ipopt_options: dict[str, str | int | float] = Field(
         default_factory=dict, description="Raw IPOPT options, passed through unchanged")
 
@@ -222,10 +225,8 @@ def _errors_by_pointer(errors: list[tuple[str, str]]) -> list[tuple[str, str]]:
 
 def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
     """Checks that need the registries: tunable names and bounds, metric applicability."""
-    from feedtune.problem import build_plant  # local: problem imports spec
-
     errors = []
-    plant = build_plant(spec)
+    plant = PLANTS[spec.plant.type](spec.plant)
     tunables = plant.tunables()
     for name, tunable in spec.tunables.items():
         if name not in tunables:

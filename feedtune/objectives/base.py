@@ -31,6 +31,10 @@ class Metric:
     reference: ClassVar[str] = ""
     Options: ClassVar[type[SpecModel]] = NoOptions
 
+    def unit_of(self, options) -> str:
+        """SI unit of the value for these options (most metrics: ``unit``)."""
+        return self.unit
+
     def supports(self, loop, options=None) -> bool:
         """Whether this metric is defined on ``loop``."""
         return True

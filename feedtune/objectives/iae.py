@@ -1,7 +1,8 @@
 """Integral of absolute error after a position step (Koren eq 20)."""
 
 from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import StepErrorOptions, supports_step_error, time_weight
+from feedtune.objectives.step_error import (StepErrorOptions, step_error_unit, supports_step_error,
+                                             time_weight)
 
 
 class Iae(Metric):
@@ -12,6 +13,9 @@ class Iae(Metric):
     description = "Integral of |position error| after a 1 m position step"
     reference = "Koren 1979 eq 20"
     Options = StepErrorOptions
+
+    def unit_of(self, options):
+        return step_error_unit(options, "m·s", "m·rad")
 
     def supports(self, loop, options=StepErrorOptions()):
         return supports_step_error(loop, options)

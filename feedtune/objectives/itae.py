@@ -1,7 +1,8 @@
 """Integral of time-weighted absolute error after a position step."""
 
 from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import StepErrorOptions, supports_step_error, time_weight
+from feedtune.objectives.step_error import (StepErrorOptions, step_error_unit, supports_step_error,
+                                             time_weight)
 
 
 class Itae(Metric):
@@ -11,6 +12,9 @@ class Itae(Metric):
     unit = "m·s² (time absolute) or m·rad² (time natural)"
     description = "Integral of t·|position error| after a 1 m position step"
     Options = StepErrorOptions
+
+    def unit_of(self, options):
+        return step_error_unit(options, "m·s²", "m·rad²")
 
     def supports(self, loop, options=StepErrorOptions()):
         return supports_step_error(loop, options)

@@ -30,3 +30,8 @@ def time_weight(loop, options: StepErrorOptions, power: int):
     if options.time == "absolute":
         return 1.0
     return loop.natural_frequency() ** power
+
+
+def step_error_unit(options: StepErrorOptions, absolute: str, natural: str) -> str:
+    """The unit that goes with the chosen time axis."""
+    return absolute if options.time == "absolute" else natural
