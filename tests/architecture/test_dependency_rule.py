@@ -1,0 +1,219 @@
+"""The dependency rule (DESIGN.md): plant → Loop → metrics → tuner, nothing flows back.
+
+* the tuner imports neither ``feedtune.plants`` nor ``feedtune.objectives``;
+* an objective imports nothing from ``feedtune.plants``;
+* a plant imports nothing from ``feedtune.objectives`` or ``feedtune.tuner``.
+
+Checked twice: statically, by parsing every import (direct or through other feedtune
+modules, package ``__init__`` files included), and at run time, by importing the package
+in a fresh interpreter and looking at ``sys.modules``. Also the naming rule of STYLE.md:
+``"ward_leonard"`` → ``plants/ward_leonard.py`` → ``WardLeonard``, ``WardLeonardParams``.
+"""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import subprocess
+import sys
+import typing
+from functools import lru_cache
+from pathlib import Path
+
+import pytest
+
+import feedtune
+from feedtune.objectives import METRICS
+from feedtune.objectives.base import Metric
+from feedtune.plants import PLANTS
+
+PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
+ALL_MODULES = sorted(PACKAGE_ROOT.rglob("*.py"))
+
+
+def _module_name(path: Path, root: Path = PACKAGE_ROOT) -> str:
+    parts = ["feedtune", *path.relative_to(root).with_suffix("").parts]
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+MODULE_PATHS = {_module_name(p): p for p in ALL_MODULES}
+
+
+def _package_of(path: Path, root: Path) -> str:
+    name = _module_name(path, root)
+    return name if path.name == "__init__.py" else name.rpartition(".")[0]
+
+
+@lru_cache(maxsize=None)
+def direct_imports(path: Path, root: Path = PACKAGE_ROOT) -> frozenset[str]:
+    """Dotted names a module imports: ``import a.b``, ``from a import b`` (→ a, a.b),
+    relative imports resolved, and literal ``importlib.import_module``/``__import__`` calls."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = _package_of(path, root).split(".")
+                base = base[: len(base) - (node.level - 1)]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            names.add(module)
+            names.update(f"{module}.{alias.name}" for alias in node.names if alias.name != "*")
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant):
+            func = node.func
+            called = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            if called in ("import_module", "__import__") and isinstance(node.args[0].value, str):
+                names.add(node.args[0].value)
+    return frozenset(names)
+
+
+def _executed_modules(name: str) -> set[str]:
+    """A dotted import executes the module and every parent package's __init__."""
+    parts = name.split(".")
+    return {".".join(parts[:i]) for i in range(1, len(parts) + 1)} & set(MODULE_PATHS)
+
+
+def transitive_imports(module: str) -> set[str]:
+    """Every feedtune module executed when ``module`` is imported (static estimate)."""
+    seen: set[str] = set()
+    todo = [module]
+    while todo:
+        current = todo.pop()
+        for name in direct_imports(MODULE_PATHS[current]):
+            for executed in _executed_modules(name):
+                if executed not in seen:
+                    seen.add(executed)
+                    todo.append(executed)
+    return seen - {module}
+
+
+def _violations(names, forbidden: tuple[str, ...]) -> list[str]:
+    return sorted(n for n in names if any(n == f or n.startswith(f + ".") for f in forbidden))
+
+
+def _modules_under(package: str) -> list[str]:
+    return sorted(n for n in MODULE_PATHS if n == package or n.startswith(package + "."))
+
+
+RULES = [
+    ("feedtune.tuner", ("feedtune.plants", "feedtune.objectives")),
+    ("feedtune.objectives", ("feedtune.plants", "feedtune.tuner")),
+    ("feedtune.plants", ("feedtune.objectives", "feedtune.tuner")),
+]
+RULE_CASES = [(module, forbidden) for package, forbidden in RULES for module in _modules_under(package)]
+
+
+def test_the_rule_covers_modules():
+    covered = {m for m, _ in RULE_CASES}
+    for package, _ in RULES:
+        assert any(m.startswith(package + ".") for m in covered), f"no modules found under {package}"
+    assert "feedtune.tuner.nlp" in covered
+
+
+@pytest.mark.parametrize("module, forbidden", RULE_CASES, ids=[m for m, _ in RULE_CASES])
+def test_module_imports_nothing_forbidden_directly(module, forbidden):
+    assert not _violations(direct_imports(MODULE_PATHS[module]), forbidden)
+
+
+@pytest.mark.parametrize("module, forbidden", RULE_CASES, ids=[m for m, _ in RULE_CASES])
+def test_module_imports_nothing_forbidden_transitively(module, forbidden):
+    assert not _violations(transitive_imports(module), forbidden)
+
+
+def test_import_parser_sees_every_import_form(tmp_path):
+    """The parser must not miss a violation written in any of the usual forms."""
+    package = tmp_path / "feedtune" / "tuner"
+    package.mkdir(parents=True)
+    source = package / "probe.py"
+    source.write_text(
+        "import feedtune.plants.software_servo as ss\n"
+        "from feedtune import objectives\n"
+        "from ..plants import base\n"
+        "from .. import objectives as obj\n"
+        "import importlib\n"
+        "importlib.import_module('feedtune.objectives.iae')\n")
+    names = direct_imports(source, tmp_path / "feedtune")
+    assert _violations(names, ("feedtune.plants",)) and _violations(names, ("feedtune.objectives",))
+    assert {"feedtune.plants.software_servo", "feedtune.objectives", "feedtune.plants.base",
+            "feedtune.objectives.iae"} <= names
+
+
+@pytest.mark.parametrize("package, forbidden", RULES, ids=[p for p, _ in RULES])
+def test_importing_the_package_loads_nothing_forbidden(package, forbidden):
+    """Run time: a fresh interpreter imports every module of the package, then lists sys.modules."""
+    modules = _modules_under(package)
+    code = (f"import importlib, sys\n"
+            f"for m in {modules!r}: importlib.import_module(m)\n"
+            f"print('\\n'.join(sorted(sys.modules)))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         timeout=120).stdout.split()
+    assert not _violations(out, forbidden)
+
+
+VALIDATE_MODULES = _modules_under("feedtune.validate")
+
+
+@pytest.mark.parametrize("module", VALIDATE_MODULES)
+def test_validator_is_independent_of_casadi(module):
+    """DESIGN.md: validate/ checks a design with numpy/scipy only, so that a loop is never
+    called stable on CasADi's word alone; neither it nor any feedtune module it uses imports
+    casadi (or the CasADi-built loop and linalg)."""
+    for name in {module} | transitive_imports(module):
+        imported = direct_imports(MODULE_PATHS[name])
+        assert not _violations(imported, ("casadi", "feedtune.loop", "feedtune.linalg")), name
+
+
+# -- registries and naming ---------------------------------------------------------------------
+
+def _camel(key: str) -> str:
+    return "".join(part.capitalize() for part in key.split("_"))
+
+
+def test_registries_are_plain_dicts():
+    assert type(PLANTS) is dict and type(METRICS) is dict
+    assert PLANTS and METRICS
+
+
+@pytest.mark.parametrize("key", sorted(PLANTS))
+def test_plant_key_module_class_params_share_one_stem(key):
+    cls = PLANTS[key]
+    assert cls.__module__ == f"feedtune.plants.{key}"
+    assert (PACKAGE_ROOT / "plants" / f"{key}.py").is_file()
+    assert cls.__name__ == _camel(key)
+    params = cls.Params
+    assert params.__name__ == f"{_camel(key)}Params"
+    assert params.__module__ == cls.__module__
+    assert typing.get_args(params.model_fields["type"].annotation) == (key,)
+
+
+@pytest.mark.parametrize("key", sorted(METRICS))
+def test_metric_key_name_module_class_share_one_stem(key):
+    cls = METRICS[key]
+    assert cls.name == key
+    assert cls.__module__ == f"feedtune.objectives.{key}"
+    assert (PACKAGE_ROOT / "objectives" / f"{key}.py").is_file()
+    assert cls.__name__ == _camel(key)
+
+
+def test_every_metric_class_is_registered():
+    """A metric module without its registry line would silently never run."""
+    import importlib
+
+    for module in _modules_under("feedtune.objectives"):
+        mod = importlib.import_module(module)
+        for _, obj in inspect.getmembers(mod, inspect.isclass):
+            if issubclass(obj, Metric) and obj is not Metric and obj.__module__ == module:
+                assert METRICS.get(obj.name) is obj, f"{module}.{obj.__name__} is not in METRICS"
+
+
+def test_every_plant_module_is_registered():
+    helpers = {"feedtune.plants", "feedtune.plants.base"}
+    registered = {cls.__module__ for cls in PLANTS.values()}
+    for module in _modules_under("feedtune.plants"):
+        if module not in helpers:
+            assert module in registered, f"{module} defines no registered plant"

@@ -1,0 +1,151 @@
+"""Contract of every registered plant (feedtune.plants.PLANTS), one case per configuration.
+
+See contract_cases.py for how plants and their configurations enrol.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from contract_cases import (CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float, grid,
+                            literal_fields, log_point, nominal, numpy_stable, symbolic_loop)
+from feedtune.loop import Drive
+from feedtune.model import SpecModel
+from feedtune.plants import PLANTS
+from feedtune.plants.base import Tunable
+from feedtune.validate.stability import check_stability
+
+OMEGAS = [0.3, 3.0, 30.0]  # rad/s: below, near and above typical feed-drive bandwidths
+
+
+def test_every_plant_has_example_parameters():
+    missing = sorted(set(PLANTS) - set(PLANT_EXAMPLES))
+    assert not missing, f"add physical parameters for {missing} to tests/contract/contract_cases.py"
+
+
+def test_configurations_cover_every_choice_of_every_plant():
+    for key, cls in PLANTS.items():
+        configs = [dict(c.overrides) for c in CONFIGS if c.key == key]
+        for field, values in literal_fields(cls.Params).items():
+            if field == "type":
+                assert values == (key,), "the discriminator must be the registry key"
+                continue
+            covered = {c.get(field, cls.Params.model_fields[field].default) for c in configs}
+            assert set(values) <= covered, (key, field)
+
+
+# -- declarations ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("key", sorted(PLANTS))
+def test_params_model_is_documented(key):
+    cls = PLANTS[key]
+    params = cls.Params
+    assert issubclass(params, SpecModel)  # frozen, extra="forbid", no NaN
+    assert inspect.getdoc(params) and inspect.getdoc(cls)
+    assert "References" in (inspect.getmodule(cls).__doc__ or ""), "module docstring needs a References section"
+    for name, info in params.model_fields.items():
+        if name == "type":  # the discriminator: its value is the documentation
+            continue
+        assert info.description and info.description.strip(), f"{key}.{name} has no description"
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
+def test_tunables_are_declared_with_units_and_bounds(config):
+    tunables = config.tunables
+    assert tunables, "a plant with nothing to tune"
+    for name, tunable in tunables.items():
+        assert isinstance(tunable, Tunable)
+        assert name.isidentifier() and name == name.lower()
+        assert isinstance(tunable.unit, str) and tunable.unit.strip(), name
+        assert isinstance(tunable.description, str) and tunable.description.strip(), name
+        # the tuner optimises ln(value): both bounds must be positive and finite
+        assert math.isfinite(tunable.min) and math.isfinite(tunable.max), name
+        assert 0 < tunable.min < tunable.max, name
+
+
+# -- stability -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
+def test_loop_is_stable_at_a_nominal_point(config):
+    point = nominal(config)  # raises if no grid point of the default box is stable
+    loop = config.plant.loop(point, config.default_box)
+    assert check_stability(as_array(loop.state_matrix), loop.discrete)["stable"]
+    assert all(as_float(c) > 0 for c in loop.stability_conditions())
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
+def test_stability_conditions_agree_with_numpy_eigenvalues(config):
+    """Over the whole default grid, stable or not (the NLP trusts the conditions)."""
+    counts = {True: 0, False: 0}
+    ambiguous = 0
+    for point in grid(config):
+        loop = config.plant.loop(point, config.default_box)
+        matrix = as_array(loop.state_matrix)
+        stable, distance = numpy_stable(matrix, loop.discrete)
+        if distance < 1e-9:  # on the boundary to rounding: either answer is right
+            ambiguous += 1
+            continue
+        conditions = [as_float(c) for c in loop.stability_conditions()]
+        assert all(c > 0 for c in conditions) == stable, (point, np.linalg.eigvals(matrix), conditions)
+        assert check_stability(matrix, loop.discrete)["stable"] == stable or distance < 1e-6
+        counts[stable] += 1
+    assert ambiguous <= 1 and counts[True] > 0
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
+def test_characteristic_polynomial_has_the_eigenvalues(config):
+    loop = config.plant.loop(nominal(config), config.default_box)
+    matrix = as_array(loop.state_matrix)
+    assert loop.order == matrix.shape[0] == matrix.shape[1]
+    poly = [as_float(c) for c in loop.characteristic_polynomial]
+    assert len(poly) == loop.order + 1 and poly[0] == 1.0
+    np.testing.assert_allclose(poly, np.poly(matrix), rtol=1e-9, atol=1e-12)
+
+
+# -- symbolic and numeric evaluation agree ------------------------------------------------------
+
+def _loop_numbers(loop) -> dict[str, np.ndarray]:
+    numbers = {
+        "state_matrix": loop.state_matrix,
+        "input_matrix": loop.input_matrix,
+        "position_row": loop.position_row,
+        "velocity_constant": loop.velocity_constant,
+        "characteristic_polynomial": ca.vertcat(*loop.characteristic_polynomial),
+        "stability_conditions": ca.vertcat(*loop.stability_conditions()),
+    }
+    for omega in OMEGAS:
+        re, im = loop.frequency_response(omega)
+        numbers[f"H({omega})"] = ca.vertcat(re, im)
+    if loop.discrete:
+        numbers["period"] = loop.period
+    return numbers
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
+def test_symbolic_and_numeric_loops_agree(config):
+    """The same plant code on MX symbols (the NLP) and on floats (the result) gives one loop."""
+    box = config.default_box
+    z, sym_loop = symbolic_loop(config, box)
+    names = list(_loop_numbers(sym_loop))
+    f = ca.Function("loop_numbers", [z], [ca.MX(v) for v in _loop_numbers(sym_loop).values()])
+    points = [nominal(config)] + grid(config)[:: max(1, len(grid(config)) // 5)]
+    for point in points:
+        num_loop = config.plant.loop(point, box)
+        assert num_loop.discrete == sym_loop.discrete and num_loop.order == sym_loop.order
+        symbolic = f(log_point(config, point))
+        for name, sym_value, num_value in zip(names, symbolic, _loop_numbers(num_loop).values()):
+            # exp(ln x) = x to one ulp; conditions are polynomials of degree ≤ 2n in it
+            np.testing.assert_allclose(np.array(sym_value, dtype=float), as_array(num_value),
+                                       rtol=1e-9, atol=1e-12, err_msg=f"{name} at {point}")
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
+def test_loop_carries_the_drive(config):
+    loop = config.plant.loop(nominal(config), config.default_box)
+    assert isinstance(loop.drive, Drive)
+    assert isinstance(loop.discrete, bool)

@@ -1,0 +1,168 @@
+"""feedtune.linalg against numpy: characteristic polynomial, Hurwitz/Schur tests, complex solve.
+
+Every check compares the CasADi-op helper with an independent numpy computation (roots,
+eigenvalues, ``numpy.poly``, ``numpy.linalg.solve``) on seeded random data.
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from feedtune import linalg
+
+
+def _num(x) -> float:
+    """A CasADi scalar expression (or a plain number) as a float."""
+    if isinstance(x, (int, float)):
+        return float(x)
+    return float(ca.evalf(ca.MX(x)))
+
+
+def _nums(xs) -> np.ndarray:
+    return np.array([_num(x) for x in xs])
+
+
+def _random_roots(rng, degree: int, stable: bool | None, *, discrete: bool = False) -> np.ndarray:
+    """Real polynomial roots (conjugate pairs and reals) kept away from the stability boundary.
+
+    ``stable`` True: all in the open left half plane (unit disc if discrete); False: at least
+    one outside; None: anywhere. A 0.05 clearance from the boundary keeps the sign of every
+    test unambiguous in double precision.
+    """
+    while True:
+        roots: list[complex] = []
+        while len(roots) < degree:
+            pair = degree - len(roots) >= 2 and rng.random() < 0.5
+            if discrete:
+                radius = rng.uniform(0.05, 1.6)
+                if abs(radius - 1) < 0.05:
+                    continue
+                if pair:
+                    angle = rng.uniform(0.05, math.pi - 0.05)
+                    roots += [radius * np.exp(1j * angle), radius * np.exp(-1j * angle)]
+                else:
+                    roots.append(radius * rng.choice([-1.0, 1.0]))
+            else:
+                real = rng.uniform(-3.0, 3.0)
+                if abs(real) < 0.05:
+                    continue
+                if pair:
+                    imag = rng.uniform(0.1, 3.0)
+                    roots += [real + 1j * imag, real - 1j * imag]
+                else:
+                    roots.append(real)
+        roots = np.array(roots, dtype=complex)
+        inside = np.abs(roots) < 1 if discrete else roots.real < 0
+        if stable is None or bool(np.all(inside)) == stable:
+            return roots
+
+
+# -- characteristic_polynomial --------------------------------------------------------------
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6])
+def test_characteristic_polynomial_matches_numpy_poly(n):
+    rng = np.random.default_rng(100 + n)
+    for _ in range(5):
+        a = rng.normal(size=(n, n))
+        got = _nums(linalg.characteristic_polynomial(ca.DM(a)))
+        expected = np.poly(a)
+        assert got.shape == (n + 1,)
+        assert got[0] == 1.0
+        # Faddeev–LeVerrier and numpy.poly (via eigenvalues) round differently; the coefficient
+        # of λ^(n-k) scales like ‖A‖^k, so compare against that scale at 1e-10 (n ≤ 6, ‖A‖ ~ 3).
+        scale = np.array([np.linalg.norm(a, 2) ** k for k in range(n + 1)])
+        np.testing.assert_allclose(got, expected, rtol=0, atol=1e-10 * scale.max())
+
+
+def test_characteristic_polynomial_symbolic_equals_numeric():
+    """The same code on an MX symbol, evaluated later, gives the numeric result."""
+    rng = np.random.default_rng(7)
+    a = rng.normal(size=(4, 4))
+    sym = ca.MX.sym("a", 4, 4)
+    f = ca.Function("poly", [sym], linalg.characteristic_polynomial(sym))
+    got = np.array([float(v) for v in f(a)])
+    np.testing.assert_allclose(got, _nums(linalg.characteristic_polynomial(ca.DM(a))), rtol=1e-13, atol=1e-13)
+
+
+def test_characteristic_polynomial_roots_are_eigenvalues():
+    rng = np.random.default_rng(11)
+    a = rng.normal(size=(5, 5))
+    roots = np.sort_complex(np.roots(_nums(linalg.characteristic_polynomial(ca.DM(a)))))
+    eig = np.sort_complex(np.linalg.eigvals(a))
+    np.testing.assert_allclose(roots, eig, atol=1e-8)  # simple, well separated eigenvalues
+
+
+# -- hurwitz_conditions ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("stable", [True, False])
+def test_hurwitz_conditions_positive_iff_roots_in_left_half_plane(degree, stable):
+    rng = np.random.default_rng(1000 * degree + stable)
+    for _ in range(40):
+        roots = _random_roots(rng, degree, stable)
+        # a leading coefficient of either sign: the conditions must not depend on it
+        lead = rng.choice([-1.0, 1.0]) * rng.uniform(0.5, 2.0)
+        coefficients = lead * np.real(np.poly(roots))
+        conditions = _nums(linalg.hurwitz_conditions([ca.DM(c) for c in coefficients]))
+        assert len(conditions) == max(degree, 2 * degree - 2)  # n coefficients + minors Δ2..Δ(n-1)
+        assert bool(np.all(conditions > 0)) == stable, (roots, conditions)
+
+
+def test_hurwitz_conditions_on_known_polynomials():
+    # s² + 3s + 2 = (s+1)(s+2): stable; s³ + s² + s + 1 = (s+1)(s²+1): on the axis, Δ2 = 0
+    assert np.all(_nums(linalg.hurwitz_conditions([1, 3, 2])) > 0)
+    marginal = _nums(linalg.hurwitz_conditions([1.0, 1.0, 1.0, 1.0]))
+    assert not np.all(marginal > 0)
+    assert marginal[-1] == pytest.approx(0.0, abs=1e-15)
+    # s³ + s² + 2s + 8: all coefficients positive yet unstable (Δ2 = 1·2 − 8 < 0)
+    unstable = _nums(linalg.hurwitz_conditions([1.0, 1.0, 2.0, 8.0]))
+    assert np.all(unstable[:3] > 0) and unstable[3] == pytest.approx(-6.0)
+
+
+# -- bilinear_to_continuous -----------------------------------------------------------------
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+def test_bilinear_maps_unit_disc_to_left_half_plane(degree):
+    """Schur stable (all |z| < 1) iff the transformed polynomial is Hurwitz."""
+    rng = np.random.default_rng(500 + degree)
+    outcomes = set()
+    for _ in range(60):
+        roots = _random_roots(rng, degree, None, discrete=True)
+        lead = rng.choice([-1.0, 1.0]) * rng.uniform(0.5, 2.0)
+        coefficients = lead * np.real(np.poly(roots))
+        w_poly = linalg.bilinear_to_continuous([ca.DM(c) for c in coefficients])
+        w_numbers = _nums(w_poly)
+        schur = bool(np.all(np.abs(roots) < 1))
+        outcomes.add(schur)
+        assert bool(np.all(_nums(linalg.hurwitz_conditions(w_poly)) > 0)) == schur, roots
+        # and each root maps as w = (z − 1)/(z + 1)
+        expected_w = np.sort_complex((roots - 1) / (roots + 1))
+        np.testing.assert_allclose(np.sort_complex(np.roots(w_numbers)), expected_w, atol=1e-6)
+    assert outcomes == {True, False}  # both cases actually exercised
+
+
+def test_bilinear_of_a_known_polynomial():
+    # z − 0.5 → (1 + w) − 0.5(1 − w) = 1.5 w + 0.5 (highest power first)
+    np.testing.assert_allclose(_nums(linalg.bilinear_to_continuous([1.0, -0.5])), [1.5, 0.5])
+    # z² (double root at 0) → (1 + w)²
+    np.testing.assert_allclose(_nums(linalg.bilinear_to_continuous([1.0, 0.0, 0.0])), [1.0, 2.0, 1.0])
+
+
+# -- complex_solve --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_complex_solve_matches_numpy(n):
+    rng = np.random.default_rng(30 + n)
+    for _ in range(5):
+        real = rng.normal(size=(n, n))
+        imag = rng.normal(size=(n, n))
+        rhs = rng.normal(size=(n, 1))
+        expected = np.linalg.solve(real + 1j * imag, rhs)
+        re, im = linalg.complex_solve(ca.DM(real), ca.DM(imag), ca.DM(rhs))
+        # random complex systems of size ≤ 5 have condition numbers ≲ 1e3: 1e-10 is ample
+        np.testing.assert_allclose(np.array(ca.evalf(re)), expected.real, rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(np.array(ca.evalf(im)), expected.imag, rtol=1e-10, atol=1e-10)
