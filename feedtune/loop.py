@@ -251,27 +251,42 @@ class SampledLoop(_LoopBase):
                                       ca.sin(wt) * ca.DM.eye(n), self.input_matrix)
         return re[0], im[0]
 
-    def _log_pole_pair(self):
-        """(ln|z|², ω_n²T²) of the two closed-loop poles; second-order loops only."""
+    def _equivalent_poles(self):
+        """(ζ, ω_n·T) of the closed-loop pole pair mapped by s = ln(z)/T; order-2 loops.
+
+        Complex pair a·e^{±jθ}: ζ = −ln a/√(ln²a + θ²), ω_nT = √(ln²a + θ²) (Koren eqs
+        17–19). Positive real pair: the overdamped second order with s_i = ln z_i/T,
+        ζ = −(ln z1 + ln z2)/(2√(ln z1 ln z2)) ≥ 1. A negative real pole rings at the
+        Nyquist frequency: the principal branch ln|z| ± jπ of the most negative pole (the
+        least damped one) gives ζ and ω_n.
+        """
         _, c1, c0 = self.characteristic_polynomial
+        tiny = 1e-300
         discriminant = c1**2 - 4 * c0
-        # complex pair a·e^{±jθ}: ω_n T = √(ln²a + θ²); real pair: ω_n T = √(ln z1 · ln z2)
-        a = ca.sqrt(ca.fmax(c0, 1e-300))
+        a = ca.sqrt(ca.fmax(c0, tiny))
         theta = ca.acos(ca.fmin(ca.fmax(-c1 / (2 * a), -1), 1))
-        root = ca.sqrt(ca.fmax(discriminant, 0))
-        z1 = ca.fmax((-c1 + root) / 2, 1e-300)
-        z2 = ca.fmax((-c1 - root) / 2, 1e-300)
-        wn2 = ca.if_else(discriminant < 0, ca.log(a) ** 2 + theta**2, ca.log(z1) * ca.log(z2))
-        return ca.log(ca.fmax(c0, 1e-300)), wn2
+        complex_wn = ca.sqrt(ca.log(a) ** 2 + theta**2)
+        complex_zeta = -ca.log(a) / complex_wn
+        root = ca.sqrt(ca.fmax(discriminant, tiny))  # tiny, not 0: keeps d√ finite
+        z1, z2 = (-c1 + root) / 2, (-c1 - root) / 2  # z1 ≥ z2
+        ln1, ln2 = ca.log(ca.fmax(z1, tiny)), ca.log(ca.fmax(z2, tiny))
+        real_wn = ca.sqrt(ln1 * ln2)
+        real_zeta = -(ln1 + ln2) / (2 * real_wn)
+        ln_abs = ca.log(ca.fmax(ca.fabs(z2), tiny))
+        nyquist_wn = ca.sqrt(ln_abs**2 + ca.pi**2)
+        nyquist_zeta = -ln_abs / nyquist_wn
+        zeta = ca.if_else(discriminant < 0, complex_zeta,
+                          ca.if_else(z2 > 0, real_zeta, nyquist_zeta))
+        wn = ca.if_else(discriminant < 0, complex_wn, ca.if_else(z2 > 0, real_wn, nyquist_wn))
+        return zeta, wn
 
     def natural_frequency(self):
-        """ω_n [rad/s] of the equivalent s-plane pole pair s = ln(z)/T (Koren eqs 17–19)."""
-        return ca.sqrt(self._log_pole_pair()[1]) / self.period
+        """ω_n [rad/s] of the equivalent s-plane poles s = ln(z)/T (Koren eqs 17–19)."""
+        return self._equivalent_poles()[1] / self.period
 
     def damping_ratio(self):
         """ζ = αT / √((αT)² + (ωT)²), Koren eq 19, extended to real pole pairs."""
-        log_c0, wn2 = self._log_pole_pair()
-        return -log_c0 / (2 * ca.sqrt(wn2))
+        return self._equivalent_poles()[0]
 
     @property
     def has_exact_step_error(self) -> bool:

@@ -109,7 +109,7 @@ def _primitive(alpha, beta, gamma, s):
 
 
 def _newton_root(alpha, beta, gamma, start, low, high):
-    """Root of f in [low, high] by Newton from the end where f·f'' > 0 (monotone, quadratic)."""
+    """Root of f in [low, high] by Newton's method from ``start``, kept inside the bracket."""
     s = start
     for _ in range(_NEWTON_STEPS):
         f = alpha + beta * s + gamma * ca.exp(-s)
@@ -117,6 +117,39 @@ def _newton_root(alpha, beta, gamma, start, low, high):
         df = ca.if_else(ca.fabs(df) < 1e-200, 1e-200, df)
         s = ca.fmin(ca.fmax(s - f / df, low), high)
     return s
+
+
+def _newton_start(alpha, beta, gamma, end, low, high, middle, interior):
+    """A start from which Newton converges fast to the one root in [low, high].
+
+    f is monotone and convex or concave on [low, high], so Newton's first step from any
+    point of the bracket lands (clamped) on the side where f·f'' > 0, and from there it
+    converges monotonically; the start only decides how many steps that takes. Of these
+    guesses the one where |f| is smallest is used:
+
+    * next to an interior stationary point (a near-double root): the root of the quadratic
+      Taylor model there;
+    * else, where γe^{−s} dominates: s = ln(γ/−(α + β·end)) (a far root is then reached in
+      a few steps instead of one unit of s per step);
+    * else the end of the bracket where f·f'' > 0 (``end``).
+    """
+    f_m = alpha + beta * middle + gamma * ca.exp(-middle)
+    curvature = gamma * ca.exp(-middle)
+    # every guard below keeps derivatives finite: a NaN in a branch not taken still spreads
+    offset = ca.sqrt(ca.fmax(-2 * f_m / ca.if_else(curvature == 0, 1, curvature), _TINY))
+    quadratic = ca.if_else(end > middle, middle + offset, middle - offset)
+    level = -(alpha + beta * end)
+    ratio = gamma / ca.if_else(level == 0, 1, level) * (level != 0)
+    logarithmic = ca.if_else(ratio > 0, ca.log(ca.fmax(ratio, _TINY)), end)
+    use_quadratic = interior * (f_m * gamma < 0) * (curvature != 0)
+    quadratic = ca.if_else(use_quadratic, quadratic, end)
+    best = end
+    for candidate in (quadratic, logarithmic):  # keep the guess where |f| is smallest
+        candidate = ca.fmin(ca.fmax(candidate, low), high)
+        smaller = (ca.fabs(alpha + beta * candidate + gamma * ca.exp(-candidate))
+                   < ca.fabs(alpha + beta * best + gamma * ca.exp(-best)))
+        best = ca.if_else(smaller, candidate, best)
+    return best
 
 
 def sample_error_integrals(alpha, beta, gamma, h, time_scale, t_start) -> ErrorIntegrals:
@@ -130,9 +163,13 @@ def sample_error_integrals(alpha, beta, gamma, h, time_scale, t_start) -> ErrorI
     stationary = ca.if_else(ratio_ok, ca.log(ca.fmax(gamma / ca.if_else(ratio_ok, beta, 1), _TINY)), h)
     middle = ca.fmin(ca.fmax(stationary, 0), h)
     f0, fm, fh = f(0), f(middle), f(h)
-    # Newton start: the end where f has the sign of γ (f'' = γe^{−s})
-    start1 = ca.if_else(f0 * gamma > 0, 0, middle)
-    start2 = ca.if_else(fh * gamma > 0, h, middle)
+    # Newton starts: near the stationary point if it is interior, else the end where f has
+    # the sign of γ (f'' = γe^{−s}), improved by a logarithmic guess
+    interior = (middle > 0) * (middle < h)
+    end1 = ca.if_else(f0 * gamma > 0, 0, middle)
+    end2 = ca.if_else(fh * gamma > 0, h, middle)
+    start1 = _newton_start(alpha, beta, gamma, end1, 0, middle, middle, interior)
+    start2 = _newton_start(alpha, beta, gamma, end2, middle, h, middle, interior)
     zero1 = ca.if_else(f0 * fm < 0, _newton_root(alpha, beta, gamma, start1, 0, middle), middle)
     zero2 = ca.if_else(fm * fh < 0, _newton_root(alpha, beta, gamma, start2, middle, h), h)
     cuts = [0, zero1, middle, zero2, h]

@@ -364,20 +364,16 @@ def test_sampled_damping_for_real_poles_from_log_of_numpy_roots(gain, period):
     assert _num(loop.natural_frequency()) == pytest.approx(omega_n, rel=1e-10)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: SampledLoop._log_pole_pair clips real poles with fmax(z, 1e-300) before ln, so a stable "
-    "loop with two negative real poles (T/τ ≳ 4.9, inside the default box; here T = 98.7 ms, "
-    "K = 33.6 1/s, z = −0.967, −0.672) reports ζ = 0.0003 and ω_n = 7000 rad/s instead of values "
-    "of the principal s-poles (ln|z| + jπ)/T: ζ ∈ [0.011, 0.125], ω_n ∈ [31.8, 33.2] rad/s"))
 def test_sampled_damping_for_negative_real_poles_uses_principal_logarithm():
     period, gain = 4.93367349232599 * TAU, 0.6715334791115142 / TAU
     loop = SampledLoop(IntegratorLag(TAU), gain, period)
     z = np.linalg.eigvals(_arr(loop.state_matrix))
     assert np.all(np.isreal(z)) and np.all(z.real < 0) and np.all(np.abs(z) < 1)  # stable, oscillating
     s = (np.log(np.abs(z.real)) + 1j * math.pi) / period  # principal branch: ±jπ/T, Nyquist
-    zetas = -s.real / np.abs(s)
-    assert zetas.min() <= _num(loop.damping_ratio()) <= zetas.max()
-    assert np.abs(s).min() <= _num(loop.natural_frequency()) <= np.abs(s).max()
+    least_damped = np.argmin(-s.real / np.abs(s))  # the pole nearest z = −1
+    assert _num(loop.damping_ratio()) == pytest.approx(-s.real[least_damped] / abs(s[least_damped]),
+                                                       rel=1e-10)
+    assert _num(loop.natural_frequency()) == pytest.approx(abs(s[least_damped]), rel=1e-10)
 
 
 @pytest.mark.parametrize("gain", [5.0, 12.5, 25.0, 200.0])
@@ -411,3 +407,39 @@ def test_horizon_samples_of_a_numeric_loop_are_bounded_too():
     loop = SampledLoop(IntegratorLag(TAU), 10.0, 0.01, horizon=1e7, period_min=0.01)  # 1e9 samples
     with pytest.raises(HorizonError, match="raise the minimum sampling period"):
         loop.horizon_samples  # noqa: B018
+
+
+@pytest.mark.parametrize("gain, period", [(18.0, 1 / 64), (54.6, 1 / 64), (2.0, 1 / 64),
+                                          (33.5767, 0.0986735)],
+                         ids=["complex", "light-complex", "real-positive", "real-negative"])
+def test_sampled_damping_has_finite_exact_derivatives(gain, period):
+    """IPOPT needs ∂ζ/∂ln K and ∂²ζ/∂(ln K)² finite in every pole configuration: a NaN from the
+    branch not taken (√ of a clipped discriminant) once broke every damping constraint."""
+    z = ca.MX.sym("z")
+    loop = SampledLoop(IntegratorLag(TAU), ca.exp(z), ca.MX(period))
+    for expr in (loop.damping_ratio(), loop.natural_frequency()):
+        f = ca.Function("f", [z], [expr, ca.gradient(expr, z), ca.hessian(expr, z)[0]])
+        for fn in (f, f.expand()):
+            values = [float(v) for v in fn(math.log(gain))]
+            assert all(math.isfinite(v) for v in values), values
+            # the derivative agrees with a central difference of the value
+            step = 1e-6
+            numeric = (float(fn(math.log(gain) + step)[0]) - float(fn(math.log(gain) - step)[0])) / (2 * step)
+            assert values[1] == pytest.approx(numeric, rel=1e-5, abs=1e-9)
+
+
+@pytest.mark.parametrize("gain, period, delay", [(33.5, 1 / 64, 0), (18.0, 1 / 64, 1),
+                                                 (5.0, 0.01, 0), (120.0, 1 / 64, 0)])
+def test_sampled_step_integrals_have_finite_exact_derivatives(gain, period, delay):
+    """The step integrals as the NLP sees them (symbolic, and expanded to SX): value, gradient
+    and Hessian w.r.t. ln K finite, gradient equal to a central difference."""
+    z = ca.MX.sym("z")
+    loop = SampledLoop(IntegratorLag(TAU), ca.exp(z), ca.MX(period), delay=delay,
+                       horizon=20 * (2 * TAU + (delay + 1) * period), period_min=period)
+    for expr in loop.step_error_integrals:
+        f = ca.Function("f", [z], [expr, ca.gradient(expr, z), ca.hessian(expr, z)[0]])
+        for fn in (f, f.expand()):
+            values = [float(v) for v in fn(math.log(gain))]
+            assert all(math.isfinite(v) for v in values), values
+            numeric = (float(fn(math.log(gain) + 1e-6)[0]) - float(fn(math.log(gain) - 1e-6)[0])) / 2e-6
+            assert values[1] == pytest.approx(numeric, rel=1e-5, abs=1e-12)
