@@ -27,6 +27,7 @@ from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_mom
 
 MAX_HORIZON_SAMPLES = 50_000
 SETTLED = 1e-13  # a numeric loop's step response is summed until its modes decay this far
+SETTLE_FRACTION = 1e-4  # a symbolic loop's modes must decay this far within its horizon
 
 
 class HorizonError(ValueError):
@@ -101,6 +102,13 @@ class _LoopBase:
     def characteristic_polynomial(self) -> list:
         """Monic closed-loop characteristic polynomial, highest power first."""
         return linalg.characteristic_polynomial(self.state_matrix)
+
+    def settling_conditions(self) -> list:
+        """Expressions positive iff the loop settles within the horizon its metrics sum over.
+
+        Empty unless a metric summed a response over a finite horizon (see SampledLoop).
+        """
+        return []
 
     def stability_conditions(self) -> list:
         """Expressions all positive iff the closed loop is asymptotically stable.
@@ -295,6 +303,23 @@ class SampledLoop(_LoopBase):
     @property
     def unrolled_steps(self) -> int:
         return self.horizon_samples if "step_error_integrals" in self.__dict__ else 0
+
+    def settling_conditions(self) -> list:
+        """Every pole inside |z| < SETTLE_FRACTION^(1/N), N = horizon_samples, once the step
+        integrals are in use: positive iff a mode left after the summed samples is below
+        SETTLE_FRACTION of its start.
+
+        The closed-form tail is exact only for an error that no longer changes sign; a loop
+        still ringing at the horizon would look better than it is, and an optimiser would
+        drift towards it. Schur conditions of p(r·z) (a pole-margin bound) keep it honest;
+        the tuner lengthens the horizon when they bind.
+        """
+        if "step_error_integrals" not in self.__dict__:
+            return []
+        radius = SETTLE_FRACTION ** (1 / self.horizon_samples)
+        poly = self.characteristic_polynomial
+        scaled = [c * radius ** (-k) for k, c in enumerate(poly)]  # monic p(r z)/r^n
+        return linalg.hurwitz_conditions(linalg.bilinear_to_continuous(scaled))
 
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:

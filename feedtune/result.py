@@ -62,6 +62,9 @@ class SolverResult(ResultModel):
     solve_time: float = Field(description="Wall time of all starts [s]")
     build_time: float = Field(description="Wall time to build the NLP [s]")
     evaluation_time: float = Field(description="Wall time to evaluate every metric at the tuned point [s]")
+    model_gap: float | None = Field(
+        description="Largest relative gap between the objective/constraints as the NLP saw them "
+                    "and their exact evaluation at the tuned point [1]")
     starts: list[StartResult]
 
 

@@ -78,11 +78,13 @@ class SoftwareServo:
         return Drive(time_constant=p.time_constant, blu=p.blu, max_velocity=p.max_velocity,
                      counter_bits=p.counter_bits)
 
-    def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]]):
+    def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
+             horizon_scale: float = 1.0):
         """The closed loop at ``values`` (expressions or numbers per tunable name).
 
-        ``box`` gives each tunable's (min, max) [its unit]; it sizes the step-response
-        horizon so that every loop the tuner may visit has settled within it.
+        ``box`` gives each tunable's (min, max) [its unit]; with ``horizon_scale`` it sizes
+        the step-response horizon of a sampled loop (20·(2τ + dead time)·horizon_scale),
+        which the tuner lengthens when the NLP and the exact evaluation disagree.
         """
         p = self.params
         tau = p.time_constant
@@ -101,7 +103,8 @@ class SoftwareServo:
         settle = 2 * tau + (p.computation_delay + 1) * period_max
         return SampledLoop(IntegratorLag(tau), gain, values["sampling_period"],
                            delay=p.computation_delay, drive=self.drive(),
-                           horizon=SETTLING_TIME_CONSTANTS * settle, period_min=period_min)
+                           horizon=SETTLING_TIME_CONSTANTS * settle * horizon_scale,
+                           period_min=period_min)
 
 
 def koren_step_response(gain: float, period: float, time_constant: float, samples: int):

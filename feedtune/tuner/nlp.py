@@ -22,6 +22,8 @@ from feedtune.expr import Magnitude
 from feedtune.validate.stability import check_stability
 
 STABILITY_MARGIN = 1e-9  # scaled Hurwitz conditions must exceed this
+#: a scaled settling condition below this at the optimum means the horizon limited it
+SETTLING_ACTIVE = 1e-6
 #: expand the NLP to SX (≈4x faster solves, slower build) up to this many unrolled loop steps
 AUTO_EXPAND_STEPS = 250
 FEASIBILITY_TOL = 1e-6  # relative tolerance when reporting whether a bound holds
@@ -104,6 +106,8 @@ class Outcome:
     solve_time: float
     build_time: float
     evaluation_time: float
+    model_gap: float
+    horizon_bound: bool  # the optimum lies on the loop's settling conditions: lengthen it
     starts: list[StartOutcome]
 
 
@@ -159,17 +163,28 @@ class Problem:
         term_exprs = [(_magnitude(t.value(loop)), t.weight) for t in objective]
         bound_exprs = [_magnitude(b.value(loop)) for b in constraints]
         stability = loop.stability_conditions()
+        settling = loop.settling_conditions()  # after the terms: they say what was summed
         raw_objective = sum((w * (ca.fabs(e) if mag else e) for (e, mag), w in term_exprs), ca.MX(0))
-        # numbers at the first start, for scaling
+        # scales: the smallest magnitude each expression takes over the stable starts. An
+        # unstable loop's IAE is astronomically large; scaling by it would flatten the
+        # objective until IPOPT stops anywhere (too small a scale is harmless: IPOPT's
+        # gradient-based scaling shrinks large gradients). No stable start: no scaling.
         self.starts = starting_points(variables, settings.multistart)
-        z_ref = self.starts[0]
-        probe = ca.Function("probe", [z], [raw_objective] + [e for (e, _), _ in term_exprs]
-                            + [e for e, _ in bound_exprs] + list(stability))
-        numbers = [float(v) for v in probe(z_ref)]
-        f_ref, numbers = numbers[0], numbers[1:]
+        probe = ca.Function("probe", [z], [ca.vertcat(
+            raw_objective, *[e for (e, _), _ in term_exprs], *[e for e, _ in bound_exprs],
+            *stability, *settling)])
+        table = np.column_stack([np.asarray(probe(z0), dtype=float).ravel() for z0 in self.starts])
+        first_stability = 1 + len(term_exprs) + len(bound_exprs)
+        stable = np.all(table[first_stability:first_stability + len(stability)] > 0, axis=0)
+        table = np.abs(table)
+        table[~np.isfinite(table) | (table == 0)] = np.inf
+        table[:first_stability, ~stable] = np.inf
+        smallest = [float(v) if math.isfinite(v) else None for v in table.min(axis=1)]
+        f_ref, numbers = smallest[0], smallest[1:]
         term_ref = numbers[:len(term_exprs)]
         bound_ref = numbers[len(term_exprs):len(term_exprs) + len(bound_exprs)]
-        stab_ref = numbers[len(term_exprs) + len(bound_exprs):]
+        stab_ref = numbers[len(term_exprs) + len(bound_exprs):][:len(stability)]
+        settle_ref = numbers[len(term_exprs) + len(bound_exprs) + len(stability):]
 
         def scale(*candidates):
             finite = [abs(c) for c in candidates if c is not None and math.isfinite(c) and c != 0]
@@ -192,7 +207,7 @@ class Problem:
             else:
                 f += weight * expr
         for (expr, mag), bound, ref in zip(bound_exprs, constraints, bound_ref):
-            s = scale(bound.lower, bound.upper, ref)
+            s = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(ref)
             if mag and bound.lower is not None and bound.lower > 0:
                 g.append(expr**2 / s**2)
                 lbg.append((bound.lower / s) ** 2)
@@ -209,6 +224,12 @@ class Problem:
             g.append(condition / scale(ref))
             lbg.append(STABILITY_MARGIN)
             ubg.append(ca.inf)
+        scaled_settling = [c / scale(ref) for c, ref in zip(settling, settle_ref)]
+        for condition in scaled_settling:
+            g.append(condition)
+            lbg.append(STABILITY_MARGIN)
+            ubg.append(ca.inf)
+        self.settling = ca.Function("settling", [z], [ca.vertcat(ca.MX(0, 1), *scaled_settling)])
 
         self.n_z = len(variables)
         self.slack_scale = np.array(slack_scale)
@@ -228,18 +249,29 @@ class Problem:
         self.has_nlp = bool(variables)
         self.expanded = False
         if self.has_nlp:
-            nlp = {"x": w, "f": f / f_scale, "g": ca.vertcat(*g)}
+            # the objective is divided by its value at each start (a parameter, so one build
+            # serves every start); a start that is not stable is first moved to the nearest
+            # point satisfying the constraints (restoration), where that value means something
+            objective_scale = ca.MX.sym("objective_scale")
+            anchor = ca.MX.sym("anchor", len(variables))
+            problems = {
+                "feedtune": {"x": w, "p": objective_scale, "f": f / objective_scale, "g": ca.vertcat(*g)},
+                "feedtune_restoration": {"x": w, "p": anchor, "f": ca.sumsqr(z - anchor), "g": ca.vertcat(*g)},
+            }
             expand = settings.expand
             if expand is None:  # auto: expansion pays for itself on short horizons only
                 expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
+            solvers = None
             if expand:
                 try:
-                    self.solver = ca.nlpsol("feedtune", "ipopt", nlp, {**options, "expand": True})
+                    solvers = {name: ca.nlpsol(name, "ipopt", nlp, {**options, "expand": True})
+                               for name, nlp in problems.items()}
                     self.expanded = True
                 except RuntimeError:  # a node without an SX form (e.g. a rootfinder)
-                    expand = False
-            if not self.expanded:
-                self.solver = ca.nlpsol("feedtune", "ipopt", nlp, options)
+                    solvers = None
+            if solvers is None:
+                solvers = {name: ca.nlpsol(name, "ipopt", nlp, options) for name, nlp in problems.items()}
+            self.solver, self.restoration = solvers["feedtune"], solvers["feedtune_restoration"]
         self.f_scale = f_scale
         self.check = ca.Function(
             "check", [z],
@@ -290,9 +322,10 @@ class Problem:
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
             if self.has_nlp:
+                z0 = self._stable_start(z0)
                 slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
-                solution = self.solver(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), lbx=self.lbw, ubx=self.ubw,
-                                       lbg=self.lbg, ubg=self.ubg)
+                solution = self.solver(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=self._scale_at(z0),
+                                       lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
                 stats = self.solver.stats()
                 z_opt = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
                 return_status = stats.get("return_status", "unknown")
@@ -318,6 +351,9 @@ class Problem:
         values.update(self.fixed)
         objective, bounds, conditions, matrix, reports = self._evaluate_numeric(values)
         feasible, stability = self._feasible(bounds, conditions, matrix)
+        model_gap = self._model_gap(self._evaluate(z_opt), objective, bounds)
+        settling = np.asarray(self.settling(z_opt), dtype=float).ravel()
+        horizon_bound = bool(np.any(settling < SETTLING_ACTIVE))
         evaluation_time = time.perf_counter() - started
         success = status in SOLVED and feasible
         if success:
@@ -337,7 +373,39 @@ class Problem:
             constraints=[(b, v, _within(v, b.lower, b.upper)) for b, v in zip(self.bounds, bounds)],
             stability=stability, iterations=starts[index].iterations,
             solve_time=sum(s.solve_time for s in starts), build_time=self.build_time,
-            evaluation_time=evaluation_time, starts=starts)
+            evaluation_time=evaluation_time, model_gap=model_gap, horizon_bound=horizon_bound,
+            starts=starts)
+
+    def _stable_start(self, z0: np.ndarray) -> np.ndarray:
+        """``z0`` if its loop is stable, else the nearest point the restoration NLP finds."""
+        if np.all(self._evaluate(z0)[2] > 0):
+            return z0
+        slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
+        solution = self.restoration(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=z0,
+                                    lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
+        z_new = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
+        return z_new if np.all(self._evaluate(z_new)[2] > 0) else z0
+
+    def _scale_at(self, z0: np.ndarray) -> float:
+        """|objective| at the start, or the build-time scale where that is 0 or not finite."""
+        value = self._evaluate(z0)[0]
+        return abs(value) if value is not None and value != 0 else self.f_scale
+
+    def _model_gap(self, seen, objective, bounds) -> float:
+        """Largest relative gap between what the NLP saw and the exact numeric evaluation.
+
+        Objective gaps are relative to the objective's scale, bound gaps to the bound.
+        """
+        seen_objective, seen_bounds = seen[0], seen[1]
+        if objective is None or seen_objective is None:
+            return math.inf
+        gaps = [abs(seen_objective - objective) / max(abs(objective), 1e-9 * self.f_scale, 1e-300)]
+        for a, b, bound in zip(seen_bounds, bounds, self.bounds):
+            if a is None or b is None:
+                return math.inf
+            scale = max(abs(b), abs(bound.lower or 0), abs(bound.upper or 0), 1e-300)
+            gaps.append(abs(a - b) / scale)
+        return max(gaps)
 
     def _violation(self, bounds, conditions) -> float:
         total = float(np.sum(np.maximum(0.0, -conditions)))
