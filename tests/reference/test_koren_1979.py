@@ -153,7 +153,7 @@ def test_eq16_equals_simulated_step_response(gain, period):
 
 def test_encoder_constraint_eq26_holds_t_off_its_lower_bound(tuned_example):
     # Eq 26: f_m/f_s ≥ 100 ⇒ T ≥ 100/f_m = 12.5 ms. Minimum IAE alone drives T to its
-    # lower bound (2 ms); with the constraint T lands on 12.5 ms. Tolerance: the
+    # lower bound (5 ms); with the constraint T lands on 12.5 ms. Tolerance: the
     # constraint holds to IPOPT's tolerance.
     result = tuned_example("koren-1979-encoder-limit")
     assert result.success
