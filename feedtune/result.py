@@ -9,15 +9,14 @@ import tempfile
 from typing import Any, Literal
 
 import casadi as ca
-from pydantic import ConfigDict, Field
+from pydantic import Field
 
 from feedtune.model import SpecModel
 
 Status = Literal["optimal", "acceptable", "infeasible", "iteration_limit", "time_limit", "error"]
 
 
-class ResultModel(SpecModel):
-    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+ResultModel = SpecModel  # results are as strict as specs: frozen, no unknown keys, no NaN
 
 
 class TunedValue(ResultModel):

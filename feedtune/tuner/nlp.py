@@ -247,7 +247,6 @@ class Problem:
             "error_on_fail": False,
         }
         self.has_nlp = bool(variables)
-        self.expanded = False
         if self.has_nlp:
             # the objective is divided by its value at each start (a parameter, so one build
             # serves every start); a start that is not stable is first moved to the nearest
@@ -266,7 +265,6 @@ class Problem:
                 try:
                     solvers = {name: ca.nlpsol(name, "ipopt", nlp, {**options, "expand": True})
                                for name, nlp in problems.items()}
-                    self.expanded = True
                 except RuntimeError:  # a node without an SX form (e.g. a rootfinder)
                     solvers = None
             if solvers is None:
