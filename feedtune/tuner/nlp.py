@@ -247,29 +247,23 @@ class Problem:
             "error_on_fail": False,
         }
         self.has_nlp = bool(variables)
+        # the objective is divided by its value at each start (a parameter, so one build
+        # serves every start); a start that is not stable is first moved to the nearest point
+        # satisfying the constraints (restoration, built when first needed), where that
+        # value means something
+        objective_scale = ca.MX.sym("objective_scale")
+        anchor = ca.MX.sym("anchor", len(variables))
+        self._problems = {
+            "feedtune": {"x": w, "p": objective_scale, "f": f / objective_scale, "g": ca.vertcat(*g)},
+            "feedtune_restoration": {"x": w, "p": anchor, "f": ca.sumsqr(z - anchor), "g": ca.vertcat(*g)},
+        }
+        self._options = options
+        self._expand = settings.expand
+        if self._expand is None:  # auto: expansion pays for itself on short horizons only
+            self._expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
+        self._solvers: dict = {}
         if self.has_nlp:
-            # the objective is divided by its value at each start (a parameter, so one build
-            # serves every start); a start that is not stable is first moved to the nearest
-            # point satisfying the constraints (restoration), where that value means something
-            objective_scale = ca.MX.sym("objective_scale")
-            anchor = ca.MX.sym("anchor", len(variables))
-            problems = {
-                "feedtune": {"x": w, "p": objective_scale, "f": f / objective_scale, "g": ca.vertcat(*g)},
-                "feedtune_restoration": {"x": w, "p": anchor, "f": ca.sumsqr(z - anchor), "g": ca.vertcat(*g)},
-            }
-            expand = settings.expand
-            if expand is None:  # auto: expansion pays for itself on short horizons only
-                expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
-            solvers = None
-            if expand:
-                try:
-                    solvers = {name: ca.nlpsol(name, "ipopt", nlp, {**options, "expand": True})
-                               for name, nlp in problems.items()}
-                except RuntimeError:  # a node without an SX form (e.g. a rootfinder)
-                    solvers = None
-            if solvers is None:
-                solvers = {name: ca.nlpsol(name, "ipopt", nlp, options) for name, nlp in problems.items()}
-            self.solver, self.restoration = solvers["feedtune"], solvers["feedtune_restoration"]
+            self._solver("feedtune")
         self.f_scale = f_scale
         self.check = ca.Function(
             "check", [z],
@@ -322,9 +316,10 @@ class Problem:
             if self.has_nlp:
                 z0 = self._stable_start(z0)
                 slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
-                solution = self.solver(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=self._scale_at(z0),
-                                       lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
-                stats = self.solver.stats()
+                solver = self._solver("feedtune")
+                solution = solver(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=self._scale_at(z0),
+                                  lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
+                stats = solver.stats()
                 z_opt = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
                 return_status = stats.get("return_status", "unknown")
                 status = _STATUS.get(return_status, "error")
@@ -374,12 +369,27 @@ class Problem:
             evaluation_time=evaluation_time, model_gap=model_gap, horizon_bound=horizon_bound,
             starts=starts)
 
+    def _solver(self, name: str):
+        """IPOPT on problem ``name``, expanded to SX when chosen and possible; cached."""
+        if name not in self._solvers:
+            nlp = self._problems[name]
+            solver = None
+            if self._expand:
+                try:
+                    solver = ca.nlpsol(name, "ipopt", nlp, {**self._options, "expand": True})
+                except RuntimeError:  # a node without an SX form (e.g. a rootfinder)
+                    self._expand = False
+            if solver is None:
+                solver = ca.nlpsol(name, "ipopt", nlp, self._options)
+            self._solvers[name] = solver
+        return self._solvers[name]
+
     def _stable_start(self, z0: np.ndarray) -> np.ndarray:
         """``z0`` if its loop is stable, else the nearest point the restoration NLP finds."""
         if np.all(self._evaluate(z0)[2] > 0):
             return z0
         slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
-        solution = self.restoration(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=z0,
+        solution = self._solver("feedtune_restoration")(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=z0,
                                     lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
         z_new = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
         return z_new if np.all(self._evaluate(z_new)[2] > 0) else z0
