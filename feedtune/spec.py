@@ -223,9 +223,25 @@ def _errors_by_pointer(errors: list[tuple[str, str]]) -> list[tuple[str, str]]:
     return [(pointer, " or ".join(messages)) for pointer, messages in merged.items()]
 
 
+def _ipopt_option_errors(options: dict) -> list[tuple[str, str]]:
+    """Unknown IPOPT options and values of the wrong type, found by IPOPT itself."""
+    import casadi as ca
+
+    errors = []
+    x = ca.MX.sym("x")
+    for name, value in options.items():
+        try:
+            ca.nlpsol("option_check", "ipopt", {"x": x, "f": x**2},
+                      {"ipopt": {name: value, "print_level": 0, "sb": "yes"}, "print_time": False})
+        except RuntimeError as exc:
+            reason = str(exc).strip().splitlines()[-1].split(": ", 1)[-1]
+            errors.append((f"/solver/ipopt_options/{_escape(name)}", f"IPOPT rejects it: {reason}"))
+    return errors
+
+
 def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
     """Checks that need the registries: tunable names and bounds, metric applicability."""
-    errors = []
+    errors = _ipopt_option_errors(spec.solver.ipopt_options)
     plant = PLANTS[spec.plant.type](spec.plant)
     tunables = plant.tunables()
     for name, tunable in spec.tunables.items():
