@@ -445,7 +445,8 @@ def tune(spec: str, output: str | None, quiet: bool) -> None:
             parsed = _parse(spec)
             from feedtune.problem import tune as run_tune  # after parsing: slow import
 
-            result = run_tune(parsed, progress=None if quiet else _report_start)
+            result = run_tune(parsed, progress=None if quiet else _report_start,
+                              notify=None if quiet else _err)
     except SpecError as exc:
         _spec_errors(_label(spec), exc.errors)
     except KeyboardInterrupt:

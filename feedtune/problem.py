@@ -103,11 +103,13 @@ def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
     return sets
 
 
-def tune(spec: Spec, progress: Callable | None = None) -> TuneResult:
+def tune(spec: Spec, progress: Callable | None = None,
+         notify: Callable[[str], None] | None = None) -> TuneResult:
     """Solve ``spec``; a failed solve is a result with ``success`` false, never an exception.
 
     ``progress(start, total)`` is called after each multistart start (see
-    :meth:`feedtune.tuner.Problem.solve`).
+    :meth:`feedtune.tuner.Problem.solve`); ``notify(text)`` with a sentence for people when
+    the problem is solved again with a longer step-response horizon.
 
     Raises
     ------
@@ -139,6 +141,12 @@ def tune(spec: Spec, progress: Callable | None = None) -> TuneResult:
             outcome = problem.solve(progress)
             if outcome.model_gap <= MODEL_GAP_TOL and not outcome.horizon_bound:
                 break
+            if notify is not None and refinement < MAX_HORIZON_REFINEMENTS:
+                reason = ("the step-response horizon's settling bound limits the result"
+                          if outcome.horizon_bound else
+                          f"the NLP differs from the exact evaluation by {outcome.model_gap:.2g}")
+                notify(f"{reason}: solving again with a {HORIZON_GROWTH * scale:g}x longer "
+                       "step-response horizon")
         else:
             outcome.message += (f"; after {MAX_HORIZON_REFINEMENTS} longer step horizons the "
                                 f"NLP still differs from the exact evaluation by "
