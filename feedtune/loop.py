@@ -149,6 +149,18 @@ class ContinuousLoop(_LoopBase):
         re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), self.input_matrix)
         return ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
 
+    def error_response(self, omega):
+        """Re and Im of S = 1 − H at s = jω, without the cancellation of 1 − H at low ω.
+
+        For a loop that follows a constant reference exactly (C A⁻¹ B = −1),
+        S(s) = −s·C(sI − A)⁻¹A⁻¹B.
+        """
+        n = self.order
+        settled = linalg.solve(self.state_matrix, self.input_matrix)  # A⁻¹B
+        re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), settled)
+        c_re, c_im = ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
+        return omega * c_im, -omega * c_re  # −jω·(c_re + j c_im)
+
     def natural_frequency(self):
         """ω_n = √a0 [rad/s] of s² + a1 s + a0 (second-order loops; Koren eq 10)."""
         return ca.sqrt(self.characteristic_polynomial[2])
@@ -258,6 +270,20 @@ class SampledLoop(_LoopBase):
         re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
                                       ca.sin(wt) * ca.DM.eye(n), self.input_matrix)
         return re[0], im[0]
+
+    def error_response(self, omega):
+        """Re and Im of S = 1 − H at z = e^{jωT}, without the cancellation of 1 − H at low ω.
+
+        With (I − Φ)⁻¹Γ the settled state, S(z) = (z − 1)·C(zI − Φ)⁻¹(I − Φ)⁻¹Γ, and
+        z − 1 = −2 sin²(ωT/2) + j sin ωT.
+        """
+        n = self.order
+        wt = omega * self.period
+        settled = linalg.solve(ca.DM.eye(n) - self.state_matrix, self.input_matrix)
+        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
+                                      ca.sin(wt) * ca.DM.eye(n), settled)
+        d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
+        return d_re * re[0] - d_im * im[0], d_re * im[0] + d_im * re[0]
 
     def _equivalent_poles(self):
         """(ζ, ω_n·T) of the closed-loop pole pair mapped by s = ln(z)/T; order-2 loops.

@@ -1,5 +1,6 @@
-"""Options shared by the circular-motion metrics: the circle and the feed along it."""
+"""Options shared by the circular-motion metrics, and the radius gain |H| − 1."""
 
+import casadi as ca
 from pydantic import Field, PositiveFloat
 
 from feedtune.model import SpecModel
@@ -10,3 +11,14 @@ class CircleOptions(SpecModel):
 
     radius: PositiveFloat = Field(description="Circle radius r [m]")
     feed: PositiveFloat = Field(description="Path velocity V along the circle [m/s]; ω = V/r")
+
+
+def radius_gain_excess(loop, omega):
+    """|H(jω)| − 1 [1], the relative radius error of a circle tracked at ω [rad/s].
+
+    From S = 1 − H: |H|² − 1 = |S|² − 2 Re S, divided by |H| + 1; accurate where the
+    plain |H| − 1 would cancel to rounding (slow circles, large radii).
+    """
+    s_re, s_im = loop.error_response(omega)
+    gain = ca.sqrt((1 - s_re) ** 2 + s_im**2)
+    return (s_re**2 + s_im**2 - 2 * s_re) / (gain + 1)

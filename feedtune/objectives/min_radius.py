@@ -3,6 +3,7 @@
 import casadi as ca
 
 from feedtune.objectives.base import Metric
+from feedtune.objectives.circle import radius_gain_excess
 
 _BISECTIONS = 60
 
@@ -33,8 +34,7 @@ class MinRadius(Metric):
         v, blu = loop.drive.max_velocity, loop.drive.blu
         log_r = ca.MX.sym("log_r")
         radius = ca.exp(log_r)
-        re, im = loop.frequency_response(v / radius)
-        excess = radius * ca.fabs(ca.sqrt(re**2 + im**2) - 1) / (blu / 2) - 1  # > 0: too large
+        excess = radius * ca.fabs(radius_gain_excess(loop, v / radius)) / (blu / 2) - 1  # > 0: too large
         free = [s for s in ca.symvar(excess) if not ca.is_equal(s, log_r)]
         excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
         low = ca.log(v / loop.velocity_constant)

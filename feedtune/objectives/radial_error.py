@@ -1,9 +1,7 @@
 """Steady-state radial error of a circle tracked by two identical axes, exact for the loop."""
 
-import casadi as ca
-
 from feedtune.objectives.base import Magnitude, Metric
-from feedtune.objectives.circle import CircleOptions
+from feedtune.objectives.circle import CircleOptions, radius_gain_excess
 
 
 class RadialError(Metric):
@@ -22,5 +20,4 @@ class RadialError(Metric):
     Options = CircleOptions
 
     def evaluate(self, loop, options):
-        re, im = loop.frequency_response(options.feed / options.radius)
-        return Magnitude(options.radius * (ca.sqrt(re**2 + im**2) - 1))
+        return Magnitude(options.radius * radius_gain_excess(loop, options.feed / options.radius))

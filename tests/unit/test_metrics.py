@@ -288,3 +288,32 @@ def test_supports_follow_the_loop_kind():
     iae = METRICS["iae"]()
     assert iae.supports(delayed, iae.Options(time="absolute"))
     assert not iae.supports(delayed, iae.Options(time="natural"))  # ω_n needs second order
+
+
+@pytest.mark.parametrize("gain", [10.0, 40.0])
+@pytest.mark.parametrize("omega", [1e-4, 1e-2, 1.0, 30.0])
+def test_radius_gain_excess_continuous_matches_closed_form_without_cancellation(gain, omega):
+    """|H| − 1 for K/(τs² + s + K): 1/|H|² = 1 + x, x = ((1 − 2Kτ)ω² + τ²ω⁴)/K² (from eq 37),
+    so |H| − 1 = −x/(√(1+x)(1 + √(1+x))), exact in floating point. At ω = 1e-4 rad/s the
+    excess is ~1e-11 and a plain |H| − 1 keeps ~5 digits; 1e-9 relative is asked. (At
+    K = 1/(2τ) the ω² term vanishes and |S|² − 2 Re S cancels too; that case would need
+    the open loop, which Loops do not expose.)"""
+    from feedtune.objectives.circle import radius_gain_excess
+
+    x = ((1 - 2 * gain * TAU) * omega**2 + TAU**2 * omega**4) / gain**2
+    expected = -x / (math.sqrt(1 + x) * (1 + math.sqrt(1 + x)))
+    loop = _loop("reference_pulse", gain)
+    assert float(ca.evalf(radius_gain_excess(loop, omega))) == pytest.approx(expected, rel=1e-9, abs=0)
+
+
+@pytest.mark.parametrize("gain, period", [(30.0, 1 / 64), (10.0, 0.01)])
+def test_radius_gain_excess_sampled_tends_to_eq28_at_tiny_omega_t(gain, period):
+    """Eq 28's leading term (L/2)(ωT)² is the exact |H| − 1 up to O((ωT)²) relative (the
+    coefficient is ~30 here): at ωT = 1e-6 they agree to 1e-8, which needs |H| − 1
+    (~1e-11) free of cancellation; a plain |H| − 1 keeps ~5 digits."""
+    from feedtune.objectives.circle import radius_gain_excess
+
+    omega = 1e-6 / period
+    loop = _loop("sampled_data", gain, period)
+    expected = _koren_l(gain, period) / 2 * (omega * period) ** 2
+    assert float(ca.evalf(radius_gain_excess(loop, omega))) == pytest.approx(expected, rel=1e-8, abs=0)
