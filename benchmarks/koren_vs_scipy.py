@@ -398,36 +398,6 @@ def feedtune_iae_differences(case: Case, gains) -> list[tuple[float, float]]:
             for g in gains]
 
 
-def feedtune_nlp_build(case: Case, repeats: int) -> float:
-    """Best build time [s] of the same NLP through feedtune.tuner.Problem, without reports.
-
-    ``tune`` also compiles one function that evaluates every metric the loop supports, for
-    the result; that is inside ``result.solver.build_time``. This measures the NLP alone.
-    """
-    from feedtune.objectives import METRICS
-    from feedtune.problem import build_plant, resolve_tunables
-    from feedtune.spec import parse_spec
-    from feedtune.tuner import Bound, Problem, Settings, Term
-
-    spec = parse_spec(case.spec)
-    plant = build_plant(spec)
-    variables, fixed, box = resolve_tunables(spec, plant)
-
-    def value(term):
-        metric = METRICS[term.metric]()
-        return lambda loop: metric.evaluate(loop, term)
-
-    objective = [Term(t.metric, value(t), t.weight) for t in spec.objective]
-    constraints = [Bound(c.metric, value(c), c.min, c.max) for c in spec.constraints]
-    best = math.inf
-    for _ in range(repeats):
-        started = time.perf_counter()
-        Problem(variables, fixed, lambda v: plant.loop(v, box), objective, constraints, {},
-                Settings())
-        best = min(best, time.perf_counter() - started)
-    return best
-
-
 def source_state() -> str:
     """Commit of the feedtune checkout and whether feedtune/ has uncommitted changes."""
     import subprocess
@@ -483,7 +453,6 @@ def main(argv=None) -> int:
     results = []
     for case in cases:
         ft = run_feedtune(case, args.repeats)
-        ft.extra["nlp_build"] = feedtune_nlp_build(case, min(args.repeats, 3))
         results.append((case, ft, run_scipy(case, args.repeats)))
 
     print(f"feedtune vs scipy.optimize on Koren 1979 problems (casadi {casadi.__version__}, "
@@ -534,8 +503,7 @@ def main(argv=None) -> int:
     for case, ft, _ in summaries:
         e = ft.extra
         starts = e["starts"]
-        print(f"  case {case.number}: build {e['build'] * 1e3:.1f} ms (NLP alone, without the "
-              f"report function: {e['nlp_build'] * 1e3:.1f} ms), one solve "
+        print(f"  case {case.number}: build {e['build'] * 1e3:.1f} ms, one solve "
               f"{e['one_solve'] * 1e3:.2f} ms ({e['iters0']} iterations), starts "
               f"{min(starts) * 1e3:.2f}/{statistics.median(starts) * 1e3:.2f}/"
               f"{max(starts) * 1e3:.2f} ms, tune() {e['tune_wall'] * 1e3:.0f} ms, "
