@@ -10,7 +10,7 @@ import casadi as ca
 
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
-from feedtune.plants import PLANTS
+from feedtune.plants import plant_for
 from feedtune.result import (ConstraintResult, MetricValue, SolverResult, StartResult, TunedValue,
                              TuneResult, provenance)
 from feedtune.spec import Spec, SpecError
@@ -26,7 +26,7 @@ MAX_HORIZON_REFINEMENTS = 2
 
 def build_plant(spec: Spec):
     """The plant object named by ``spec.plant.type``."""
-    return PLANTS[spec.plant.type](spec.plant)
+    return plant_for(spec.plant)
 
 
 def resolve_tunables(spec: Spec, plant) -> tuple[list[Variable], dict[str, float], dict]:

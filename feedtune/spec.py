@@ -16,7 +16,7 @@ from pydantic import Field, PositiveFloat, PositiveInt, ValidationError, create_
 
 from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
-from feedtune.plants import PLANTS
+from feedtune.plants import PLANTS, plant_for
 
 MAX_SPEC_BYTES = 1_000_000
 MAX_JSON_DEPTH = 32
@@ -242,7 +242,7 @@ def _ipopt_option_errors(options: dict) -> list[tuple[str, str]]:
 def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
     """Checks that need the registries: tunable names and bounds, metric applicability."""
     errors = _ipopt_option_errors(spec.solver.ipopt_options)
-    plant = PLANTS[spec.plant.type](spec.plant)
+    plant = plant_for(spec.plant)
     tunables = plant.tunables()
     for name, tunable in spec.tunables.items():
         if name not in tunables:

@@ -5,3 +5,8 @@ from feedtune.plants.software_servo import SoftwareServo
 PLANTS = {
     "software_servo": SoftwareServo,
 }
+
+
+def plant_for(params):
+    """The plant object for a spec's ``plant`` section (its ``type`` picks the class)."""
+    return PLANTS[params.type](params)
