@@ -31,7 +31,8 @@ def characteristic_polynomial(matrix) -> list:
     return coefficients
 
 
-def _poly_mul(p: list, q: list) -> list:
+def poly_mul(p: list, q: list) -> list:
+    """Product of two polynomials, highest power first."""
     out = [0] * (len(p) + len(q) - 1)
     for i, a in enumerate(p):
         for j, b in enumerate(q):
@@ -51,12 +52,55 @@ def bilinear_to_continuous(coefficients: list) -> list:
     for power, coefficient in enumerate(reversed(coefficients)):  # coefficient of z^power
         term = [coefficient]
         for _ in range(power):
-            term = _poly_mul(term, [1, 1])  # (w + 1)
+            term = poly_mul(term, [1, 1])  # (w + 1)
         for _ in range(n - power):
-            term = _poly_mul(term, [-1, 1])  # (1 − w) = (−w + 1)
+            term = poly_mul(term, [-1, 1])  # (1 − w) = (−w + 1)
         for i, t in enumerate(term):
             result[i] = result[i] + t
     return result
+
+
+def poly_add(p: list, q: list) -> list:
+    """Sum of two polynomials, highest power first."""
+    n = max(len(p), len(q))
+    p = [0] * (n - len(p)) + list(p)
+    q = [0] * (n - len(q)) + list(q)
+    return [a + b for a, b in zip(p, q)]
+
+
+def poly_scale(p: list, factor) -> list:
+    """``factor`` times the polynomial ``p``."""
+    return [factor * c for c in p]
+
+
+def poly_at_jw(p: list, omega):
+    """Re and Im of p(jω), highest power first (Horner on the complex number jω)."""
+    re, im = 0, 0
+    for c in p:
+        re, im = -omega * im + c, omega * re  # (re + j im)·jω + c
+    return re, im
+
+
+def companion_matrix(p: list):
+    """Companion matrix whose eigenvalues are the roots of ``p`` (highest power first)."""
+    n = len(p) - 1
+    rows = [ca.horzcat(*[-c / p[0] for c in p[1:]])]
+    if n > 1:
+        rows.append(ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1)))
+    return ca.vertcat(*rows)
+
+
+def balanced_polynomial(p: list) -> list:
+    """p(ω0·σ)/(a_n ω0^n) with ω0 = |a_0/a_n|^(1/n): monic, |constant term| 1, same stability.
+
+    The substitution s = ω0·σ (ω0 > 0) moves every root radially, so the Hurwitz
+    conditions of the result hold exactly when those of ``p`` do, while coefficients that
+    spanned 1e-24 … 1e13 (a loop with corners from 1 to 10⁴ rad/s) become O(1) … O(10⁴).
+    Highest power first.
+    """
+    n = len(p) - 1
+    omega0 = ca.fabs(p[-1] / p[0]) ** (1.0 / n)
+    return [c * omega0 ** (-i) / p[0] for i, c in enumerate(p)]
 
 
 def hurwitz_conditions(coefficients: list) -> list:
@@ -80,9 +124,48 @@ def hurwitz_conditions(coefficients: list) -> list:
                 index = n - (2 * j - i)
                 row.append(a[index] * lead if 0 <= index <= n else 0)
             rows.append(row)
-        minor = ca.vertcat(*[ca.horzcat(*row) for row in rows])
-        conditions.append(ca.det(minor))
+        conditions.append(det(rows))
     return conditions
+
+
+def det(rows: list):
+    """Determinant of a square matrix given as rows of expressions.
+
+    Gaussian elimination with partial pivoting written in CasADi operations (the row
+    choice is a comparison, so derivatives are those of the chosen elimination, which
+    equal the determinant's). CasADi's own MX ``det`` fails to evaluate at some numbers
+    (singular leading blocks of Hurwitz matrices), this does not.
+    """
+    rows = [list(r) for r in rows]
+    n = len(rows)
+    result = 1
+    for k in range(n):
+        column = [ca.fabs(rows[i][k]) for i in range(k, n)]
+        if len(column) > 1:
+            top = column[0]
+            for c in column[1:]:
+                top = ca.fmax(top, c)
+            # first row (from k) holding the largest |entry|: one-hot flags
+            taken = 0
+            flags = []
+            for c in column:
+                flag = (1 - taken) * (c >= top)
+                flags.append(flag)
+                taken = taken + flag
+            pivot_row = [sum(f * rows[k + i][j] for i, f in enumerate(flags)) for j in range(n)]
+            swapped = 1 - flags[0]
+            for i in range(k + 1, n):
+                f = flags[i - k]
+                rows[i] = [rows[i][j] + f * (rows[k][j] - rows[i][j]) for j in range(n)]
+            rows[k] = pivot_row
+            result = result * (1 - 2 * swapped)
+        pivot = rows[k][k]
+        result = result * pivot
+        safe = ca.if_else(pivot == 0, 1, pivot)
+        for i in range(k + 1, n):
+            factor = rows[i][k] / safe
+            rows[i] = [rows[i][j] - factor * rows[k][j] for j in range(n)]
+    return result
 
 
 def complex_solve(real_part, imag_part, rhs):

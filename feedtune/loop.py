@@ -110,6 +110,13 @@ class _LoopBase:
         """
         return []
 
+    def stability_matrices(self) -> dict:
+        """Matrices whose eigenvalues must all be stable, by name; the closed loop first.
+
+        Loops with an inner loop that must be stable on its own add it here.
+        """
+        return {"closed_loop": self.state_matrix}
+
     def stability_conditions(self) -> list:
         """Expressions all positive iff the closed loop is asymptotically stable.
 
@@ -443,3 +450,121 @@ class SampledLoop(_LoopBase):
         sum_te = (start_time * sum_e + self.period * ca.mtimes([c1, weighted, delta])
                   + ca.mtimes([c2, geometric, delta]))
         return ErrorIntegrals(sum_e, ca.mtimes([delta.T, p, delta]), sum_te)
+
+
+@dataclass(frozen=True, eq=False)
+class TransferLoop(_LoopBase):
+    """Continuous position loop given by polynomials in s (highest power first).
+
+    A cascade of transfer functions (inner velocity loop, outer position loop, series
+    compensators) is closed by the plant into polynomials, so the characteristic polynomial
+    is exact and a frequency response costs one Horner evaluation per frequency.
+
+    Attributes
+    ----------
+    open_numerator, open_denominator
+        Open loop L(s) = position / position error, type 1 (``open_denominator`` has the
+        factor s).
+    load_numerator
+        Position per load torque [rad/(N·m)] over the closed-loop characteristic
+        polynomial, or None when the plant has no load input.
+    inner_characteristic
+        Characteristic polynomial of an inner loop that must be stable on its own
+        (Bhatia 1971, Ch. IV), or None.
+    loop_gain_product
+        Bhatia's sensitivity |G K'_v K'_p| [1/s] (Ch. IV eq 1), or None.
+    frequency_band
+        (low, high) [rad/s] containing every corner of the loop for any tunable in its box.
+    drive : Drive
+    """
+
+    open_numerator: list
+    open_denominator: list
+    load_numerator: list | None = None
+    inner_characteristic: list | None = None
+    loop_gain_product: object = None
+    frequency_band: tuple = (1e-2, 1e5)
+    drive: Drive = field(default_factory=Drive)
+    discrete = False
+    period = None
+
+    @cached_property
+    def closed_denominator(self) -> list:
+        """den L + num L: the closed loop's characteristic polynomial (not monic)."""
+        return linalg.poly_add(self.open_denominator, self.open_numerator)
+
+    @cached_property
+    def characteristic_polynomial(self) -> list:
+        lead = self.closed_denominator[0]
+        return [c / lead for c in self.closed_denominator]
+
+    @cached_property
+    def state_matrix(self):
+        """Companion matrix of the closed loop (its eigenvalues are the closed-loop poles)."""
+        return linalg.companion_matrix(self.closed_denominator)
+
+    @property
+    def velocity_constant(self):
+        """C_v = lim s·L(s) [1/s] (type-1 open loop)."""
+        reduced = self.open_denominator[:-1]  # den / s
+        return self.open_numerator[-1] / reduced[-1]
+
+    def stability_matrices(self) -> dict:
+        matrices = {"closed_loop": self.state_matrix}
+        if self.inner_characteristic is not None:
+            matrices["inner_loop"] = linalg.companion_matrix(self.inner_characteristic)
+        return matrices
+
+    def stability_conditions(self) -> list:
+        """Hurwitz conditions of the closed loop, and of the inner loop where it must be stable."""
+        conditions = linalg.hurwitz_conditions(linalg.balanced_polynomial(self.closed_denominator))
+        if self.inner_characteristic is not None:
+            conditions += linalg.hurwitz_conditions(
+                linalg.balanced_polynomial(self.inner_characteristic))
+        return conditions
+
+    @staticmethod
+    def _ratio(numerator, denominator, omega):
+        n_re, n_im = linalg.poly_at_jw(numerator, omega)
+        d_re, d_im = linalg.poly_at_jw(denominator, omega)
+        d2 = d_re**2 + d_im**2
+        return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
+
+    def open_loop_response(self, omega):
+        """Re and Im of L(jω), ω [rad/s]."""
+        return self._ratio(self.open_numerator, self.open_denominator, omega)
+
+    def frequency_response(self, omega):
+        """Re and Im of position/reference T = L/(1 + L) at s = jω, ω [rad/s]."""
+        return self._ratio(self.open_numerator, self.closed_denominator, omega)
+
+    def error_response(self, omega):
+        """Re and Im of S = 1 − T = den L/(den L + num L): exact at low ω."""
+        return self._ratio(self.open_denominator, self.closed_denominator, omega)
+
+    def dc_gain(self):
+        """T(0) [1]: 1 for a type-1 loop, kept as an expression for normalisation."""
+        return self.open_numerator[-1] / self.closed_denominator[-1]
+
+    has_exact_step_error = False
+
+    def numeric_transfer(self, output: str = "position", input: str = "reference"):
+        """(numerator, denominator) as float arrays of a response, highest power first.
+
+        ``input`` is ``reference`` [rad] or ``load`` [N·m]; ``output`` is ``position``
+        [rad] or ``error`` [rad] (reference − position). For loops of numbers only.
+        """
+        def floats(p):
+            return np.array([float(ca.evalf(ca.MX(c))) for c in p])
+
+        den = floats(self.closed_denominator)
+        if input == "reference":
+            num = floats(self.open_numerator if output == "position" else self.open_denominator)
+        elif input == "load":
+            if self.load_numerator is None:
+                raise ValueError("this loop has no load input")
+            num = floats(self.load_numerator)
+            num = num if output == "position" else -num
+        else:
+            raise ValueError(f"unknown input {input!r}")
+        return num, den

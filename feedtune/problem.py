@@ -59,7 +59,7 @@ def resolve_tunables(spec: Spec, plant) -> tuple[list[Variable], dict[str, float
 
 
 def _options_dict(term) -> dict:
-    return term.model_dump(exclude={"metric", "weight", "min", "max"})
+    return term.model_dump(exclude={"metric", "weight", "goal", "min", "max"})
 
 
 def _label(name: str, options: dict) -> str:
@@ -120,7 +120,8 @@ def tune(spec: Spec, progress: Callable | None = None,
     variables, fixed, box = resolve_tunables(spec, plant)
     tunables = plant.tunables()
 
-    objective = [Term(term.metric, _value_fn(METRICS[term.metric](), term), term.weight)
+    objective = [Term(term.metric, _value_fn(METRICS[term.metric](), term),
+                      term.weight if term.goal == "minimize" else -term.weight)
                  for term in spec.objective]
     constraints = [Bound(_label(c.metric, _options_dict(c)), _value_fn(METRICS[c.metric](), c),
                          c.min, c.max) for c in spec.constraints]

@@ -72,6 +72,9 @@ def _objective_model(name, metric):
         f"{_camel(name)}Objective", __base__=metric.Options,
         metric=(Literal[name], Field(description=metric.description)),
         weight=(PositiveFloat, Field(1.0, description=f"Weight of this term [1/({metric.unit})]")),
+        goal=(Literal["minimize", "maximize"], Field(
+            "minimize", description="minimize: add weight·value to the objective; maximize: "
+                                    "subtract it (e.g. bandwidth)")),
     )
 
 
@@ -114,7 +117,7 @@ class Spec(SpecModel):
         default_factory=dict,
         description="Tunables by name (see `feedtune plants`); omitted ones are free within "
                     "the plant's default bounds")
-    objective: list[ObjectiveTerm] = Field(min_length=1, description="Weighted sum of metric terms to minimise")
+    objective: list[ObjectiveTerm] = Field(min_length=1, description="Weighted sum of metric terms to minimise (terms with goal maximize count negatively)")
     constraints: list[ConstraintSpec] = Field(default_factory=list, description="Metric bounds that must hold")
     solver: SolverSpec = Field(default_factory=SolverSpec)
 

@@ -1,21 +1,29 @@
 """Registry of metrics: spec ``metric`` name → metric class, one module each."""
 
+from feedtune.objectives.bandwidth import Bandwidth
 from feedtune.objectives.counter_utilisation import CounterUtilisation
+from feedtune.objectives.crossover_frequency import CrossoverFrequency
 from feedtune.objectives.damping_ratio import DampingRatio
 from feedtune.objectives.encoder_ratio import EncoderRatio
+from feedtune.objectives.gain_margin import GainMargin
 from feedtune.objectives.iae import Iae
 from feedtune.objectives.ise import Ise
 from feedtune.objectives.itae import Itae
+from feedtune.objectives.m_peak import MPeak
 from feedtune.objectives.min_radius import MinRadius
 from feedtune.objectives.min_radius_koren import MinRadiusKoren
 from feedtune.objectives.natural_frequency import NaturalFrequency
+from feedtune.objectives.phase_margin import PhaseMargin
 from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.radial_error_koren import RadialErrorKoren
 from feedtune.objectives.sampling_ratio import SamplingRatio
+from feedtune.objectives.sensitivity import Sensitivity
+from feedtune.objectives.velocity_constant import VelocityConstant
 
 METRICS = {
     metric.name: metric
     for metric in (Iae, Ise, Itae, RadialError, RadialErrorKoren, DampingRatio,
                    NaturalFrequency, MinRadius, MinRadiusKoren, EncoderRatio, SamplingRatio,
-                   CounterUtilisation)
+                   CounterUtilisation, MPeak, Bandwidth, GainMargin, PhaseMargin,
+                   CrossoverFrequency, VelocityConstant, Sensitivity)
 }

@@ -1,9 +1,11 @@
 """Registry of plants: spec ``plant.type`` → class. Add a plant here and in its own module."""
 
+from feedtune.plants.hydraulic_rotary import HydraulicRotary
 from feedtune.plants.software_servo import SoftwareServo
 
 PLANTS = {
     "software_servo": SoftwareServo,
+    "hydraulic_rotary": HydraulicRotary,
 }
 
 

@@ -195,7 +195,9 @@ class Problem:
         f = ca.MX(0)
         g, lbg, ubg = [], [], []
         for ((expr, mag), weight), ref in zip(term_exprs, term_ref):
-            if mag:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
+            if mag and weight < 0:  # maximising |e|: no epigraph bounds it from above
+                f += weight * ca.fabs(expr)
+            elif mag:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
                 s = scale(ref)
                 t = ca.MX.sym(f"slack{len(slacks)}")
                 slacks.append(t)
@@ -265,21 +267,24 @@ class Problem:
         if self.has_nlp:
             self._solver("feedtune")
         self.f_scale = f_scale
+        matrices = loop.stability_matrices()
+        self.matrix_names = list(matrices)
         self.check = ca.Function(
             "check", [z],
             [raw_objective, ca.vertcat(ca.MX(0, 1), *[ca.fabs(e) if m else e for e, m in bound_exprs]),
-             ca.vertcat(*stability), loop.state_matrix])
+             ca.vertcat(*stability), *matrices.values()])
         self.make_loop, self.reports = make_loop, dict(reports)
         self.build_time = time.perf_counter() - started
 
     def _evaluate(self, z_value):
-        """What the NLP sees at ``z_value``: objective, bound values, conditions, matrix."""
-        objective, bounds, conditions, matrix = self.check(z_value)
+        """What the NLP sees at ``z_value``: objective, bound values, conditions, matrices."""
+        objective, bounds, conditions, *matrices = self.check(z_value)
         bounds = [_number(b) for b in np.asarray(bounds).ravel()]
-        return _number(objective), bounds, np.asarray(conditions).ravel(), np.asarray(matrix, dtype=float)
+        matrices = {name: np.asarray(m, dtype=float) for name, m in zip(self.matrix_names, matrices)}
+        return _number(objective), bounds, np.asarray(conditions).ravel(), matrices
 
     def _evaluate_numeric(self, values: Mapping[str, float]):
-        """Objective, bounds, conditions, matrix and reports on the loop built from numbers.
+        """Objective, bounds, conditions, matrices and reports on the loop built from numbers.
 
         A loop of numbers may size itself exactly (e.g. integrate a step response until it
         has settled), so these are the values a result reports.
@@ -295,15 +300,23 @@ class Problem:
                      else sum(t.weight * v for t, v in zip(self.objective_terms, terms)))
         bounds = [number(b.value(loop)) for b in self.bounds]
         conditions = np.array([float(ca.evalf(c)) for c in loop.stability_conditions()])
-        matrix = np.array(ca.evalf(loop.state_matrix), dtype=float)
+        matrices = {name: np.array(ca.evalf(m), dtype=float)
+                    for name, m in loop.stability_matrices().items()}
         reports = {key: number(fn(loop)) for key, fn in self.reports.items()}
-        return objective, bounds, conditions, matrix, reports
+        return objective, bounds, conditions, matrices, reports
 
-    def _feasible(self, bounds, conditions, matrix) -> tuple[bool, dict]:
-        numeric = check_stability(matrix, self.discrete)
+    def _feasible(self, bounds, conditions, matrices) -> tuple[bool, dict]:
+        """Constraints hold and every loop is stable by numpy eigenvalues and by its conditions.
+
+        The result's stability block describes the closed loop; loops that must also be
+        stable on their own (e.g. an inner velocity loop) appear under their names.
+        """
+        checks = {name: check_stability(m, self.discrete) for name, m in matrices.items()}
+        numeric = checks.pop("closed_loop")
         hurwitz_ok = bool(np.all(conditions > 0))
-        stability = {**numeric, "conditions_hold": hurwitz_ok}
-        stability["stable"] = bool(numeric["stable"] and hurwitz_ok)
+        stability = {**numeric, **checks, "conditions_hold": hurwitz_ok}
+        stability["stable"] = bool(numeric["stable"] and hurwitz_ok
+                                   and all(c["stable"] for c in checks.values()))
         ok = stability["stable"] and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
         return ok, stability
 
@@ -327,8 +340,8 @@ class Problem:
             else:
                 z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
             elapsed = time.perf_counter() - started
-            objective, bounds, conditions, matrix = self._evaluate(z_opt)
-            feasible, _ = self._feasible(bounds, conditions, matrix)
+            objective, bounds, conditions, matrices = self._evaluate(z_opt)
+            feasible, _ = self._feasible(bounds, conditions, matrices)
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
                                        elapsed, feasible))
             if progress is not None:
@@ -342,8 +355,8 @@ class Problem:
         started = time.perf_counter()
         values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
         values.update(self.fixed)
-        objective, bounds, conditions, matrix, reports = self._evaluate_numeric(values)
-        feasible, stability = self._feasible(bounds, conditions, matrix)
+        objective, bounds, conditions, matrices, reports = self._evaluate_numeric(values)
+        feasible, stability = self._feasible(bounds, conditions, matrices)
         model_gap = self._model_gap(self._evaluate(z_opt), objective, bounds)
         settling = np.asarray(self.settling(z_opt), dtype=float).ravel()
         horizon_bound = bool(np.any(settling < SETTLING_ACTIVE))
@@ -355,7 +368,11 @@ class Problem:
             status = "infeasible"
             broken = [b.label for v, b in zip(bounds, self.bounds) if not _within(v, b.lower, b.upper)]
             if not stability["stable"]:
-                broken.append("closed-loop stability")
+                inner = [name for name, check in stability.items()
+                         if isinstance(check, dict) and not check["stable"]]
+                broken += [f"{name.replace('_', ' ')} stability" for name in inner]
+                if not inner or not stability["conditions_hold"]:
+                    broken.append("closed-loop stability")
             message = "no start satisfied every constraint; violated: " + ", ".join(broken)
         else:
             message = f"no start converged; best attempt (start {index + 1}) ended with {return_status}"

@@ -1,0 +1,22 @@
+"""Gain-crossover frequency of the open loop (Bhatia 1971, Ch. IV G)."""
+
+from feedtune.frequency import first_crossing
+from feedtune.objectives.base import Metric
+from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_gain_squared
+
+
+class CrossoverFrequency(Metric):
+    """ω_c [rad/s]: the lowest ω where |L(jω)| = 1."""
+
+    name = "crossover_frequency"
+    unit = "rad/s"
+    description = "Lowest frequency where the open-loop gain |L| falls to 1"
+    reference = "Bhatia 1971 Ch. IV G (crossover frequency sets the speed of response)"
+
+    def supports(self, loop, options=None):
+        return has_open_loop(loop)
+
+    def evaluate(self, loop, options):
+        omega, _ = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
+                                  "gain_crossover")
+        return omega

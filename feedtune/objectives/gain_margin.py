@@ -1,0 +1,25 @@
+"""Gain margin of the open loop (Bhatia 1971, Ch. IV F; ≈ 1.2 uncompensated)."""
+
+import casadi as ca
+
+from feedtune.frequency import first_crossing
+from feedtune.objectives.base import Metric
+from feedtune.objectives.frequency_domain import has_open_loop, phase_crossover_indicator
+
+
+class GainMargin(Metric):
+    """1/|L(jω_180)| [1] at the lowest phase crossover ω_180 (arg L = −180°)."""
+
+    name = "gain_margin"
+    unit = "1"
+    description = "Factor by which the open-loop gain may grow before instability (ratio, not dB)"
+    reference = "Bhatia 1971 Ch. IV F (gain margin 1.2 of the uncompensated loop)"
+
+    def supports(self, loop, options=None):
+        return has_open_loop(loop)
+
+    def evaluate(self, loop, options):
+        omega, _ = first_crossing(phase_crossover_indicator(loop), loop.frequency_band, 0.0,
+                                  "phase_crossover")
+        re, im = loop.open_loop_response(omega)
+        return 1 / ca.sqrt(re**2 + im**2)

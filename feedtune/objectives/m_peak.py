@@ -1,0 +1,23 @@
+"""Resonance peak M_peak of the closed loop (Bhatia 1971, Ch. IV A a)."""
+
+import casadi as ca
+
+from feedtune.frequency import peak
+from feedtune.objectives.base import Metric
+from feedtune.objectives.frequency_domain import has_frequency_band, normalised_gain_squared
+
+
+class MPeak(Metric):
+    """M_peak = max_ω |T(jω)|/|T(0)| [1], located on a grid and refined by Newton's method."""
+
+    name = "m_peak"
+    unit = "1"
+    description = "Peak of the closed-loop gain |position/reference|, normalised to unit DC gain"
+    reference = "Bhatia 1971 Ch. IV A (a); M_peak ≤ 1.3"
+
+    def supports(self, loop, options=None):
+        return has_frequency_band(loop)
+
+    def evaluate(self, loop, options):
+        value, _ = peak(normalised_gain_squared(loop), loop.frequency_band, "m_peak")
+        return ca.sqrt(value)

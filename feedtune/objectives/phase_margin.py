@@ -1,0 +1,27 @@
+"""Phase margin of the open loop (Bhatia 1971, Ch. IV F; 73° uncompensated)."""
+
+import math
+
+import casadi as ca
+
+from feedtune.frequency import first_crossing
+from feedtune.objectives.base import Metric
+from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_gain_squared
+
+
+class PhaseMargin(Metric):
+    """180° + arg L(jω_c) [deg] at the lowest gain crossover ω_c (|L| = 1)."""
+
+    name = "phase_margin"
+    unit = "deg"
+    description = "180 deg plus the open-loop phase where |L| = 1 [deg]"
+    reference = "Bhatia 1971 Ch. IV F (phase margin 73° of the uncompensated loop)"
+
+    def supports(self, loop, options=None):
+        return has_open_loop(loop)
+
+    def evaluate(self, loop, options):
+        omega, _ = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
+                                  "gain_crossover")
+        re, im = loop.open_loop_response(omega)
+        return ca.atan2(-im, -re) * (180 / math.pi)
