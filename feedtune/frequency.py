@@ -18,8 +18,8 @@ import numpy as np
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
-_BISECTIONS = 30
-_NEWTON = {"abstol": 1e-13, "max_iter": 30, "error_on_fail": False}
+_BISECTIONS = 32  # the bracket shrinks to 2^-32 of a grid step before Newton's method
+_NEWTON_STEPS = 6
 
 
 def log_grid(band: tuple[float, float]) -> np.ndarray:
@@ -29,23 +29,31 @@ def log_grid(band: tuple[float, float]) -> np.ndarray:
     return np.geomspace(lo, hi, count)
 
 
-def _function(name: str, fn, extra=()):
-    """``fn`` of u = ln ω as a CasADi Function of (u, free symbols)."""
+def _functions(name: str, fn, derivatives: int):
+    """fn of u = ln ω and its first ``derivatives`` u-derivatives, as CasADi Functions.
+
+    Each takes (u, free symbols of the expression): the loop's symbols when the loop is
+    symbolic, none when it is made of numbers.
+    """
     u = ca.MX.sym("log_omega")
-    expressions = [fn(ca.exp(u))] + [e(ca.exp(u)) for e in extra]
-    free = ca.symvar(ca.veccat(*expressions))
-    free = [s for s in free if not ca.is_equal(s, u)]
-    return ca.Function(name, [u, *free], expressions), u, free
+    expressions = [fn(ca.exp(u))]
+    for _ in range(derivatives):
+        expressions.append(ca.jacobian(expressions[-1], u))
+    free = [v for v in ca.symvar(ca.veccat(*expressions)) if not ca.is_equal(v, u)]
+    return [ca.Function(f"{name}_{k}", [u, *free], [e]) for k, e in enumerate(expressions)], free
 
 
 def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str = "crossing"):
     """Smallest ω [rad/s] in ``band`` where ``fn`` falls through ``level``.
 
-    ``fn`` must be above ``level`` at the low end of the band. Returns (ω, found), where
-    ``found`` is 1 when a crossing exists on the grid and 0 otherwise (then ω is the top
-    of the band).
+    ``fn`` must be above ``level`` at the low end of the band. The lowest grid interval
+    where it falls below is bisected to 2⁻³² of its width and finished by Newton steps,
+    whose last step carries the implicit-function derivative dω/dp = −(∂f/∂p)/(∂f/∂ω).
+    Everything is plain CasADi arithmetic, so the NLP can expand it to SX.
+    Returns (ω, found): ``found`` is 1 when a crossing exists on the grid, else 0 (and ω
+    is the top of the band).
     """
-    f, u, free = _function(name, lambda w: fn(w) - level)
+    (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     grid = np.log(log_grid(band))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
     below = values < 0
@@ -60,31 +68,66 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
         above = f(middle, *free) > 0
         low = ca.if_else(above, middle, low)
         high = ca.if_else(above, high, middle)
-    refine = ca.rootfinder(name, "newton", f, _NEWTON)
-    u_star = ca.if_else(found, refine((low + high) / 2, *free), grid[-1])
-    return ca.exp(u_star), found
+    u = (low + high) / 2
+    for _ in range(2):
+        step = f(u, *free) / slope(u, *free)
+        u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
+    return ca.exp(ca.if_else(found, u, grid[-1])), found
 
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
     """(max of ``fn`` over ω ≥ 0, ω at the maximum [rad/s]).
 
-    The grid maximum is refined by Newton's method on d fn/d ln ω = 0. When the largest
-    grid value is at the low end of the band, the maximum is taken at ω → 0 (a response
-    that only falls, such as a well-damped loop normalised to unit DC gain).
+    The largest grid value is refined by Newton steps on d fn/d ln ω = 0, each limited to
+    half a grid step and taken uphill, so the peak between grid points is found and its
+    derivative is exact (envelope theorem). When the largest grid value is at the low end
+    of the band, the maximum is taken at ω → 0 (a response that only falls, such as a
+    well-damped loop normalised to unit DC gain).
     """
-    u = ca.MX.sym("log_omega")
-    value = fn(ca.exp(u))
-    slope = ca.jacobian(value, u)
-    free = [s for s in ca.symvar(ca.veccat(value, slope)) if not ca.is_equal(s, u)]
-    f = ca.Function(name, [u, *free], [value])
-    stationary = ca.Function(name + "_slope", [u, *free], [slope])
+    (f, slope, curvature), free = _functions(name, fn, 2)
     grid = np.log(log_grid(band))
+    h = (grid[1] - grid[0]) / 2
     values = f.map(len(grid))(ca.DM(grid).T, *free)
     top = ca.mmax(values)
-    u0 = ca.mmax(ca.DM(grid).T * (values == top) + (grid[0] - 1) * (values != top))
-    refine = ca.rootfinder(name, "newton", stationary, _NEWTON)
-    u_star = refine(u0, *free)
-    interior = u0 > grid[0]
-    best = ca.fmax(f(u_star, *free), top)  # Newton never reports less than the grid saw
+    u = ca.mmax(ca.DM(grid).T * (values == top) + (grid[0] - 1) * (values != top))
+    interior = u > grid[0]
+    for _ in range(_NEWTON_STEPS):
+        g, c = slope(u, *free), curvature(u, *free)
+        newton = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), ca.sign(g) * h)
+        u = u + ca.fmin(ca.fmax(newton, -h), h)
+    best = ca.fmax(f(u, *free), top)  # never less than the grid saw
     at_zero = fn(0.0)
-    return ca.if_else(interior, best, ca.fmax(at_zero, top)), ca.if_else(interior, ca.exp(u_star), 0)
+    return ca.if_else(interior, best, ca.fmax(at_zero, top)), ca.if_else(interior, ca.exp(u), 0)
+
+
+def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):
+    """min of ``fn`` over ω in ``band`` (CasADi expressions allowed for the band's ends).
+
+    The smallest of a relative grid, refined by uphill Newton steps on −fn; the band may
+    move with the NLP's variables (a bandwidth candidate b).
+    """
+    lo, hi = band
+    x = np.linspace(0.0, 1.0, count)
+    u_lo, u_hi = ca.log(lo), ca.log(hi)
+    points = [u_lo + xi * (u_hi - u_lo) for xi in x]
+    (f, slope, curvature), free = _functions(name, lambda w: -fn(w), 2)
+    values = ca.vertcat(*[f(u, *free) for u in points])
+    top = ca.mmax(values)
+    u = ca.mmax(ca.vertcat(*[ca.if_else(v == top, pt, u_lo - 1) for v, pt in zip(
+        ca.vertsplit(values), points)]))
+    h = (u_hi - u_lo) / (len(x) - 1) / 2
+    for _ in range(_NEWTON_STEPS):
+        g, c = slope(u, *free), curvature(u, *free)
+        newton = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), ca.sign(g) * h)
+        u = ca.fmin(ca.fmax(u + ca.fmin(ca.fmax(newton, -h), h), u_lo), u_hi)
+    return -ca.fmax(f(u, *free), top)
+
+
+def _relative_points(ratio: float) -> int:
+    return int(np.ceil(np.log10(ratio) * POINTS_PER_DECADE)) + 1
+
+
+def relative_grid(band: tuple[float, float]) -> np.ndarray:
+    """Points x in (0, 1) so that b·x covers [band low, b) logarithmically."""
+    lo, hi = band
+    return np.geomspace(lo / hi, 1.0, _relative_points(hi / lo))[:-1]

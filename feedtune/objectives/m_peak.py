@@ -2,7 +2,8 @@
 
 import casadi as ca
 
-from feedtune.frequency import peak
+from feedtune.expr import Supremum
+from feedtune.frequency import log_grid, peak
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import has_frequency_band, normalised_gain_squared
 
@@ -19,5 +20,7 @@ class MPeak(Metric):
         return has_frequency_band(loop)
 
     def evaluate(self, loop, options):
-        value, _ = peak(normalised_gain_squared(loop), loop.frequency_band, "m_peak")
-        return ca.sqrt(value)
+        gain = normalised_gain_squared(loop)
+        value, _ = peak(gain, loop.frequency_band, "m_peak")
+        return Supremum(lambda omega: ca.sqrt(gain(omega)), log_grid(loop.frequency_band),
+                        ca.sqrt(value))

@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 from scipy.stats import qmc
 
-from feedtune.expr import Magnitude
+from feedtune.expr import Crossing, Magnitude, Supremum
 from feedtune.validate.stability import check_stability
 
 STABILITY_MARGIN = 1e-9  # scaled Hurwitz conditions must exceed this
@@ -127,7 +127,12 @@ def _within(value: float | None, lower: float | None, upper: float | None) -> bo
 
 
 def _magnitude(value):
-    return (value.expr, True) if isinstance(value, Magnitude) else (value, False)
+    """(expression, is |·|): the exact value the result reports, for any metric value."""
+    if isinstance(value, Magnitude):
+        return value.expr, True
+    if isinstance(value, (Supremum, Crossing)):
+        return value.exact, False
+    return value, False
 
 
 def starting_points(variables: list[Variable], count: int) -> np.ndarray:
@@ -160,8 +165,10 @@ class Problem:
         loop = make_loop(values)
         self.discrete = loop.discrete
 
-        term_exprs = [(_magnitude(t.value(loop)), t.weight) for t in objective]
-        bound_exprs = [_magnitude(b.value(loop)) for b in constraints]
+        term_values = [t.value(loop) for t in objective]
+        bound_values = [b.value(loop) for b in constraints]
+        term_exprs = [(_magnitude(v), t.weight) for v, t in zip(term_values, objective)]
+        bound_exprs = [_magnitude(v) for v in bound_values]
         stability = loop.stability_conditions()
         settling = loop.settling_conditions()  # after the terms: they say what was summed
         raw_objective = sum((w * (ca.fabs(e) if mag else e) for (e, mag), w in term_exprs), ca.MX(0))
@@ -191,56 +198,90 @@ class Problem:
             return max(finite) if finite else 1.0
 
         f_scale = scale(f_ref)
-        slacks, slack_scale = [], []
+        # variables beyond the tunables: (symbol, lower, upper, start value as a function of z)
+        extra, extra_lower, extra_upper, extra_start = [], [], [], []
         f = ca.MX(0)
         g, lbg, ubg = [], [], []
-        for ((expr, mag), weight), ref in zip(term_exprs, term_ref):
-            if mag and weight < 0:  # maximising |e|: no epigraph bounds it from above
+
+        def add_variable(name, lower, upper, start):
+            symbol = ca.MX.sym(name)
+            extra.append(symbol)
+            extra_lower.append(lower)
+            extra_upper.append(upper)
+            extra_start.append(start)
+            return symbol
+
+        def constrain(expr, lower, upper):
+            g.append(expr)
+            lbg.append(lower)
+            ubg.append(upper)
+
+        def crossing_variable(value, index):
+            """b = exp(u): condition(b) = 0, condition(b·x) ≥ 0 below it (Crossing)."""
+            lo, hi = value.band
+            u = add_variable(f"log_crossing{index}", math.log(lo), math.log(hi),
+                             ca.log(value.exact))
+            b = ca.exp(u)
+            constrain(value.condition(b), 0, 0)
+            for x in value.relative_grid:
+                constrain(value.condition(b * x), 0, ca.inf)
+            constrain(value.lowest_minimum(b), 0, ca.inf)
+            return b
+
+        def supremum_below(value, bound, s):
+            """value.fn(ω_k) ≤ bound on the grid and at the refined maximum (Supremum)."""
+            for omega in value.grid:
+                constrain((value.fn(omega) - bound) / s, -ca.inf, 0)
+            constrain((value.exact - bound) / s, -ca.inf, 0)
+
+        for index, (value, ((expr, mag), weight), ref) in enumerate(zip(term_values, term_exprs, term_ref)):
+            if isinstance(value, Crossing):
+                f += weight * crossing_variable(value, index)
+            elif isinstance(value, Supremum) and weight > 0:  # epigraph: fn(ω) ≤ s·t, minimise
+                s = scale(ref)
+                t = add_variable(f"peak{index}", -ca.inf, ca.inf, value.exact / s * 1.01)
+                supremum_below(value, s * t, s)
+                f += weight * s * t
+            elif mag and weight < 0:  # maximising |e|: no epigraph bounds it from above
                 f += weight * ca.fabs(expr)
             elif mag:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
                 s = scale(ref)
-                t = ca.MX.sym(f"slack{len(slacks)}")
-                slacks.append(t)
-                slack_scale.append(s)
+                t = add_variable(f"slack{index}", 0, ca.inf, ca.fabs(expr) / s * 1.01 + 1e-6)
                 f += weight * s * t
-                g += [(expr - s * t) / s, (expr + s * t) / s]
-                lbg += [-ca.inf, 0]
-                ubg += [0, ca.inf]
+                constrain((expr - s * t) / s, -ca.inf, 0)
+                constrain((expr + s * t) / s, 0, ca.inf)
             else:
                 f += weight * expr
-        for (expr, mag), bound, ref in zip(bound_exprs, constraints, bound_ref):
+        for index, (value, (expr, mag), bound, ref) in enumerate(
+                zip(bound_values, bound_exprs, constraints, bound_ref)):
             s = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(ref)
-            if mag and bound.lower is not None and bound.lower > 0:
-                g.append(expr**2 / s**2)
-                lbg.append((bound.lower / s) ** 2)
-                ubg.append((bound.upper / s) ** 2 if bound.upper is not None else ca.inf)
+            lower = bound.lower / s if bound.lower is not None else -ca.inf
+            upper = bound.upper / s if bound.upper is not None else ca.inf
+            if isinstance(value, Crossing):
+                constrain(crossing_variable(value, f"_bound{index}") / s, lower, upper)
+            elif isinstance(value, Supremum) and bound.upper is not None:
+                supremum_below(value, bound.upper, s)
+                if bound.lower is not None:
+                    constrain(expr / s, lower, ca.inf)
+            elif mag and bound.lower is not None and bound.lower > 0:
+                constrain(expr**2 / s**2, lower**2, upper**2 if bound.upper is not None else ca.inf)
             elif mag:
-                g.append(expr / s)
-                lbg.append(-bound.upper / s if bound.upper is not None else -ca.inf)
-                ubg.append(bound.upper / s if bound.upper is not None else ca.inf)
+                constrain(expr / s, -upper, upper)
             else:
-                g.append(expr / s)
-                lbg.append(bound.lower / s if bound.lower is not None else -ca.inf)
-                ubg.append(bound.upper / s if bound.upper is not None else ca.inf)
+                constrain(expr / s, lower, upper)
         for condition, ref in zip(stability, stab_ref):
-            g.append(condition / scale(ref))
-            lbg.append(STABILITY_MARGIN)
-            ubg.append(ca.inf)
+            constrain(condition / scale(ref), STABILITY_MARGIN, ca.inf)
         scaled_settling = [c / scale(ref) for c, ref in zip(settling, settle_ref)]
         for condition in scaled_settling:
-            g.append(condition)
-            lbg.append(STABILITY_MARGIN)
-            ubg.append(ca.inf)
+            constrain(condition, STABILITY_MARGIN, ca.inf)
         self.settling = ca.Function("settling", [z], [ca.vertcat(ca.MX(0, 1), *scaled_settling)])
 
         self.n_z = len(variables)
-        self.slack_scale = np.array(slack_scale)
-        w = ca.vertcat(z, *slacks)
-        self.lbw = np.concatenate([np.log([v.lower for v in variables]), np.zeros(len(slacks))])
-        self.ubw = np.concatenate([np.log([v.upper for v in variables]), np.full(len(slacks), np.inf)])
+        w = ca.vertcat(z, *extra)
+        self.lbw = np.concatenate([np.log([v.lower for v in variables]), extra_lower])
+        self.ubw = np.concatenate([np.log([v.upper for v in variables]), extra_upper])
         self.lbg, self.ubg = np.array(lbg, dtype=float), np.array(ubg, dtype=float)
-        self.slack_terms = ca.Function(
-            "slack_terms", [z], [ca.vertcat(ca.MX(0, 1), *[e for (e, mag), _ in term_exprs if mag])])
+        self.extra_start = ca.Function("extra_start", [z], [ca.vertcat(ca.MX(0, 1), *extra_start)])
         options = {
             "ipopt": {"print_level": 0, "sb": "yes", "max_iter": settings.max_iter,
                       "tol": settings.tol, "max_wall_time": settings.time_limit,
@@ -328,9 +369,8 @@ class Problem:
             started = time.perf_counter()
             if self.has_nlp:
                 z0 = self._stable_start(z0)
-                slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
                 solver = self._solver("feedtune")
-                solution = solver(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=self._scale_at(z0),
+                solution = solver(x0=self._x0(z0), p=self._scale_at(z0),
                                   lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
                 stats = solver.stats()
                 z_opt = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
@@ -405,11 +445,17 @@ class Problem:
         """``z0`` if its loop is stable, else the nearest point the restoration NLP finds."""
         if np.all(self._evaluate(z0)[2] > 0):
             return z0
-        slack0 = np.abs(np.asarray(self.slack_terms(z0), dtype=float).ravel()) / self.slack_scale
-        solution = self._solver("feedtune_restoration")(x0=np.concatenate([z0, slack0 * 1.01 + 1e-6]), p=z0,
+        solution = self._solver("feedtune_restoration")(x0=self._x0(z0), p=z0,
                                     lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
         z_new = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
         return z_new if np.all(self._evaluate(z_new)[2] > 0) else z0
+
+    def _x0(self, z0: np.ndarray) -> np.ndarray:
+        """Start of every NLP variable: z0, and the extra variables where z0 puts them."""
+        extra = np.asarray(self.extra_start(z0), dtype=float).ravel()
+        extra = np.clip(np.nan_to_num(extra, nan=0.0, posinf=1e6, neginf=-1e6),
+                        self.lbw[self.n_z:], self.ubw[self.n_z:])
+        return np.concatenate([z0, extra])
 
     def _scale_at(self, z0: np.ndarray) -> float:
         """|objective| at the start, or the build-time scale where that is 0 or not finite."""
