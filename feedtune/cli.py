@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import itertools
 import json
 import os
 import re
@@ -306,19 +307,31 @@ def _techniques(params_model) -> list | None:
 
 
 def _plant_tunables(name: str, plant_cls) -> dict[str, dict]:
-    """Tunables of ``plant_cls`` per technique ("*" when the plant has no techniques)."""
+    """Tunables of ``plant_cls`` per technique ("*" when the plant has no techniques).
+
+    Each lists every tunable some choice of the plant's other Literal fields (e.g. a
+    compensator kind) brings in, so ``velocity_compensator.tau1`` is listed although the
+    default (no compensator) has none.
+    """
     params_model = plant_cls.Params
     techniques = _techniques(params_model)
+    choices = {field: _choices(info.annotation) for field, info in params_model.model_fields.items()
+               if field not in ("type", "technique") and _choices(info.annotation)}
     out = {}
     for technique in techniques or [None]:
-        values = {"type": name}
-        if technique is not None:
-            values["technique"] = technique
-        # only the fields that select the structure matter to tunables(): no validation
-        plant = plant_cls(params_model.model_construct(**values))
-        out[technique or "*"] = {
-            tname: {"unit": t.unit, "description": t.description, "min": t.min, "max": t.max}
-            for tname, t in plant.tunables().items()}
+        found = []
+        for combination in itertools.product(*choices.values()):
+            values = {"type": name, **dict(zip(choices, combination))}
+            if technique is not None:
+                values["technique"] = technique
+            # only the fields that select the structure matter to tunables(): no validation
+            found.append(plant_cls(params_model.model_construct(**values)).tunables())
+        tunables = {}
+        for listed in sorted(found, key=len, reverse=True):  # the plant's order, fullest first
+            for tname, t in listed.items():
+                tunables.setdefault(tname, {"unit": t.unit, "description": t.description,
+                                            "min": t.min, "max": t.max})
+        out[technique or "*"] = tunables
     return out
 
 

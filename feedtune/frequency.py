@@ -19,7 +19,31 @@ import numpy as np
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
 _BISECTIONS = 32  # the bracket shrinks to 2^-32 of a grid step before Newton's method
-_NEWTON_STEPS = 6
+_GOLDEN_STEPS = 48  # golden-section steps: the bracket of two grid steps shrinks to 1e-10
+_NEWTON_STEPS = 2
+
+
+def _refine_max(f, slope, curvature, free, u0, h, lower, upper):
+    """Maximum of f(u) near the best grid point u0 (grid step 2h), in [lower, upper].
+
+    Golden-section search on [u0 − 2h, u0 + 2h] (the neighbouring grid points bound the
+    peak), then Newton steps on f′ = 0 kept inside the first bracket: the last one carries
+    the implicit-function derivative, so the refined maximum has exact gradients.
+    """
+    ratio = (np.sqrt(5) - 1) / 2
+    a, b = ca.fmax(u0 - 2 * h, lower), ca.fmin(u0 + 2 * h, upper)
+    outer_a, outer_b = a, b
+    for _ in range(_GOLDEN_STEPS):
+        c = b - ratio * (b - a)
+        d = a + ratio * (b - a)
+        left = f(c, *free) > f(d, *free)
+        a, b = ca.if_else(left, a, c), ca.if_else(left, d, b)
+    u = (a + b) / 2
+    for _ in range(_NEWTON_STEPS):
+        g, c = slope(u, *free), curvature(u, *free)
+        step = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), 0)
+        u = ca.fmin(ca.fmax(u + step, outer_a), outer_b)  # golden section is only as
+    return u  # sharp as f's rounding (√eps in u on a flat peak): Newton finishes it
 
 
 def log_grid(band: tuple[float, float]) -> np.ndarray:
@@ -78,8 +102,8 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
     """(max of ``fn`` over ω ≥ 0, ω at the maximum [rad/s]).
 
-    The largest grid value is refined by Newton steps on d fn/d ln ω = 0, each limited to
-    half a grid step and taken uphill, so the peak between grid points is found and its
+    The largest grid value is refined by golden-section search between its neighbours and
+    Newton steps on d fn/d ln ω = 0, so the peak between grid points is found and its
     derivative is exact (envelope theorem). When the largest grid value is at the low end
     of the band, the maximum is taken at ω → 0 (a response that only falls, such as a
     well-damped loop normalised to unit DC gain).
@@ -91,10 +115,7 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     top = ca.mmax(values)
     u = ca.mmax(ca.DM(grid).T * (values == top) + (grid[0] - 1) * (values != top))
     interior = u > grid[0]
-    for _ in range(_NEWTON_STEPS):
-        g, c = slope(u, *free), curvature(u, *free)
-        newton = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), ca.sign(g) * h)
-        u = u + ca.fmin(ca.fmax(newton, -h), h)
+    u = _refine_max(f, slope, curvature, free, u, h, grid[0], grid[-1])
     best = ca.fmax(f(u, *free), top)  # never less than the grid saw
     at_zero = fn(0.0)
     return ca.if_else(interior, best, ca.fmax(at_zero, top)), ca.if_else(interior, ca.exp(u), 0)
@@ -103,7 +124,7 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
 def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):
     """min of ``fn`` over ω in ``band`` (CasADi expressions allowed for the band's ends).
 
-    The smallest of a relative grid, refined by uphill Newton steps on −fn; the band may
+    The smallest of a relative grid, refined between its neighbours (golden section, Newton); the band may
     move with the NLP's variables (a bandwidth candidate b).
     """
     lo, hi = band
@@ -116,10 +137,7 @@ def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):
     u = ca.mmax(ca.vertcat(*[ca.if_else(v == top, pt, u_lo - 1) for v, pt in zip(
         ca.vertsplit(values), points)]))
     h = (u_hi - u_lo) / (len(x) - 1) / 2
-    for _ in range(_NEWTON_STEPS):
-        g, c = slope(u, *free), curvature(u, *free)
-        newton = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), ca.sign(g) * h)
-        u = ca.fmin(ca.fmax(u + ca.fmin(ca.fmax(newton, -h), h), u_lo), u_hi)
+    u = _refine_max(f, slope, curvature, free, u, h, u_lo, u_hi)
     return -ca.fmax(f(u, *free), top)
 
 

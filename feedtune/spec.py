@@ -253,13 +253,37 @@ def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
                            f"unknown tunable for this plant; known: {', '.join(tunables)}"))
     loop = plant.loop({n: t.max for n, t in tunables.items()},
                       {n: (t.min, t.max) for n, t in tunables.items()})
+    optimisable = None  # names of the metrics this loop can optimise, computed when needed
     for section in ("objective", "constraints"):
         for i, term in enumerate(getattr(spec, section)):
             metric = METRICS[term.metric]()
             if not metric.supports(loop, term):
                 errors.append((f"/{section}/{i}/metric",
                                f"metric {term.metric!r} is not defined for this plant configuration"))
+            elif not metric.optimisable(loop, term):
+                if optimisable is None:
+                    optimisable = _optimisable_metrics(loop)
+                errors.append((f"/{section}/{i}/metric",
+                               f"metric {term.metric!r} is reported only on this plant "
+                               "configuration: evaluated on the tuned design, it cannot be an "
+                               "objective term or a constraint; optimisable here: "
+                               f"{', '.join(optimisable) or 'none'}"))
     return errors
+
+
+def _optimisable_metrics(loop) -> list[str]:
+    """Metrics that can be objective terms or constraints on ``loop`` (default options, or
+    none for metrics whose options have no defaults)."""
+    names = []
+    for name, metric_cls in METRICS.items():
+        metric = metric_cls()
+        try:
+            options = metric.Options()
+        except ValidationError:
+            options = None
+        if metric.supports(loop, options) and metric.optimisable(loop, options):
+            names.append(name)
+    return names
 
 
 def parse_spec(data: bytes | str | dict) -> Spec:

@@ -9,15 +9,18 @@ from feedtune.objectives.gain_margin import GainMargin
 from feedtune.objectives.iae import Iae
 from feedtune.objectives.ise import Ise
 from feedtune.objectives.itae import Itae
+from feedtune.objectives.load_rejection import LoadRejection
 from feedtune.objectives.m_peak import MPeak
 from feedtune.objectives.min_radius import MinRadius
 from feedtune.objectives.min_radius_koren import MinRadiusKoren
 from feedtune.objectives.natural_frequency import NaturalFrequency
+from feedtune.objectives.overshoot import Overshoot
 from feedtune.objectives.phase_margin import PhaseMargin
 from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.radial_error_koren import RadialErrorKoren
 from feedtune.objectives.sampling_ratio import SamplingRatio
 from feedtune.objectives.sensitivity import Sensitivity
+from feedtune.objectives.settling_time import SettlingTime
 from feedtune.objectives.velocity_constant import VelocityConstant
 
 METRICS = {
@@ -25,5 +28,6 @@ METRICS = {
     for metric in (Iae, Ise, Itae, RadialError, RadialErrorKoren, DampingRatio,
                    NaturalFrequency, MinRadius, MinRadiusKoren, EncoderRatio, SamplingRatio,
                    CounterUtilisation, MPeak, Bandwidth, GainMargin, PhaseMargin,
-                   CrossoverFrequency, VelocityConstant, Sensitivity)
+                   CrossoverFrequency, VelocityConstant, Sensitivity, SettlingTime, Overshoot,
+                   LoadRejection)
 }

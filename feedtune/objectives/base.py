@@ -39,6 +39,14 @@ class Metric:
         """Whether this metric is defined on ``loop``."""
         return True
 
+    def optimisable(self, loop, options=None) -> bool:
+        """Whether the metric can be an objective term or a constraint on this loop.
+
+        False: reported only, evaluated on the tuned design (e.g. a time response computed
+        numerically, which the NLP cannot take).
+        """
+        return True
+
     def evaluate(self, loop, options):
         """The metric's value on ``loop``: an expression, or a :class:`Magnitude`."""
         raise NotImplementedError

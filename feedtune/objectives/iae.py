@@ -1,17 +1,31 @@
-"""Integral of absolute error after a position step (Koren eq 20)."""
+"""Integral of absolute error after a position step or ramp (Koren eq 20; Bhatia Ch. IV B)."""
 
 from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import (StepErrorOptions, step_error_unit, supports_step_error,
-                                             time_weight)
+from feedtune.objectives.step_error import (StepErrorOptions, has_exact_step,
+                                             numeric_error_integral, optimisable_step_error,
+                                             step_error_unit, supports_step_error, time_weight)
 
 
 class Iae(Metric):
-    """IAE = ∫|e(t)|dt [m·s] for a 1 m step, exact between samples (Koren eq 20)."""
+    """IAE = ∫|e(t)|dt [m·s] after a unit (1 m or 1 rad) position step.
+
+    Koren's loops: exact between samples and smooth in the tunables (Koren eq 20). Loops
+    given by polynomials (Bhatia's drives): evaluated numerically from the exact response
+    (:mod:`feedtune.timeresponse`), reported only. With ``input`` ramp (1 m/s or 1 rad/s,
+    loops given by polynomials only) the integrand is |e(t) − e_ss|, e_ss = 1/C_v the steady
+    following error, because ∫|e| of a type-1 loop's ramp error diverges.
+
+    References
+    ----------
+    Y. Koren, "Design of computer control for manufacturing systems", 1979, eq 20.
+    S. Bhatia, "Feed drive design for NC machine tools", 1971, Ch. IV B (E = ∫|e(t)|dt).
+    """
 
     name = "iae"
-    unit = "m·s (time absolute) or m·rad (time natural)"
-    description = "Integral of |position error| after a 1 m position step"
-    reference = "Koren 1979 eq 20"
+    unit = "m·s (time absolute) or m·rad (time natural); rad for m on a rotary axis"
+    description = ("Integral of |position error| after a unit position step, or of "
+                   "|e − e_ss| after a unit ramp")
+    reference = "Koren 1979 eq 20; Bhatia 1971 Ch. IV B"
     Options = StepErrorOptions
 
     def unit_of(self, options):
@@ -20,5 +34,10 @@ class Iae(Metric):
     def supports(self, loop, options=StepErrorOptions()):
         return supports_step_error(loop, options)
 
+    def optimisable(self, loop, options=StepErrorOptions()):
+        return optimisable_step_error(loop, options)
+
     def evaluate(self, loop, options):
+        if not has_exact_step(loop, options):
+            return numeric_error_integral(loop, options, self.name, "iae")
         return time_weight(loop, options, 1) * loop.step_error_integrals.iae

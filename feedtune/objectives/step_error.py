@@ -1,28 +1,69 @@
-"""Options and time normalisation shared by the step-error integrals (IAE, ISE, ITAE)."""
+"""Options, time normalisation and numeric responses shared by the time-domain metrics.
+
+Two ways to a step-error integral exist:
+
+* Koren's loops (:class:`~feedtune.loop.ContinuousLoop` of order two,
+  :class:`~feedtune.loop.SampledLoop`) give exact symbolic IAE/ISE/ITAE for a position step
+  (``loop.step_error_integrals``): smooth in the tunables, so they can be optimised;
+* loops given by polynomials (:class:`~feedtune.loop.TransferLoop`, Bhatia's drives) give
+  their transfer functions as numbers (``loop.numeric_transfer``); the response is
+  evaluated exactly by :mod:`feedtune.timeresponse` on the tuned design. Such a metric is
+  reported only: it cannot be an objective term or a constraint (``optimisable`` False).
+"""
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
+import casadi as ca
 from pydantic import Field
 
+from feedtune import timeresponse
+from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
+
+InputKind = Literal["step", "ramp"]
+
+INPUT_DESCRIPTION = (
+    "step: error after a unit position step (1 m or 1 rad); ramp: after a unit ramp (1 m/s "
+    "or 1 rad/s), integrated on e(t) − e_ss, e_ss = 1/C_v the steady following error of a "
+    "type-1 loop (the plain ∫|e| of a ramp diverges). Ramp needs a loop given by "
+    "polynomials (reported only)")
 
 
 class StepErrorOptions(SpecModel):
-    """Error after a 1 m position step, integrated to the loop's settling horizon."""
+    """Error after a unit position step or ramp, integrated until the loop has settled."""
 
     time: Literal["absolute", "natural"] = Field(
         "absolute",
         description="absolute: integrate over t [s]; natural: over ω_n·t [rad], Koren's "
                     "convention for Fig 6 and Kτ = 0.567 (needs a second-order loop)")
+    input: InputKind = Field("step", description=INPUT_DESCRIPTION)
+
+
+def has_numeric_response(loop) -> bool:
+    """The loop gives its transfer functions as numbers (a loop given by polynomials)."""
+    return callable(getattr(loop, "numeric_transfer", None))
+
+
+def has_exact_step(loop, options) -> bool:
+    """Koren's exact symbolic step integrals apply (step input, a loop that has them)."""
+    return getattr(options, "input", "step") == "step" and bool(
+        getattr(loop, "has_exact_step_error", False))
 
 
 def supports_step_error(loop, options: StepErrorOptions) -> bool:
-    """Exact integrals exist, and ω_n too when time is natural."""
-    if not loop.has_exact_step_error:
-        return False
-    return options.time == "absolute" or loop.order == 2
+    """Exact symbolic integrals exist (with ω_n when time is natural), or the loop gives
+    numeric transfer functions (absolute time only)."""
+    if has_exact_step(loop, options):
+        return options.time == "absolute" or loop.order == 2
+    return has_numeric_response(loop) and options.time == "absolute"
+
+
+def optimisable_step_error(loop, options: StepErrorOptions) -> bool:
+    """Only the exact symbolic integrals can enter the NLP."""
+    return supports_step_error(loop, options) and has_exact_step(loop, options)
 
 
 def time_weight(loop, options: StepErrorOptions, power: int):
@@ -35,3 +76,69 @@ def time_weight(loop, options: StepErrorOptions, power: int):
 def step_error_unit(options: StepErrorOptions, absolute: str, natural: str) -> str:
     """The unit that goes with the chosen time axis."""
     return absolute if options.time == "absolute" else natural
+
+
+# -- numeric responses of loops given by polynomials ---------------------------------------
+
+def _is_symbolic(value) -> bool:
+    if isinstance(value, ca.SX):
+        return not value.is_constant()
+    if isinstance(value, ca.MX):
+        return bool(ca.symvar(value))
+    return False
+
+
+def numeric_transfer(loop, metric_name: str, output: str, input: str):
+    """(numerator, denominator) float arrays of ``loop``, or TypeError for a symbolic loop."""
+    polynomials = list(loop.open_numerator) + list(loop.open_denominator)
+    if input == "load" and loop.load_numerator is not None:
+        polynomials += list(loop.load_numerator)
+    if any(_is_symbolic(c) for c in polynomials):
+        raise TypeError(
+            f"metric {metric_name!r} is evaluated numerically from the time response of this "
+            "loop and cannot be an objective term or a constraint (it is reported on the "
+            "tuned design only); evaluate it on a loop built from numbers")
+    return loop.numeric_transfer(output, input)
+
+
+def numeric_response(loop, metric_name: str, source: str):
+    """The exact response of a loop of numbers; ``source`` is step, ramp or load.
+
+    step/ramp: position error after a unit reference step/ramp; load: position after a
+    1 N·m load-torque step. Returns None for an unstable loop (the metric is then +∞).
+
+    Raises
+    ------
+    TypeError
+        For a symbolic loop (inside the NLP).
+    HorizonError
+        When the response lives too long to be resolved (a nearly undamped loop).
+    """
+    if source == "load":
+        num, den = numeric_transfer(loop, metric_name, "position", "load")
+    else:
+        num, den = numeric_transfer(loop, metric_name, "error", "reference")
+    try:
+        if source == "load":
+            return timeresponse.load_response(num, den)
+        return timeresponse.reference_error(num, den, source)
+    except timeresponse.UnstableResponseError:
+        return None
+    except timeresponse.ResponseTooLongError as exc:
+        raise HorizonError(f"{metric_name}: {exc}") from None
+
+
+def as_number(value: float):
+    """A metric value for a loop of numbers, as CasADi takes it (+∞ for an unstable loop)."""
+    return ca.DM(value if value is not None else math.inf)
+
+
+def numeric_error_integral(loop, options: StepErrorOptions, metric_name: str, which: str):
+    """IAE, ISE or ITAE (``which``) of e(t) − e_ss after a unit step or ramp, as a ca.DM.
+
+    e_ss = 0 after a step for a type-1 loop; 1/C_v after a ramp.
+    """
+    response = numeric_response(loop, metric_name, options.input)
+    if response is None:
+        return as_number(None)
+    return as_number(getattr(response.transient, which))

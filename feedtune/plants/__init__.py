@@ -2,10 +2,12 @@
 
 from feedtune.plants.hydraulic_rotary import HydraulicRotary
 from feedtune.plants.software_servo import SoftwareServo
+from feedtune.plants.ward_leonard import WardLeonard
 
 PLANTS = {
     "software_servo": SoftwareServo,
     "hydraulic_rotary": HydraulicRotary,
+    "ward_leonard": WardLeonard,
 }
 
 

@@ -211,9 +211,32 @@ def test_every_metric_class_is_registered():
                 assert METRICS.get(obj.name) is obj, f"{module}.{obj.__name__} is not in METRICS"
 
 
+def _defines_a_plant(module: str) -> bool:
+    """A plant module defines a class with a ``Params`` model and a ``loop`` method; helper
+    modules (base, compensator) define neither."""
+    import importlib
+
+    mod = importlib.import_module(module)
+    return any(obj.__module__ == module and hasattr(obj, "Params") and callable(getattr(obj, "loop", None))
+               for _, obj in inspect.getmembers(mod, inspect.isclass))
+
+
 def test_every_plant_module_is_registered():
-    helpers = {"feedtune.plants", "feedtune.plants.base"}
+    """A plant module without its registry line would silently never run."""
     registered = {cls.__module__ for cls in PLANTS.values()}
-    for module in _modules_under("feedtune.plants"):
-        if module not in helpers:
-            assert module in registered, f"{module} defines no registered plant"
+    plant_modules = {m for m in _modules_under("feedtune.plants") if _defines_a_plant(m)}
+    assert plant_modules == registered, (
+        f"unregistered: {sorted(plant_modules - registered)}; "
+        f"registered but not detected: {sorted(registered - plant_modules)}")
+
+
+def test_plant_helper_modules_are_imported_by_a_plant():
+    """A module under plants/ that defines no plant is a helper some plant uses (e.g. the
+    compensators), not a plant left out of the registry."""
+    helpers = [m for m in _modules_under("feedtune.plants")
+               if m != "feedtune.plants" and not _defines_a_plant(m)]
+    used = set()
+    for cls in PLANTS.values():
+        used |= transitive_imports(cls.__module__)
+    for module in helpers:
+        assert module in used, f"{module} defines no plant and no registered plant uses it"

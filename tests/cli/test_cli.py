@@ -9,6 +9,7 @@ import math
 import os
 import subprocess
 import sys
+import typing
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -305,6 +306,10 @@ def test_plants_text_lists_every_plant_with_units():
     assert "time_constant" in text and "[s]" in text
     assert "position_gain" in text and "[1/s]" in text
     assert "required" in text and "default 8" in text  # counter_bits
+    for key, plant_cls in PLANTS.items():  # every structure's tunables, compensators' too
+        for tunables in _tunables_by_structure(key, plant_cls).values():
+            for name in tunables:
+                assert f"    {name} " in text, (key, name)
 
 
 def test_plants_json_matches_the_registry():
@@ -320,6 +325,32 @@ def test_plants_json_matches_the_registry():
     assert set(servo["tunables"]["reference_pulse"]) == {"position_gain"}
     period = servo["tunables"]["sampled_data"]["sampling_period"]
     assert period["unit"] == "s" and 0 < period["min"] < period["max"]
+    for key, plant_cls in PLANTS.items():
+        listed = plants[key]["tunables"]
+        for technique, tunables in _tunables_by_structure(key, plant_cls).items():
+            assert set(tunables) <= set(listed[technique]), (key, technique)
+            for name, tunable in tunables.items():
+                entry = listed[technique][name]
+                assert (entry["unit"], entry["min"], entry["max"]) == (tunable.unit, tunable.min,
+                                                                       tunable.max)
+
+
+def _tunables_by_structure(key: str, plant_cls) -> dict[str, dict]:
+    """Every tunable a plant has for some value of one of its Literal fields (technique,
+    compensator kinds), per technique ("*" without one): what ``feedtune plants`` must list."""
+    fields = plant_cls.Params.model_fields
+    literals = {name: typing.get_args(info.annotation) for name, info in fields.items()
+                if name != "type" and typing.get_origin(info.annotation) is typing.Literal}
+    techniques = literals.pop("technique", (None,))
+    out: dict[str, dict] = {}
+    for technique in techniques:
+        base = {"type": key} | ({"technique": technique} if technique else {})
+        found = out.setdefault(technique or "*", {})
+        for field, values in [(None, (None,))] + list(literals.items()):
+            for value in values:
+                extra = {field: value} if field else {}
+                found.update(plant_cls(plant_cls.Params.model_construct(**base, **extra)).tunables())
+    return out
 
 
 def test_metrics_text_lists_every_metric_with_units():

@@ -3,7 +3,9 @@
 A new plant enrols by adding its module and registry line, plus one entry in
 PLANT_EXAMPLES (physical parameters the tests can build it with; a test fails with a
 clear message until that entry exists). Every value of every ``Literal`` field of its
-Params (e.g. ``technique``) becomes one configuration automatically. A new metric enrols
+Params (e.g. ``technique``, a compensator kind) becomes one configuration automatically;
+tunables named ``<part>.<constant>`` (compensator time constants) are thinned on the grids
+(see GRID_BUDGET) so that plants with many tunables stay fast. A new metric enrols
 with no change here unless its Options need a value without a default that is not in
 OPTION_SAMPLES (again a test says so).
 """
@@ -24,21 +26,61 @@ from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
 
 #: physical parameters per plant; software_servo: Koren 1979 design example (τ = 20 ms,
-#: BLU = 5 µm, V_m = 40 mm/s)
+#: BLU = 5 µm, V_m = 40 mm/s); hydraulic_rotary: Bhatia 1971 Ch. IV in SI units, as in
+#: examples/bhatia-1971-hydraulic.json (K_s = 10 in/V, K_q/D_m = 1 rad/(s·in), ω_n = 75
+#: rad/s and ξ = 0.5 as he takes them for design, β_e, V_t, J_t, K_ce for the load path)
 PLANT_EXAMPLES: dict[str, dict] = {
     "software_servo": {"time_constant": 0.02, "blu": 5e-6, "max_velocity": 0.04},
+    # ward_leonard: Palm, System Dynamics 3rd ed., Problem 11.35 (generator-fed DC motor)
+    "ward_leonard": {"generator_gain": 50.0, "generator_field_resistance": 2.0,
+                     "generator_field_inductance": 0.2, "armature_resistance": 1.0,
+                     "armature_inductance": 0.2, "torque_constant": 0.5,
+                     "back_emf_constant": 0.5, "inertia": 10.0, "viscous_damping": 20.0},
+    "hydraulic_rotary": {
+        "torque_motor_gain": 0.254, "torque_motor_time_constant": 0.01,
+        "flow_gain": 5.44225e-6, "displacement": 1.38233e-7,
+        "hydraulic_natural_frequency": 75.0, "hydraulic_damping": 0.5,
+        "bulk_modulus": 689475729.0, "total_volume": 4.91612e-6, "inertia": 0.0135582,
+        "leakage_coefficient": 5.0123e-14,
+    },
 }
 
-#: configurations beyond one per Literal value (integer options that change the loop's shape)
+#: configurations beyond one per Literal value (options that change the loop's shape)
 EXTRA_VARIANTS: dict[str, list[dict]] = {
     "software_servo": [{"technique": "sampled_data", "computation_delay": 1},
                        {"technique": "sampled_data", "computation_delay": 2}],
+    "hydraulic_rotary": [
+        # Bhatia's design: a lag-lead in both loops (8 tunables, order 8)
+        {"velocity_compensator": "lag_lead", "position_compensator": "lag_lead"},
+        # the velocity loop need not be stable on its own: no inner-loop conditions
+        {"velocity_compensator": "lag_lead", "stable_velocity_loop": False},
+        # the torque motor's armature mode (App. A3: ω_o = 775 rad/s): two more poles
+        {"torque_motor_natural_frequency": 775.0},
+        # ω_n and ξ computed from β_e, V_t, J_t, K_ce (App. A2) instead of given
+        {"hydraulic_natural_frequency": None, "hydraulic_damping": None},
+    ],
 }
 
 #: values for metric options that have no default (the circle of the circular metrics)
 OPTION_SAMPLES: dict[str, object] = {"radius": 0.01, "feed": 0.02}
 
 GRID_POINTS = 7  # per tunable, geometric, across the default bounds
+
+#: Tunables that shape a loop rather than set its gain: the constants of a part of the
+#: plant, named ``<part>.<constant>`` (compensator time constants). A product grid of 7
+#: points over Bhatia's 8 tunables (two gains, two lag-leads) would hold 7⁸ ≈ 5.8 million
+#: loops, so these get SECONDARY_POINTS points where the whole grid stays within
+#: GRID_BUDGET, and otherwise one: the geometric middle of their default box (e.g. τ1 = τ2
+#: = 31.6 ms, τ12 = 0.1 s). The gains always get GRID_POINTS. Compensator shapes the
+#: grid misses are covered by RANDOM_POINTS seeded log-uniform points over the whole box
+#: in the stability contract (:func:`stability_sample`).
+def is_secondary(name: str) -> bool:
+    return "." in name
+
+
+SECONDARY_POINTS = 3
+GRID_BUDGET = 500
+RANDOM_POINTS = 200
 
 
 def literal_fields(model) -> dict[str, tuple]:
@@ -59,7 +101,7 @@ class PlantConfig:
     @property
     def plant(self):
         cls = PLANTS[self.key]
-        return cls(cls.Params(type=self.key, **PLANT_EXAMPLES[self.key], **dict(self.overrides)))
+        return cls(cls.Params(type=self.key, **{**PLANT_EXAMPLES[self.key], **dict(self.overrides)}))
 
     @property
     def tunables(self):
@@ -70,11 +112,28 @@ class PlantConfig:
         return {name: (t.min, t.max) for name, t in self.tunables.items()}
 
 
+def _builds(key: str, overrides: dict) -> bool:
+    """Whether the example parameters with ``overrides`` make a valid Params (a Literal
+    field without a default, such as ``technique``, must be given)."""
+    cls = PLANTS[key]
+    try:
+        cls.Params(type=key, **{**PLANT_EXAMPLES[key], **overrides})
+    except ValueError:
+        return False
+    return True
+
+
 def plant_configs() -> list[PlantConfig]:
+    """One configuration per Literal value, plus EXTRA_VARIANTS, plus the defaults.
+
+    Overrides that restate a field's default are dropped, so ``velocity_compensator=none``
+    and the defaults are one configuration, not two.
+    """
     configs = []
     for key, cls in PLANTS.items():
         if key not in PLANT_EXAMPLES:
             continue  # test_every_plant_has_example_parameters reports it
+        fields = cls.Params.model_fields
         variants = [{}]
         for field, values in literal_fields(cls.Params).items():
             if field != "type":
@@ -82,11 +141,14 @@ def plant_configs() -> list[PlantConfig]:
         variants += EXTRA_VARIANTS.get(key, [])
         seen = set()
         for overrides in variants:
+            overrides = {k: v for k, v in overrides.items()
+                         if fields[k].is_required() or v != fields[k].default
+                         or k in PLANT_EXAMPLES[key]}
             frozen = tuple(sorted(overrides.items()))
-            if frozen in seen or not overrides:
+            if frozen in seen or not _builds(key, overrides):
                 continue
             seen.add(frozen)
-            label = ",".join(f"{k}={v}" for k, v in frozen)
+            label = ",".join(f"{k}={v}" for k, v in frozen) or "defaults"
             configs.append(PlantConfig(f"{key}[{label}]", key, frozen))
     return configs
 
@@ -95,10 +157,41 @@ CONFIGS = plant_configs()
 CONFIG_IDS = [c.id for c in CONFIGS]
 
 
-def grid(config: PlantConfig) -> list[dict[str, float]]:
+def _axis(t, points: int) -> np.ndarray:
+    """``points`` geometric points across a tunable's default bounds; one: the middle."""
+    if points == 1:
+        return np.array([math.sqrt(t.min * t.max)])
+    return np.geomspace(t.min, t.max, points)
+
+
+@lru_cache(maxsize=None)
+def _grid(config: PlantConfig) -> tuple:
     tunables = config.tunables
-    axes = [np.geomspace(t.min, t.max, GRID_POINTS) for t in tunables.values()]
-    return [dict(zip(tunables, map(float, point))) for point in itertools.product(*axes)]
+    n_secondary = sum(1 for name in tunables if is_secondary(name))
+    n_primary = len(tunables) - n_secondary
+    points = (SECONDARY_POINTS
+              if GRID_POINTS**n_primary * SECONDARY_POINTS**n_secondary <= GRID_BUDGET else 1)
+    axes = [_axis(t, points if is_secondary(name) else GRID_POINTS) for name, t in tunables.items()]
+    return tuple(dict(zip(tunables, map(float, point))) for point in itertools.product(*axes))
+
+
+def grid(config: PlantConfig) -> list[dict[str, float]]:
+    """Geometric grid over the default box (secondary tunables thinned, see above)."""
+    return [dict(point) for point in _grid(config)]
+
+
+def stability_sample(config: PlantConfig) -> list[dict[str, float]]:
+    """:func:`grid`, plus RANDOM_POINTS seeded log-uniform points over the whole default box
+    when the grid thinned some tunables (so compensator shapes off the grid are tested)."""
+    points = grid(config)
+    tunables = config.tunables
+    if any(is_secondary(name) for name in tunables):
+        rng = np.random.default_rng(sum(map(ord, config.id)))
+        low = np.log([t.min for t in tunables.values()])
+        high = np.log([t.max for t in tunables.values()])
+        for u in rng.random((RANDOM_POINTS, len(tunables))):
+            points.append(dict(zip(tunables, map(float, np.exp(low + u * (high - low))))))
+    return points
 
 
 def as_array(x) -> np.ndarray:
@@ -107,10 +200,17 @@ def as_array(x) -> np.ndarray:
     return np.array(ca.evalf(ca.MX(x)), dtype=float)
 
 
+def exact_expr(value):
+    """The expression a metric's value reports: a Magnitude's signed expression, the refined
+    ``exact`` of a value the tuner reformulates (a supremum or crossing over ω), or the
+    value itself."""
+    if isinstance(value, Magnitude):
+        return value.expr
+    return getattr(value, "exact", value)
+
+
 def as_float(x) -> float:
-    if isinstance(x, Magnitude):
-        x = x.expr
-    return float(as_array(x).ravel()[0])
+    return float(as_array(exact_expr(x)).ravel()[0])
 
 
 def numpy_stable(matrix: np.ndarray, discrete: bool) -> tuple[bool, float]:
@@ -121,6 +221,16 @@ def numpy_stable(matrix: np.ndarray, discrete: bool) -> tuple[bool, float]:
         return radius < 1, abs(radius - 1)
     abscissa = float(np.max(poles.real))
     return abscissa < 0, abs(abscissa) / max(1.0, float(np.max(np.abs(poles))))
+
+
+def numpy_loop_stable(loop) -> tuple[bool, float]:
+    """Every matrix of ``loop.stability_matrices()`` (closed loop, and an inner loop that
+    must be stable on its own) stable by numpy eigenvalues; the smallest distance to the
+    boundary among the matrices that decide the answer."""
+    results = [numpy_stable(as_array(m), loop.discrete) for m in loop.stability_matrices().values()]
+    stable = all(s for s, _ in results)
+    deciding = [d for s, d in results if s == stable]  # unstable: only the unstable ones
+    return stable, min(deciding)
 
 
 @lru_cache(maxsize=None)
@@ -135,7 +245,7 @@ def nominal(config: PlantConfig) -> dict[str, float]:
     best = None
     for point in grid(config):
         loop = config.plant.loop(point, config.default_box)
-        stable, _ = numpy_stable(as_array(loop.state_matrix), loop.discrete)
+        stable, _ = numpy_loop_stable(loop)
         if stable:
             distance = float(np.linalg.norm(np.log(list(point.values())) - middle))
             if best is None or distance < best[0]:
@@ -196,3 +306,12 @@ def metric_cases() -> list[tuple[PlantConfig, str, object]]:
                 if cls().supports(loop, options):
                     cases.append((config, name, options))
     return cases
+
+
+@lru_cache(maxsize=None)
+def numeric_metric(config: PlantConfig, name: str, options):
+    """(metric value, loop) on the loop of numbers at the nominal point, in its factor-2
+    box: evaluated once for every test that needs it."""
+    point = nominal(config)
+    loop = config.plant.loop(point, narrow_box(config, point))
+    return METRICS[name]().evaluate(loop, options), loop

@@ -13,9 +13,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from contract_cases import (CONFIGS, OPTION_SAMPLES, as_float, log_point, metric_cases,
-                            narrow_box, nominal, option_variants, symbolic_loop)
-from feedtune.expr import Magnitude
+from contract_cases import (CONFIGS, OPTION_SAMPLES, as_float, exact_expr, log_point, metric_cases,
+                            narrow_box, nominal, numeric_metric, option_variants, symbolic_loop)
+from feedtune.expr import Crossing, Supremum
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
@@ -26,7 +26,7 @@ CASE_IDS = [f"{name}-{config.id}-{options.model_dump()}" for config, name, optio
 
 
 def _expr(value):
-    return value.expr if isinstance(value, Magnitude) else value
+    return exact_expr(value)
 
 
 # -- declarations ------------------------------------------------------------------------------
@@ -81,10 +81,19 @@ def test_metric_is_finite_with_finite_gradient(config, name, options):
     point = nominal(config)
     box = narrow_box(config, point)
 
-    numeric = as_float(metric.evaluate(config.plant.loop(point, box), options))
+    numeric_value, numeric_loop = numeric_metric(config, name, options)
+    numeric = as_float(numeric_value)
     assert math.isfinite(numeric)
 
     z, loop = symbolic_loop(config, box)
+    optimisable = metric.optimisable(loop, options)
+    assert isinstance(optimisable, bool) and metric.optimisable(numeric_loop, options) == optimisable
+    if not optimisable:
+        # reported only (evaluated numerically on the tuned design): a loop of symbols is
+        # refused, never turned into a wrong expression the NLP would trust
+        with pytest.raises(TypeError):
+            metric.evaluate(loop, options)
+        return
     value = metric.evaluate(loop, options)
     expr = ca.MX(_expr(value))
     f = ca.Function("metric", [z], [expr, ca.jacobian(expr, z)])
@@ -96,6 +105,60 @@ def test_metric_is_finite_with_finite_gradient(config, name, options):
     # + closed-form tail (symbolic) vs until settled (numeric). 1e-6 because min_radius
     # magnifies rounding in |H| by 2r/BLU ≈ 1e6 at these points (see tests/unit/test_metrics.py)
     assert symbolic == pytest.approx(numeric, rel=1e-6, abs=1e-14)
+
+
+def _reformulated(config, name, options) -> bool:
+    """The metric's value is one the tuner reformulates (a supremum or crossing over ω)."""
+    value, loop = numeric_metric(config, name, options)
+    return METRICS[name]().optimisable(loop, options) and isinstance(value, (Supremum, Crossing))
+
+
+REFORMULATED = [case for case in CASES if _reformulated(*case)]
+
+
+@pytest.mark.parametrize("config, name, options", REFORMULATED,
+                         ids=[f"{n}-{c.id}-{o.model_dump()}" for c, n, o in REFORMULATED])
+def test_reformulated_metric_is_consistent_with_its_exact_value(config, name, options):
+    """What the tuner constrains instead of the exact value (a peak: fn(ω_k) ≤ t on the grid;
+    a crossing: condition(b) = 0 and condition(b·x) ≥ 0 below it) holds at the exact value,
+    is finite and has finite gradients. A supremum is at least every grid value; a crossing
+    is the lowest: the condition is non-negative on the relative grid below it and at its
+    refined minimum there.
+    """
+    point = nominal(config)
+    box = narrow_box(config, point)
+    z, loop = symbolic_loop(config, box)
+    value = METRICS[name]().evaluate(loop, options)
+    omega = ca.MX.sym("omega")
+    if isinstance(value, Supremum):
+        fn = ca.Function("fn", [omega, z], [value.fn(omega)])
+        pieces = fn.map(len(value.grid))(ca.DM(value.grid).T, z).T
+        exact = value.exact
+    else:
+        b = value.exact
+        fn = ca.Function("condition", [omega, z], [value.condition(omega)])
+        below = fn.map(len(value.relative_grid))(b * ca.DM(value.relative_grid).T, z).T
+        pieces = ca.vertcat(value.condition(b), below, value.lowest_minimum(b))
+        exact = b
+    # finite gradients of every piece: one directional derivative with positive weights
+    # (a NaN or ±inf in any row shows; the full Jacobian costs seconds per case)
+    weights = ca.DM(np.random.default_rng(0).uniform(0.5, 1.0, pieces.shape[0]))
+    f = ca.Function("pieces", [z], [exact, pieces, ca.gradient(ca.dot(weights, pieces), z)])
+    exact, pieces, gradient = (np.array(v, dtype=float) for v in f(log_point(config, point)))
+    exact = float(exact.ravel()[0])
+    pieces = pieces.ravel()
+    assert math.isfinite(exact) and np.all(np.isfinite(pieces)) and np.all(np.isfinite(gradient))
+    if isinstance(value, Supremum):
+        assert value.grid.ndim == 1 and len(value.grid) > 1 and np.all(np.diff(value.grid) > 0)
+        assert pieces.max() <= exact * (1 + 1e-12)
+    else:
+        lo, hi = value.band
+        assert lo < exact < hi, "no crossing in the band at the nominal point"
+        assert np.all((value.relative_grid > 0) & (value.relative_grid < 1))
+        # condition(b) = 0 to the rounding of the solved crossing; ≥ 0 below it
+        scale = max(1.0, float(np.abs(pieces).max()))
+        assert abs(pieces[0]) <= 1e-9 * scale
+        assert pieces[1:].min() >= -1e-9 * scale
 
 
 @pytest.mark.parametrize("config, name, options", CASES, ids=CASE_IDS)

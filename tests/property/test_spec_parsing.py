@@ -5,6 +5,7 @@ spelled-out defaults."""
 from __future__ import annotations
 
 import copy
+import itertools
 import json
 import typing
 from pathlib import Path
@@ -45,6 +46,21 @@ def paths(node: Any, prefix: tuple = ()) -> list[tuple]:
 
 
 EXAMPLE_PATHS = paths(EXAMPLE)
+
+
+def _example_per_plant() -> dict[str, dict]:
+    """One bundled example spec per plant type that has one (first by file name): the
+    one-field mutations below run on every plant's spec, not only Koren's."""
+    found: dict[str, dict] = {}
+    for path in sorted((REPO / "examples").glob("*.json")):
+        doc = json.loads(path.read_bytes())
+        found.setdefault(doc["plant"]["type"], doc)
+    return found
+
+
+PLANT_EXAMPLES = _example_per_plant()
+#: (plant type, path) for every path of every plant's example
+MUTATION_SITES = [(plant, path) for plant, doc in PLANT_EXAMPLES.items() for path in paths(doc)]
 
 
 def replaced(doc: Any, path: tuple, value: Any) -> Any:
@@ -113,11 +129,17 @@ def _field_names() -> set[str]:
     names = set(Spec.model_fields) | set(SolverSpec.model_fields) | set(TunableSpec.model_fields)
     for plant_type, plant in PLANTS.items():
         names |= set(plant.Params.model_fields)
-        techniques = typing.get_args(plant.Params.model_fields["technique"].annotation)
-        names |= set(techniques)
-        for technique in techniques:  # tunables depend on the technique only
-            names |= set(plant(plant.Params.model_construct(type=plant_type,
-                                                            technique=technique)).tunables())
+        choices = {name: typing.get_args(info.annotation)
+                   for name, info in plant.Params.model_fields.items()
+                   if name != "type" and typing.get_origin(info.annotation) is typing.Literal}
+        for values in choices.values():
+            names |= set(values)
+        # tunables depend on the structure-selecting Literal fields (technique, compensator
+        # kinds) only: every combination of them, other fields left unvalidated
+        for combination in itertools.product(*choices.values()):
+            params = plant.Params.model_construct(type=plant_type,
+                                                  **dict(zip(choices, combination)))
+            names |= set(plant(params).tunables())
     for metric in METRICS.values():
         names |= set(metric.Options.model_fields)
     names |= {"metric", "weight", "min", "max", "value"}
@@ -156,18 +178,32 @@ def _outcome(data):
         return exc
 
 
+_SERVO, _HYDRAULIC = "software_servo", "hydraulic_rotary"
+
+
 @SETTINGS
-@given(path=st.sampled_from(EXAMPLE_PATHS), value=json_values, delete=st.booleans())
-@example(path=("plant", "time_constant"), value=-1, delete=False)
-@example(path=("tunables",), value={"velocity_gain": {}}, delete=False)
-@example(path=("objective", 0), value={"metric": "radial_error"}, delete=False)
-@example(path=("objective", 0, "metric"), value="no_such_metric", delete=False)
-@example(path=("plant", "type"), value="no_such_plant", delete=False)
-@example(path=("plant", "technique"), value="reference_pulse", delete=False)
-@example(path=("plant", "blu"), value=None, delete=True)
-@example(path=("solver",), value={"multistart": 1, "tol": 1e-9}, delete=False)
-def test_one_field_changed_gives_a_spec_or_errors_naming_the_input(path, value, delete):
-    doc = deleted(EXAMPLE, path) if delete else replaced(EXAMPLE, path, value)
+@given(site=st.sampled_from(MUTATION_SITES), value=json_values, delete=st.booleans())
+@example(site=(_SERVO, ("plant", "time_constant")), value=-1, delete=False)
+@example(site=(_SERVO, ("tunables",)), value={"velocity_gain": {}}, delete=False)
+@example(site=(_SERVO, ("objective", 0)), value={"metric": "radial_error"}, delete=False)
+@example(site=(_SERVO, ("objective", 0, "metric")), value="no_such_metric", delete=False)
+@example(site=(_SERVO, ("plant", "type")), value="no_such_plant", delete=False)
+@example(site=(_SERVO, ("plant", "technique")), value="reference_pulse", delete=False)
+@example(site=(_SERVO, ("plant", "blu")), value=None, delete=True)
+@example(site=(_SERVO, ("solver",)), value={"multistart": 1, "tol": 1e-9}, delete=False)
+@example(site=(_SERVO, ("plant", "type")), value=_HYDRAULIC, delete=False)
+@example(site=(_HYDRAULIC, ("plant", "type")), value=_SERVO, delete=False)
+@example(site=(_HYDRAULIC, ("plant", "hydraulic_damping")), value=None, delete=True)
+@example(site=(_HYDRAULIC, ("plant", "velocity_compensator")), value="lead", delete=False)
+@example(site=(_HYDRAULIC, ("plant", "position_compensator")), value="none", delete=False)
+@example(site=(_HYDRAULIC, ("tunables", "velocity_compensator.tau1", "initial")), value=-1,
+         delete=False)
+@example(site=(_HYDRAULIC, ("objective", 0, "goal")), value="maximise", delete=False)
+@example(site=(_HYDRAULIC, ("objective", 0, "goal")), value=None, delete=True)
+def test_one_field_changed_gives_a_spec_or_errors_naming_the_input(site, value, delete):
+    plant, path = site
+    base = PLANT_EXAMPLES[plant]
+    doc = deleted(base, path) if delete else replaced(base, path, value)
     outcome = _outcome(doc)  # anything but Spec or SpecError propagates and fails
     if isinstance(outcome, SpecError):
         for pointer, _ in outcome.errors:
@@ -186,6 +222,14 @@ def test_every_example_path_is_sampled():
     assert ("plant", "time_constant") in EXAMPLE_PATHS
     assert ("objective", 0, "radius") in EXAMPLE_PATHS
     assert ("tunables", "sampling_period", "value") in EXAMPLE_PATHS
+    assert (_SERVO, ("plant", "time_constant")) in MUTATION_SITES
+    assert (_HYDRAULIC, ("tunables", "velocity_compensator.tau12", "initial")) in MUTATION_SITES
+    assert (_HYDRAULIC, ("objective", 0, "goal")) in MUTATION_SITES
+
+
+def test_every_plant_with_a_bundled_example_is_mutated():
+    """A plant's example enrols it in the mutation test; the bundled examples cover these."""
+    assert {_SERVO, _HYDRAULIC} <= set(PLANT_EXAMPLES) <= set(PLANTS)
 
 
 # -- (b) canonical hash ------------------------------------------------------------------

@@ -1,0 +1,59 @@
+"""Settling time of the position error after a unit step or ramp (Bhatia 1971 Ch. IV B)."""
+
+from pydantic import Field
+
+from feedtune.model import SpecModel
+from feedtune.objectives.base import Metric
+from feedtune.objectives.step_error import (InputKind, as_number, has_numeric_response,
+                                             numeric_response)
+
+
+class SettlingTimeOptions(SpecModel):
+    """Band and input of the settling time."""
+
+    band: float = Field(
+        0.02, gt=0, lt=1,
+        description="Half-width of the settling band [1]: a fraction of the step size (1 m "
+                    "or 1 rad) for input step, of the steady following error e_ss = 1/C_v "
+                    "for input ramp")
+    input: InputKind = Field(
+        "step", description="step: error after a unit position step (1 m or 1 rad); ramp: "
+                            "after a unit ramp (1 m/s or 1 rad/s), settling towards the steady "
+                            "following error e_ss = 1/C_v")
+
+
+class SettlingTime(Metric):
+    """T_s [s]: the time after which |e(t) − e_ss| stays within the band for ever.
+
+    After a unit step the band is ``band`` × 1 (m or rad) around e_ss = 0; after a unit
+    ramp it is ``band`` × e_ss around the steady following error e_ss = 1/C_v (a band on
+    the ramp's size would be wider than the whole error of a stiff loop). 0 when the error
+    never leaves the band. Evaluated exactly (:mod:`feedtune.timeresponse`: the last
+    crossing of the band edge, refined by Brent's method) on loops given by polynomials;
+    reported only, never optimised. +∞ for an unstable loop.
+
+    References
+    ----------
+    S. Bhatia, "Feed drive design for NC machine tools", 1971, Ch. IV B (settling time
+    T_S) and Ch. IV F, Figs 35, 36 (transients die out in ≈0.35 s at K'_p = 80).
+    """
+
+    name = "settling_time"
+    unit = "s"
+    description = ("Time after which the position error stays within a band around its "
+                   "steady value after a unit step or ramp")
+    reference = "Bhatia 1971 Ch. IV B"
+    Options = SettlingTimeOptions
+
+    def supports(self, loop, options=None):
+        return has_numeric_response(loop)
+
+    def optimisable(self, loop, options=None):
+        return False
+
+    def evaluate(self, loop, options):
+        response = numeric_response(loop, self.name, options.input)
+        if response is None:
+            return as_number(None)
+        size = 1.0 if options.input == "step" else abs(response.steady)
+        return as_number(response.transient.last_exit(options.band * size))
