@@ -73,9 +73,8 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
     ``fn`` must be above ``level`` at the low end of the band. The lowest grid interval
     where it falls below is bisected to 2⁻³² of its width and finished by Newton steps,
     whose last step carries the implicit-function derivative dω/dp = −(∂f/∂p)/(∂f/∂ω).
-    Everything is plain CasADi arithmetic, so the NLP can expand it to SX.
-    Returns (ω, found): ``found`` is 1 when a crossing exists on the grid, else 0 (and ω
-    is the top of the band).
+    Everything is plain CasADi arithmetic, so the NLP can expand it to SX. Without a
+    crossing on the grid, ω is the top of the band.
     """
     (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     grid = np.log(log_grid(band))
@@ -96,11 +95,11 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
     for _ in range(2):
         step = f(u, *free) / slope(u, *free)
         u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
-    return ca.exp(ca.if_else(found, u, grid[-1])), found
+    return ca.exp(ca.if_else(found, u, grid[-1]))
 
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
-    """(max of ``fn`` over ω ≥ 0, ω at the maximum [rad/s]).
+    """Max of ``fn`` over ω ≥ 0.
 
     The largest grid value is refined by golden-section search between its neighbours and
     Newton steps on d fn/d ln ω = 0, so the peak between grid points is found and its
@@ -118,7 +117,7 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     u = _refine_max(f, slope, curvature, free, u, h, grid[0], grid[-1])
     best = ca.fmax(f(u, *free), top)  # never less than the grid saw
     at_zero = fn(0.0)
-    return ca.if_else(interior, best, ca.fmax(at_zero, top)), ca.if_else(interior, ca.exp(u), 0)
+    return ca.if_else(interior, best, ca.fmax(at_zero, top))
 
 
 def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):

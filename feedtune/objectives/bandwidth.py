@@ -25,7 +25,7 @@ class Bandwidth(Metric):
     def evaluate(self, loop, options):
         gain = normalised_gain_squared(loop)
         band = loop.frequency_band
-        omega, _ = first_crossing(gain, band, 0.5, "bandwidth")
+        omega = first_crossing(gain, band, 0.5, "bandwidth")
         count = len(log_grid(band))
 
         def condition(w):

@@ -17,6 +17,6 @@ class CrossoverFrequency(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop, options):
-        omega, _ = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
+        omega = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
                                   "gain_crossover")
         return omega

@@ -19,7 +19,7 @@ class GainMargin(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop, options):
-        omega, _ = first_crossing(phase_crossover_indicator(loop), loop.frequency_band, 0.0,
+        omega = first_crossing(phase_crossover_indicator(loop), loop.frequency_band, 0.0,
                                   "phase_crossover")
         re, im = loop.open_loop_response(omega)
         return 1 / ca.sqrt(re**2 + im**2)

@@ -1,12 +1,9 @@
 """Integral of absolute error after a position step or ramp (Koren eq 20; Bhatia Ch. IV B)."""
 
-from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import (StepErrorOptions, has_exact_step,
-                                             numeric_error_integral, optimisable_step_error,
-                                             step_error_unit, supports_step_error, time_weight)
+from feedtune.objectives.step_error import StepErrorMetric
 
 
-class Iae(Metric):
+class Iae(StepErrorMetric):
     """IAE = ∫|e(t)|dt [m·s] after a unit (1 m or 1 rad) position step.
 
     Koren's loops: exact between samples and smooth in the tunables (Koren eq 20). Loops
@@ -26,18 +23,5 @@ class Iae(Metric):
     description = ("Integral of |position error| after a unit position step, or of "
                    "|e − e_ss| after a unit ramp")
     reference = "Koren 1979 eq 20; Bhatia 1971 Ch. IV B"
-    Options = StepErrorOptions
-
-    def unit_of(self, options):
-        return step_error_unit(options, "m·s", "m·rad")
-
-    def supports(self, loop, options=StepErrorOptions()):
-        return supports_step_error(loop, options)
-
-    def optimisable(self, loop, options=StepErrorOptions()):
-        return optimisable_step_error(loop, options)
-
-    def evaluate(self, loop, options):
-        if not has_exact_step(loop, options):
-            return numeric_error_integral(loop, options, self.name, "iae")
-        return time_weight(loop, options, 1) * loop.step_error_integrals.iae
+    time_power = 1
+    units = ('m·s', 'm·rad')

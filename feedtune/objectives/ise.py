@@ -1,12 +1,9 @@
 """Integral of squared error after a position step or ramp (Bhatia Ch. IV B)."""
 
-from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import (StepErrorOptions, has_exact_step,
-                                             numeric_error_integral, optimisable_step_error,
-                                             step_error_unit, supports_step_error, time_weight)
+from feedtune.objectives.step_error import StepErrorMetric
 
 
-class Ise(Metric):
+class Ise(StepErrorMetric):
     """ISE = ∫e(t)²dt [m²·s] after a unit (1 m or 1 rad) position step.
 
     Koren's loops: exact between samples and smooth in the tunables. Loops given by
@@ -24,18 +21,5 @@ class Ise(Metric):
     description = ("Integral of squared position error after a unit position step, or of "
                    "(e − e_ss)² after a unit ramp")
     reference = "Bhatia 1971 Ch. IV B"
-    Options = StepErrorOptions
-
-    def unit_of(self, options):
-        return step_error_unit(options, "m²·s", "m²·rad")
-
-    def supports(self, loop, options=StepErrorOptions()):
-        return supports_step_error(loop, options)
-
-    def optimisable(self, loop, options=StepErrorOptions()):
-        return optimisable_step_error(loop, options)
-
-    def evaluate(self, loop, options):
-        if not has_exact_step(loop, options):
-            return numeric_error_integral(loop, options, self.name, "ise")
-        return time_weight(loop, options, 1) * loop.step_error_integrals.ise
+    time_power = 1
+    units = ('m²·s', 'm²·rad')

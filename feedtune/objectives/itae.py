@@ -1,12 +1,9 @@
 """Integral of time-weighted absolute error after a position step or ramp (Bhatia Ch. IV B)."""
 
-from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import (StepErrorOptions, has_exact_step,
-                                             numeric_error_integral, optimisable_step_error,
-                                             step_error_unit, supports_step_error, time_weight)
+from feedtune.objectives.step_error import StepErrorMetric
 
 
-class Itae(Metric):
+class Itae(StepErrorMetric):
     """ITAE = ∫t|e(t)|dt [m·s²] after a unit (1 m or 1 rad) position step.
 
     Koren's loops: exact between samples and smooth in the tunables. Loops given by
@@ -24,18 +21,5 @@ class Itae(Metric):
     description = ("Integral of t·|position error| after a unit position step, or of "
                    "t·|e − e_ss| after a unit ramp")
     reference = "Bhatia 1971 Ch. IV B"
-    Options = StepErrorOptions
-
-    def unit_of(self, options):
-        return step_error_unit(options, "m·s²", "m·rad²")
-
-    def supports(self, loop, options=StepErrorOptions()):
-        return supports_step_error(loop, options)
-
-    def optimisable(self, loop, options=StepErrorOptions()):
-        return optimisable_step_error(loop, options)
-
-    def evaluate(self, loop, options):
-        if not has_exact_step(loop, options):
-            return numeric_error_integral(loop, options, self.name, "itae")
-        return time_weight(loop, options, 2) * loop.step_error_integrals.itae
+    time_power = 2
+    units = ('m·s²', 'm·rad²')

@@ -21,6 +21,6 @@ class MPeak(Metric):
 
     def evaluate(self, loop, options):
         gain = normalised_gain_squared(loop)
-        value, _ = peak(gain, loop.frequency_band, "m_peak")
+        value = peak(gain, loop.frequency_band, "m_peak")
         return Supremum(lambda omega: ca.sqrt(gain(omega)), log_grid(loop.frequency_band),
                         ca.sqrt(value))

@@ -21,7 +21,7 @@ class PhaseMargin(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop, options):
-        omega, _ = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
+        omega = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
                                   "gain_crossover")
         re, im = loop.open_loop_response(omega)
         return ca.atan2(-im, -re) * (180 / math.pi)

@@ -22,6 +22,7 @@ from pydantic import Field
 from feedtune import timeresponse
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
+from feedtune.objectives.base import Metric
 
 InputKind = Literal["step", "ramp"]
 
@@ -142,3 +143,29 @@ def numeric_error_integral(loop, options: StepErrorOptions, metric_name: str, wh
     if response is None:
         return as_number(None)
     return as_number(getattr(response.transient, which))
+
+
+class StepErrorMetric(Metric):
+    """Base of IAE, ISE and ITAE: the integral named by ``name`` of the error response.
+
+    Subclasses set ``time_power`` (the power of ω_n that natural time brings) and
+    ``units`` (absolute, natural).
+    """
+
+    Options = StepErrorOptions
+    time_power: int
+    units: tuple[str, str]
+
+    def unit_of(self, options):
+        return step_error_unit(options, *self.units)
+
+    def supports(self, loop, options=StepErrorOptions()):
+        return supports_step_error(loop, options)
+
+    def optimisable(self, loop, options=StepErrorOptions()):
+        return optimisable_step_error(loop, options)
+
+    def evaluate(self, loop, options):
+        if not has_exact_step(loop, options):
+            return numeric_error_integral(loop, options, self.name, self.name)
+        return time_weight(loop, options, self.time_power) * getattr(loop.step_error_integrals, self.name)

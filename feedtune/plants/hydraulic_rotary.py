@@ -30,11 +30,11 @@ from typing import Literal, Mapping
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from feedtune import linalg
-from feedtune.loop import Drive, TransferLoop
+from feedtune.loop import TransferLoop
 from feedtune.model import SpecModel
 from feedtune.plants.base import Tunable
-from feedtune.plants.compensator import (CompensatorKind, compensator_polynomials,
-                                         compensator_tunables)
+from feedtune.plants.cascade import cascade_loop, compensator_corners
+from feedtune.plants.compensator import CompensatorKind, compensator_tunables
 
 
 class HydraulicRotaryParams(SpecModel):
@@ -156,29 +156,13 @@ class HydraulicRotary:
              horizon_scale: float = 1.0) -> TransferLoop:
         """The closed loop at ``values`` (expressions or numbers per tunable name)."""
         p = self.params
-        kp, kv = values["position_gain"], values["velocity_gain"]
         n_g, d_t, d_h = self.velocity_per_volt()
-        d_g = linalg.poly_mul(d_t, d_h)
-        n_cv, d_cv = compensator_polynomials("velocity_compensator", p.velocity_compensator, values)
-        n_cp, d_cp = compensator_polynomials("position_compensator", p.position_compensator, values)
-        forward = linalg.poly_scale(linalg.poly_mul(n_cv, n_g), kv)  # K'_v Gc_v G, numerator
-        inner = linalg.poly_add(linalg.poly_mul(d_cv, d_g), forward)
-        open_numerator = linalg.poly_scale(linalg.poly_mul(n_cp, forward), kp)
-        open_denominator = linalg.poly_mul(linalg.poly_mul(d_cp, inner), [1, 0])
         load = None
-        if p.has_load_path():
-            # θ/T_L = −n_l d_t d_cv d_cp / char, with θ̇ per T_L = −n_l / d_h
+        if p.has_load_path():  # θ̇ per T_L = −n_l/d_h (App. A2, Merritt)
             kce, dm = p.leakage_coefficient, p.displacement
-            n_l = [kce / dm**2 * p.total_volume / (4 * p.bulk_modulus * kce), kce / dm**2]
-            load = linalg.poly_scale(linalg.poly_mul(linalg.poly_mul(n_l, d_t),
-                                                     linalg.poly_mul(d_cv, d_cp)), -1)
-        return TransferLoop(
-            open_numerator=open_numerator, open_denominator=open_denominator,
-            load_numerator=load,
-            inner_characteristic=inner if p.stable_velocity_loop else None,
-            loop_gain_product=kp * kv * n_g[0],
-            frequency_band=self.frequency_band(box),
-            drive=Drive())
+            load = [kce / dm**2 * p.total_volume / (4 * p.bulk_modulus * kce), kce / dm**2]
+        return cascade_loop(n_g, d_t, d_h, load, values, p.velocity_compensator,
+                            p.position_compensator, p.stable_velocity_loop, self.frequency_band(box))
 
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         """(low, high) [rad/s]: two decades around every corner the loop can have."""
@@ -186,9 +170,7 @@ class HydraulicRotary:
         corners = [1 / p.torque_motor_time_constant, p.natural_frequency()]
         if p.torque_motor_natural_frequency is not None:
             corners.append(p.torque_motor_natural_frequency)
-        for name, (lo, hi) in box.items():
-            if ".tau" in name:
-                corners += [1 / hi, 1 / lo]
+        corners += compensator_corners(box)
         lo_k, hi_k = box["position_gain"]
         corners += [lo_k, hi_k]
         return min(corners) / 100, max(corners) * 100

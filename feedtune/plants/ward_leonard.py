@@ -55,11 +55,11 @@ import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from feedtune import linalg
-from feedtune.loop import Drive, TransferLoop
+from feedtune.loop import TransferLoop
 from feedtune.model import SpecModel
 from feedtune.plants.base import Tunable
-from feedtune.plants.compensator import (CompensatorKind, compensator_polynomials,
-                                         compensator_tunables)
+from feedtune.plants.cascade import cascade_loop, compensator_corners
+from feedtune.plants.compensator import CompensatorKind, compensator_tunables
 
 #: largest ratio torque constant / back-emf constant (or its inverse) accepted; in SI units
 #: the two are equal for a lossless machine, so a factor beyond this is a unit slip
@@ -181,26 +181,10 @@ class WardLeonard:
              horizon_scale: float = 1.0) -> TransferLoop:
         """The closed loop at ``values`` (expressions or numbers per tunable name)."""
         p = self.params
-        kp, kv = values["position_gain"], values["velocity_gain"]
         n_g, d_f, d_m = self.velocity_per_volt()
-        d_g = linalg.poly_mul(d_f, d_m)
-        n_cv, d_cv = compensator_polynomials("velocity_compensator", p.velocity_compensator, values)
-        n_cp, d_cp = compensator_polynomials("position_compensator", p.position_compensator, values)
-        forward = linalg.poly_scale(linalg.poly_mul(n_cv, n_g), kv)  # K'_v Gc_v G, numerator
-        inner = linalg.poly_add(linalg.poly_mul(d_cv, d_g), forward)
-        open_numerator = linalg.poly_scale(linalg.poly_mul(n_cp, forward), kp)
-        open_denominator = linalg.poly_mul(linalg.poly_mul(d_cp, inner), [1, 0])
-        # θ/T_L = −n_l d_f d_cv d_cp / char, with θ̇ per T_L = −n_l / D (App. B eqs 1–2)
-        load = linalg.poly_scale(
-            linalg.poly_mul(linalg.poly_mul(p.armature_polynomial(), d_f),
-                            linalg.poly_mul(d_cv, d_cp)), -1)
-        return TransferLoop(
-            open_numerator=open_numerator, open_denominator=open_denominator,
-            load_numerator=load,
-            inner_characteristic=inner if p.stable_velocity_loop else None,
-            loop_gain_product=kp * kv * self.dc_velocity_gain(),
-            frequency_band=self.frequency_band(box),
-            drive=Drive())
+        # θ̇ per T_L = −(R_a + L_a s)/D(s) (App. B eqs 1–2)
+        return cascade_loop(n_g, d_f, d_m, p.armature_polynomial(), values, p.velocity_compensator,
+                            p.position_compensator, p.stable_velocity_loop, self.frequency_band(box))
 
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         """(low, high) [rad/s]: two decades around every corner the loop can have.
@@ -216,9 +200,7 @@ class WardLeonard:
         n_g, d_f, d_m = self.velocity_per_volt()
         corners = [1 / p.field_time_constant()]
         corners += [abs(r) for r in np.roots(d_m) if abs(r) > 0]
-        for name, (lo, hi) in box.items():
-            if ".tau" in name:
-                corners += [1 / hi, 1 / lo]
+        corners += compensator_corners(box)
         for prefix, kind in (("velocity_compensator", p.velocity_compensator),
                              ("position_compensator", p.position_compensator)):
             if kind == "lag_lead":  # fast pole (τ1 + τ2 + τ12)/(τ1τ2) of App. C's denominator

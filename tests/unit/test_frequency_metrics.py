@@ -188,8 +188,7 @@ def test_bandwidth_beyond_a_light_resonance_between_grid_points(zeta, where):
 @pytest.mark.parametrize("zeta, where", RESONANCE_CASES)
 def test_lowest_value_finds_a_narrow_dip_between_grid_points(zeta, where):
     """feedtune.frequency.lowest_value (the NLP's check that no dip below −3 dB hides under
-    a bandwidth candidate) on −|T|² of the same resonances: its minimum is −M_peak². Same
-    clamped-Newton refinement as peak(), same failure off-centre (frequency.py 103–124)."""
+    a bandwidth candidate) on −|T|² of the same resonances: its minimum is −M_peak²."""
     loop, _, _ = _resonance_between_grid_points(zeta, where)
     gain = normalised_gain_squared(loop)
     band = loop.frequency_band
