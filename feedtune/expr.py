@@ -15,29 +15,36 @@ class Magnitude(NamedTuple):
 
 
 class Supremum(NamedTuple):
-    """max over ω of ``fn(ω)``: a grid of points plus the maximum refined between them.
+    """max over ω of ``fn(ω) ≥ 0``: a grid of points plus the maximum refined between them.
 
-    ``exact`` is the refined maximum (an expression, continuous but not smooth where the
-    maximising peak changes). The tuner bounds every grid value and the refined one
-    (``fn(ω_k) ≤ t`` for all k), which is smooth point by point.
+    ``exact`` is the refined maximum and ``argmax`` the ω [rad/s] where it is taken (0 for
+    ω → 0); both are expressions, continuous but not smooth where the maximising peak
+    changes. The NLP bounds ``fn`` on the grid (smooth point by point); the tuner then
+    checks ``exact`` and adds ``argmax`` to the points while the bound is exceeded (the
+    exchange method for semi-infinite constraints).
     """
 
     fn: Callable
     grid: object  # numpy array of ω [rad/s]
     exact: object
+    argmax: object
 
 
 class Crossing(NamedTuple):
     """The lowest ω where ``condition(ω)`` falls to 0 (it is positive below).
 
     ``exact`` locates it directly (an expression that jumps where a dip touches 0). The
-    tuner instead makes ω an auxiliary variable b with condition(b) = 0 and
-    condition(b·x) ≥ 0 on a relative grid x ∈ (0, 1) plus the refined minimum there:
-    a closed, smooth feasible set on which "maximise b" is well posed.
+    tuner instead makes ω an auxiliary variable b with condition(b·x) ≥ m·(1 − x) on a
+    relative grid x ∈ (0, 1) (a small margin m keeps dips off the level), and
+    condition(b) = 0 where b must be the crossing itself (≥ 0 when b is maximised or
+    bounded from below): a closed, smooth feasible set. ``lowest_minimum(b, m)`` gives
+    (min over ω ≤ b of condition(ω) − m·(1 − ω/b), where it is taken [rad/s]), refined
+    between grid points; the tuner adds that ω to the points while the minimum is negative. ``condition`` should be bounded (e.g. (g − c)/(g + c) for a gain g ≥ 0),
+    so that it stays finite and smooth across a loop's stability boundary.
     """
 
     condition: Callable
     relative_grid: object  # numpy array of x in (0, 1)
-    lowest_minimum: Callable  # b ↦ min over ω ≤ b of condition, refined between grid points
+    lowest_minimum: Callable  # (b, m) ↦ (min over ω ≤ b of condition − m(1 − ω/b), its ω)
     band: tuple
     exact: object

@@ -2,10 +2,10 @@
 
 A grid alone is exploited by an optimiser: a light resonance slips between points and a
 bandwidth is claimed where the true −3 dB point lies lower (DESIGN.md, numerical notes).
-So every quantity here is located on a logarithmic grid first and then solved exactly
-(bisection to a bracket, then Newton through CasADi's rootfinder). The rootfinder's
-derivatives follow from the implicit function theorem, so the NLP sees the exact value of
-the true peak or crossing and its exact gradient.
+So every quantity here is located on a logarithmic grid first and then solved exactly:
+crossings by bisection to a bracket then Newton steps, peaks by golden section in every
+grid window then Newton steps. The last Newton step carries the implicit-function
+derivative, so the exact value of the true peak or crossing has its exact gradient.
 
 Functions take ``fn(omega) -> expression`` (omega in rad/s, a CasADi symbol or number);
 the expressions may depend on the NLP's symbols or be plain numbers.
@@ -23,27 +23,37 @@ _GOLDEN_STEPS = 48  # golden-section steps: the bracket of two grid steps shrink
 _NEWTON_STEPS = 2
 
 
-def _refine_max(f, slope, curvature, free, u0, h, lower, upper):
-    """Maximum of f(u) near the best grid point u0 (grid step 2h), in [lower, upper].
+def _refine_windows(f, slope, curvature, free, centres, h, lower, upper):
+    """Maxima of f(u) in every window [u_k − 2h, u_k + 2h] ∩ [lower, upper], all at once.
 
-    Golden-section search on [u0 − 2h, u0 + 2h] (the neighbouring grid points bound the
-    peak), then Newton steps on f′ = 0 kept inside the first bracket: the last one carries
-    the implicit-function derivative, so the refined maximum has exact gradients.
+    ``centres`` is a row of grid points u_k (grid step 2h), so each window spans a point's
+    two neighbours and every peak of f lies inside one of them. Golden-section search in
+    all windows together (``f`` mapped over the row), then Newton steps on f′ = 0 kept
+    inside each window: the last one carries the implicit-function derivative, so each
+    refined maximum has exact gradients. Returns the rows (values, u).
     """
+    count = centres.shape[1]
+    f_all, slope_all, curvature_all = (fn.map(count) for fn in (f, slope, curvature))
     ratio = (np.sqrt(5) - 1) / 2
-    a, b = ca.fmax(u0 - 2 * h, lower), ca.fmin(u0 + 2 * h, upper)
+    a, b = ca.fmax(centres - 2 * h, lower), ca.fmin(centres + 2 * h, upper)
     outer_a, outer_b = a, b
     for _ in range(_GOLDEN_STEPS):
         c = b - ratio * (b - a)
         d = a + ratio * (b - a)
-        left = f(c, *free) > f(d, *free)
+        left = f_all(c, *free) > f_all(d, *free)
         a, b = ca.if_else(left, a, c), ca.if_else(left, d, b)
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
-        g, c = slope(u, *free), curvature(u, *free)
+        g, c = slope_all(u, *free), curvature_all(u, *free)
         step = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), 0)
         u = ca.fmin(ca.fmax(u + step, outer_a), outer_b)  # golden section is only as
-    return u  # sharp as f's rounding (√eps in u on a flat peak): Newton finishes it
+    return f_all(u, *free), u  # sharp as f's rounding (√eps in u on a flat peak): Newton finishes it
+
+
+def _best(values, u):
+    """(largest of a row of values, the u where it is taken)."""
+    top = ca.mmax(values)
+    return top, ca.mmax(u * (values == top) + (ca.mmin(u) - 1) * (values != top))
 
 
 def log_grid(band: tuple[float, float]) -> np.ndarray:
@@ -99,45 +109,37 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
 
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
-    """Max of ``fn`` over ω ≥ 0.
+    """(max of ``fn`` over ω ≥ 0, the ω [rad/s] where it is taken; 0 for ω → 0).
 
-    The largest grid value is refined by golden-section search between its neighbours and
-    Newton steps on d fn/d ln ω = 0, so the peak between grid points is found and its
-    derivative is exact (envelope theorem). When the largest grid value is at the low end
-    of the band, the maximum is taken at ω → 0 (a response that only falls, such as a
-    well-damped loop normalised to unit DC gain).
+    Every grid window is refined (golden section and Newton steps on d fn/d ln ω = 0), and
+    the largest refined value wins: a light resonance whose grid points sit low is not
+    beaten by a broad peak that the grid happens to see well. The derivative is exact
+    (envelope theorem). Below the band the value at ω = 0 stands for the response.
     """
     (f, slope, curvature), free = _functions(name, fn, 2)
-    grid = np.log(log_grid(band))
-    h = (grid[1] - grid[0]) / 2
-    values = f.map(len(grid))(ca.DM(grid).T, *free)
-    top = ca.mmax(values)
-    u = ca.mmax(ca.DM(grid).T * (values == top) + (grid[0] - 1) * (values != top))
-    interior = u > grid[0]
-    u = _refine_max(f, slope, curvature, free, u, h, grid[0], grid[-1])
-    best = ca.fmax(f(u, *free), top)  # never less than the grid saw
+    grid = ca.DM(np.log(log_grid(band))).T
+    h = float(grid[1] - grid[0]) / 2
+    values, u = _refine_windows(f, slope, curvature, free, grid, h, grid[0], grid[-1])
+    top, u = _best(ca.horzcat(values, f.map(grid.shape[1])(grid, *free)), ca.horzcat(u, grid))
     at_zero = fn(0.0)
-    return ca.if_else(interior, best, ca.fmax(at_zero, top))
+    return ca.fmax(top, at_zero), ca.if_else(at_zero >= top, 0.0, ca.exp(u))
 
 
 def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):
-    """min of ``fn`` over ω in ``band`` (CasADi expressions allowed for the band's ends).
+    """(min of ``fn`` over ω in ``band``, the ω [rad/s] where it is taken).
 
-    The smallest of a relative grid, refined between its neighbours (golden section, Newton); the band may
-    move with the NLP's variables (a bandwidth candidate b).
+    Every window of a grid of ``count`` points is refined (golden section, Newton) and the
+    smallest value wins. The band's ends may be expressions that move with the NLP's
+    variables (a bandwidth candidate b).
     """
     lo, hi = band
-    x = np.linspace(0.0, 1.0, count)
     u_lo, u_hi = ca.log(lo), ca.log(hi)
-    points = [u_lo + xi * (u_hi - u_lo) for xi in x]
+    centres = u_lo + ca.DM(np.linspace(0.0, 1.0, count)).T * (u_hi - u_lo)
+    h = (u_hi - u_lo) / (count - 1) / 2
     (f, slope, curvature), free = _functions(name, lambda w: -fn(w), 2)
-    values = ca.vertcat(*[f(u, *free) for u in points])
-    top = ca.mmax(values)
-    u = ca.mmax(ca.vertcat(*[ca.if_else(v == top, pt, u_lo - 1) for v, pt in zip(
-        ca.vertsplit(values), points)]))
-    h = (u_hi - u_lo) / (len(x) - 1) / 2
-    u = _refine_max(f, slope, curvature, free, u, h, u_lo, u_hi)
-    return -ca.fmax(f(u, *free), top)
+    values, u = _refine_windows(f, slope, curvature, free, centres, h, u_lo, u_hi)
+    top, u = _best(ca.horzcat(values, f.map(count)(centres, *free)), ca.horzcat(u, centres))
+    return -top, ca.exp(u)
 
 
 def _relative_points(ratio: float) -> int:

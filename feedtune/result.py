@@ -49,7 +49,10 @@ class StartResult(ResultModel):
     status: Status
     return_status: str
     objective: float | None
-    iterations: int
+    iterations: int = Field(description="IPOPT iterations, summed over exchange rounds [count]")
+    exchange_points: int = Field(
+        0, description="Frequencies added to peak/crossing constraints after IPOPT found the "
+                       "refined peak (or dip) beyond its bound [count]")
     solve_time: float = Field(description="[s]")
     feasible: bool
 

@@ -9,9 +9,11 @@ from feedtune.objectives.frequency_domain import has_frequency_band, normalised_
 class Bandwidth(Metric):
     """ω_b [rad/s]: the lowest ω where |T(jω)/T(0)| falls to 1/√2 (−3 dB), solved exactly.
 
-    In the NLP ω_b is an auxiliary variable b with |T(jb)/T(0)|² = 1/2 and
-    |T(jω)/T(0)|² ≥ 1/2 for ω < b (on a grid and at the refined minimum between grid
-    points), so a dip below −3 dB anywhere under b is never overlooked.
+    In the NLP ω_b is an auxiliary variable b with |T(jω)/T(0)|² ≥ 1/2 for ω ≤ b (on a
+    grid, plus every refined dip the tuner finds below b; with a small margin so that no
+    dip rests exactly on −3 dB), and |T(jb)/T(0)|² = 1/2 where b must be the crossing
+    itself, so a dip below −3 dB anywhere under b is never overlooked. The condition is written (g − ½)/(g + ½) with g = |T/T(0)|²: the same
+    sign, but bounded in [−1, 1], so it stays finite where a pole nears the jω axis.
     """
 
     name = "bandwidth"
@@ -29,8 +31,11 @@ class Bandwidth(Metric):
         count = len(log_grid(band))
 
         def condition(w):
-            return gain(w) - 0.5
+            g = gain(w)
+            return (g - 0.5) / (g + 0.5)
 
-        return Crossing(condition, relative_grid(band),
-                        lambda b: lowest_value(condition, (band[0], b), count, "bandwidth_dip"),
-                        band, omega)
+        def lowest_minimum(b, margin):
+            return lowest_value(lambda w: condition(w) - margin * (1 - w / b), (band[0], b),
+                                count, "bandwidth_dip")
+
+        return Crossing(condition, relative_grid(band), lowest_minimum, band, omega)

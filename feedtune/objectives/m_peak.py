@@ -21,6 +21,6 @@ class MPeak(Metric):
 
     def evaluate(self, loop, options):
         gain = normalised_gain_squared(loop)
-        value = peak(gain, loop.frequency_band, "m_peak")
+        value, omega_peak = peak(gain, loop.frequency_band, "m_peak")
         return Supremum(lambda omega: ca.sqrt(gain(omega)), log_grid(loop.frequency_band),
-                        ca.sqrt(value))
+                        ca.sqrt(value), omega_peak)

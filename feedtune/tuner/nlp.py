@@ -5,6 +5,15 @@ metric. Free tunables are optimised as their logarithms (every tunable is positi
 gains and periods span decades). Magnitude terms |e| become epigraphs: a slack t with
 −t ≤ e ≤ t, so the NLP stays smooth. The loop's Hurwitz/Schur conditions are always
 constraints, and the final loop is checked with numpy eigenvalues.
+
+Peaks and crossings over frequency (:class:`~feedtune.expr.Supremum`,
+:class:`~feedtune.expr.Crossing`) are semi-infinite constraints. The NLP holds them on a
+fixed grid, each point written in a bounded form ((f − c)/(f + c) ≤ 0 for f ≤ c), so no
+constraint blows up where a closed-loop pole crosses the jω axis. After each solve the
+refined peak (or dip) is evaluated; while it violates the bound, its frequency is added as
+one more constraint point (a parameter of the built NLP) and the solve is warm-started:
+the exchange method. Putting the refined peak itself in the NLP was tried and stalled
+IPOPT: its value switches between peaks, so its derivatives jump.
 """
 
 from __future__ import annotations
@@ -27,6 +36,16 @@ SETTLING_ACTIVE = 1e-6
 #: expand the NLP to SX (≈4x faster solves, slower build) up to this many unrolled loop steps
 AUTO_EXPAND_STEPS = 250
 FEASIBILITY_TOL = 1e-6  # relative tolerance when reporting whether a bound holds
+#: frequencies the exchange method may add to one peak or crossing, per start
+EXCHANGE_POINTS = 8
+#: a refined peak above its bound (relative), or a dip below a crossing condition's zero
+#: (the condition is bounded, so absolute), by more than this adds its frequency
+EXCHANGE_TOL = 1e-7
+#: a crossing's condition must exceed DIP_MARGIN·(1 − x) at ω = b·x below b: without it the
+#: optimiser parks a dip exactly on the level (a tangency) and claims the crossing beyond
+#: it, where any rounding puts the first crossing at the dip (measured on Bhatia's showcase:
+#: 690 rad/s claimed, 471 rad/s by python-control)
+DIP_MARGIN = 1e-3
 
 _STATUS = {
     "Solve_Succeeded": "optimal",
@@ -35,6 +54,7 @@ _STATUS = {
     "Maximum_Iterations_Exceeded": "iteration_limit",
     "Maximum_CpuTime_Exceeded": "time_limit",
     "Maximum_WallTime_Exceeded": "time_limit",
+    "Exchange_Points_Exhausted": "iteration_limit",  # feedtune's: see Problem._solve_from
 }
 SOLVED = ("optimal", "acceptable")
 
@@ -87,6 +107,7 @@ class StartOutcome:
     iterations: int
     solve_time: float
     feasible: bool
+    exchange_points: int = 0
 
 
 @dataclass
@@ -216,30 +237,62 @@ class Problem:
             lbg.append(lower)
             ubg.append(upper)
 
-        def crossing_variable(value, index):
-            """b = exp(u): condition(b) = 0, condition(b·x) ≥ 0 below it (Crossing)."""
+        # exchange points: parameters of the NLP (ω, or x = ω/b for a crossing) whose rows
+        # are switched on by their bounds when the refined check adds them
+        slots, slot_defaults, checks = [], [], []
+        self._exchange = []  # per peak/crossing: (kind, slot indices, row indices)
+
+        def exchange_rows(kind, default, constraint_at, check):
+            indices, rows = [], []
+            for _ in range(EXCHANGE_POINTS):
+                symbol = ca.MX.sym(f"exchange{len(slots)}")
+                indices.append(len(slots))
+                slots.append(symbol)
+                slot_defaults.append(default)
+                rows.append(len(g))
+                constrain(constraint_at(symbol), -ca.inf, ca.inf)  # off until added
+            self._exchange.append((kind, indices, rows))
+            checks.extend(check)
+
+        def crossing_variable(value, index, equality):
+            """b = exp(u): condition(b·x) ≥ DIP_MARGIN·(1 − x) on the grid and at exchange
+            points; condition(b) = 0 when b must be the crossing itself, ≥ 0 when it is
+            maximised or bounded below."""
             lo, hi = value.band
             u = add_variable(f"log_crossing{index}", math.log(lo), math.log(hi),
                              ca.log(value.exact))
             b = ca.exp(u)
-            constrain(value.condition(b), 0, 0)
+            constrain(value.condition(b), 0, 0 if equality else ca.inf)
+
+            def row(x):
+                return value.condition(b * x) - DIP_MARGIN * (1 - x)
+
             for x in value.relative_grid:
-                constrain(value.condition(b * x), 0, ca.inf)
-            constrain(value.lowest_minimum(b), 0, ca.inf)
+                constrain(row(x), 0, ca.inf)
+            dip, where = value.lowest_minimum(b, DIP_MARGIN)
+            exchange_rows("crossing", float(value.relative_grid[0]), row, [-dip, where / b])
             return b
 
         def supremum_below(value, bound, s):
-            """value.fn(ω_k) ≤ bound on the grid and at the refined maximum (Supremum)."""
+            """value.fn(ω) ≤ bound on the grid and at exchange points (Supremum), written
+            (fn − bound)/(fn + bound) ≤ 0 when the bound is positive: bounded in [−1, 1]."""
+            positive = not isinstance(bound, (int, float)) or bound > 0
+
+            def row(omega):
+                v = value.fn(omega)
+                return (v - bound) / (v + bound) if positive else (v - bound) / s
+
             for omega in value.grid:
-                constrain((value.fn(omega) - bound) / s, -ca.inf, 0)
-            constrain((value.exact - bound) / s, -ca.inf, 0)
+                constrain(row(omega), -ca.inf, 0)
+            exchange_rows("supremum", float(value.grid[0]), row,
+                          [(value.exact - bound) / (ca.fabs(bound) + 1e-300), value.argmax])
 
         for index, (value, ((expr, mag), weight), ref) in enumerate(zip(term_values, term_exprs, term_ref)):
             if isinstance(value, Crossing):
-                f += weight * crossing_variable(value, index)
+                f += weight * crossing_variable(value, index, equality=weight > 0)
             elif isinstance(value, Supremum) and weight > 0:  # epigraph: fn(ω) ≤ s·t, minimise
                 s = scale(ref)
-                t = add_variable(f"peak{index}", -ca.inf, ca.inf, value.exact / s * 1.01)
+                t = add_variable(f"peak{index}", 0, ca.inf, value.exact / s * 1.01)
                 supremum_below(value, s * t, s)
                 f += weight * s * t
             elif mag and weight < 0:  # maximising |e|: no epigraph bounds it from above
@@ -258,7 +311,8 @@ class Problem:
             lower = bound.lower / s if bound.lower is not None else -ca.inf
             upper = bound.upper / s if bound.upper is not None else ca.inf
             if isinstance(value, Crossing):
-                constrain(crossing_variable(value, f"_bound{index}") / s, lower, upper)
+                b = crossing_variable(value, f"_bound{index}", equality=bound.upper is not None)
+                constrain(b / s, lower, upper)
             elif isinstance(value, Supremum) and bound.upper is not None:
                 supremum_below(value, bound.upper, s)
                 if bound.lower is not None:
@@ -270,7 +324,7 @@ class Problem:
             else:
                 constrain(expr / s, lower, upper)
         for condition, ref in zip(stability, stab_ref):
-            constrain(condition / scale(ref), STABILITY_MARGIN, ca.inf)
+            constrain(ca.asinh(condition / scale(ref)), STABILITY_MARGIN, ca.inf)
         scaled_settling = [c / scale(ref) for c, ref in zip(settling, settle_ref)]
         for condition in scaled_settling:
             constrain(condition, STABILITY_MARGIN, ca.inf)
@@ -296,10 +350,17 @@ class Problem:
         # value means something
         objective_scale = ca.MX.sym("objective_scale")
         anchor = ca.MX.sym("anchor", len(variables))
+        slot_vector = ca.vertcat(ca.MX(0, 1), *slots)
         self._problems = {
-            "feedtune": {"x": w, "p": objective_scale, "f": f / objective_scale, "g": ca.vertcat(*g)},
-            "feedtune_restoration": {"x": w, "p": anchor, "f": ca.sumsqr(z - anchor), "g": ca.vertcat(*g)},
+            "feedtune": {"x": w, "p": ca.vertcat(objective_scale, slot_vector),
+                         "f": f / objective_scale, "g": ca.vertcat(*g)},
+            "feedtune_restoration": {"x": w, "p": ca.vertcat(anchor, slot_vector),
+                                     "f": ca.sumsqr(z - anchor), "g": ca.vertcat(*g)},
         }
+        self.slot_defaults = np.array(slot_defaults, dtype=float)
+        # per exchange group: (violation, where) at a solution of the NLP
+        self._exchange_check = ca.Function("exchange_check", [z, *extra],
+                                           [ca.vertcat(ca.MX(0, 1), *checks)])
         self._options = options
         self._expand = settings.expand
         if self._expand is None:  # auto: expansion pays for itself on short horizons only
@@ -368,22 +429,16 @@ class Problem:
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
             if self.has_nlp:
-                z0 = self._stable_start(z0)
-                solver = self._solver("feedtune")
-                solution = solver(x0=self._x0(z0), p=self._scale_at(z0),
-                                  lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
-                stats = solver.stats()
-                z_opt = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
-                return_status = stats.get("return_status", "unknown")
+                z_opt, return_status, iterations, exchanged = self._solve_from(z0, started)
                 status = _STATUS.get(return_status, "error")
-                iterations = int(stats.get("iter_count", 0))
             else:
                 z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
+                exchanged = 0
             elapsed = time.perf_counter() - started
             objective, bounds, conditions, matrices = self._evaluate(z_opt)
             feasible, _ = self._feasible(bounds, conditions, matrices)
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
-                                       elapsed, feasible))
+                                       elapsed, feasible, exchanged))
             if progress is not None:
                 progress(starts[-1], len(self.starts))
             violation = self._violation(bounds, conditions)
@@ -426,6 +481,64 @@ class Problem:
             evaluation_time=evaluation_time, model_gap=model_gap, horizon_bound=horizon_bound,
             starts=starts)
 
+    def _solve_from(self, z0: np.ndarray, started: float) -> tuple[np.ndarray, str, int, int]:
+        """One start: IPOPT, then exchange rounds while a refined peak or dip violates its bound.
+
+        Returns the tunables' logarithms, IPOPT's last return status, the iterations of
+        every round and the number of exchange points added. A round that does not solve ends the start with its status; so does
+        the start's time limit (``time_limit``) or running out of exchange points.
+        """
+        z0 = self._stable_start(z0)
+        solver = self._solver("feedtune")
+        slots = self.slot_defaults.copy()
+        lbg, ubg = self.lbg.copy(), self.ubg.copy()
+        used = [0] * len(self._exchange)
+        x0, p_scale, iterations = self._x0(z0), self._scale_at(z0), 0
+        while True:
+            solution = solver(x0=x0, p=np.concatenate([[p_scale], slots]),
+                              lbx=self.lbw, ubx=self.ubw, lbg=lbg, ubg=ubg)
+            stats = solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            return_status = stats.get("return_status", "unknown")
+            x0 = np.asarray(solution["x"], dtype=float).ravel()
+            if _STATUS.get(return_status) not in SOLVED:
+                break
+            added = self._add_exchange_points(x0, slots, lbg, ubg, used)
+            if added is None:
+                return_status = "Exchange_Points_Exhausted"
+                break
+            if not added:
+                break
+            if time.perf_counter() - started > self.settings.time_limit:
+                return_status = "Maximum_WallTime_Exceeded"
+                break
+        return x0[:self.n_z], return_status, iterations, sum(used)
+
+    def _add_exchange_points(self, x, slots, lbg, ubg, used) -> bool | None:
+        """Switch on a constraint row at every violated refined peak/dip of solution ``x``.
+
+        True when points were added, False when nothing is violated, None when a group that
+        needs one has no point left.
+        """
+        split = [x[:self.n_z], *x[self.n_z:]]
+        checks = np.asarray(self._exchange_check(*split), dtype=float).ravel()
+        added = False
+        for group, (kind, indices, rows) in enumerate(self._exchange):
+            violation, where = checks[2 * group], checks[2 * group + 1]
+            if not (violation > EXCHANGE_TOL and math.isfinite(where) and where > 0):
+                continue
+            if used[group] == len(indices):
+                return None
+            slot, row = indices[used[group]], rows[used[group]]
+            slots[slot] = where
+            if kind == "crossing":
+                lbg[row], ubg[row] = 0.0, np.inf
+            else:
+                lbg[row], ubg[row] = -np.inf, 0.0
+            used[group] += 1
+            added = True
+        return added
+
     def _solver(self, name: str):
         """IPOPT on problem ``name``, expanded to SX when chosen and possible; cached."""
         if name not in self._solvers:
@@ -445,8 +558,9 @@ class Problem:
         """``z0`` if its loop is stable, else the nearest point the restoration NLP finds."""
         if np.all(self._evaluate(z0)[2] > 0):
             return z0
-        solution = self._solver("feedtune_restoration")(x0=self._x0(z0), p=z0,
-                                    lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
+        solution = self._solver("feedtune_restoration")(
+            x0=self._x0(z0), p=np.concatenate([z0, self.slot_defaults]),
+            lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
         z_new = np.asarray(solution["x"], dtype=float).ravel()[:self.n_z]
         return z_new if np.all(self._evaluate(z_new)[2] > 0) else z0
 

@@ -121,9 +121,10 @@ REFORMULATED = [case for case in CASES if _reformulated(*case)]
 def test_reformulated_metric_is_consistent_with_its_exact_value(config, name, options):
     """What the tuner constrains instead of the exact value (a peak: fn(ω_k) ≤ t on the grid;
     a crossing: condition(b) = 0 and condition(b·x) ≥ 0 below it) holds at the exact value,
-    is finite and has finite gradients. A supremum is at least every grid value; a crossing
-    is the lowest: the condition is non-negative on the relative grid below it and at its
-    refined minimum there.
+    is finite and has finite gradients. A supremum is at least every grid value and is
+    taken where its ``argmax`` says; a crossing is the lowest: the condition is
+    non-negative on the relative grid below it and at its refined minimum there, whose
+    location (what the tuner's exchange step adds) lies below b.
     """
     point = nominal(config)
     box = narrow_box(config, point)
@@ -134,24 +135,31 @@ def test_reformulated_metric_is_consistent_with_its_exact_value(config, name, op
         fn = ca.Function("fn", [omega, z], [value.fn(omega)])
         pieces = fn.map(len(value.grid))(ca.DM(value.grid).T, z).T
         exact = value.exact
+        # the peak's location: fn there is the peak (0 stands for ω → 0)
+        at = ca.if_else(value.argmax > 0, value.fn(ca.fmax(value.argmax, 1e-300)), exact)
     else:
         b = value.exact
         fn = ca.Function("condition", [omega, z], [value.condition(omega)])
         below = fn.map(len(value.relative_grid))(b * ca.DM(value.relative_grid).T, z).T
-        pieces = ca.vertcat(value.condition(b), below, value.lowest_minimum(b))
+        lowest, where = value.lowest_minimum(b, 0.0)
+        pieces = ca.vertcat(value.condition(b), below, lowest)
         exact = b
+        # the dip's location: below b, and the condition there is the minimum
+        at = ca.vertcat(where / b, value.condition(where) - lowest)
     # finite gradients of every piece: one directional derivative with positive weights
     # (a NaN or ±inf in any row shows; the full Jacobian costs seconds per case)
     weights = ca.DM(np.random.default_rng(0).uniform(0.5, 1.0, pieces.shape[0]))
-    f = ca.Function("pieces", [z], [exact, pieces, ca.gradient(ca.dot(weights, pieces), z)])
-    exact, pieces, gradient = (np.array(v, dtype=float) for v in f(log_point(config, point)))
+    f = ca.Function("pieces", [z], [exact, pieces, ca.gradient(ca.dot(weights, pieces), z), at])
+    exact, pieces, gradient, at = (np.array(v, dtype=float) for v in f(log_point(config, point)))
     exact = float(exact.ravel()[0])
-    pieces = pieces.ravel()
+    pieces, at = pieces.ravel(), at.ravel()
     assert math.isfinite(exact) and np.all(np.isfinite(pieces)) and np.all(np.isfinite(gradient))
     if isinstance(value, Supremum):
         assert value.grid.ndim == 1 and len(value.grid) > 1 and np.all(np.diff(value.grid) > 0)
         assert pieces.max() <= exact * (1 + 1e-12)
+        assert at[0] == pytest.approx(exact, rel=1e-12)
     else:
+        assert 0 < at[0] <= 1 + 1e-12 and abs(at[1]) <= 1e-9  # as condition(b) below
         lo, hi = value.band
         assert lo < exact < hi, "no crossing in the band at the nominal point"
         assert np.all((value.relative_grid > 0) & (value.relative_grid < 1))

@@ -187,13 +187,16 @@ def test_bandwidth_beyond_a_light_resonance_between_grid_points(zeta, where):
 
 @pytest.mark.parametrize("zeta, where", RESONANCE_CASES)
 def test_lowest_value_finds_a_narrow_dip_between_grid_points(zeta, where):
-    """feedtune.frequency.lowest_value (the NLP's check that no dip below −3 dB hides under
-    a bandwidth candidate) on −|T|² of the same resonances: its minimum is −M_peak²."""
-    loop, _, _ = _resonance_between_grid_points(zeta, where)
+    """feedtune.frequency.lowest_value (the tuner's check that no dip below −3 dB hides under
+    a bandwidth candidate) on −|T|² of the same resonances: its minimum is −M_peak², taken
+    at ω_r = ω_n√(1 − 2ζ²), the frequency the tuner's exchange step adds. The location is
+    only as sharp as the square root of rounding on a flat minimum: 1e-7 relative."""
+    loop, wn, _ = _resonance_between_grid_points(zeta, where)
     gain = normalised_gain_squared(loop)
     band = loop.frequency_band
-    lowest = lowest_value(lambda w: -gain(w), band, len(log_grid(band)))
+    lowest, omega = lowest_value(lambda w: -gain(w), band, len(log_grid(band)))
     assert float(ca.evalf(ca.MX(lowest))) == pytest.approx(-m_peak_closed(zeta) ** 2, rel=1e-12)
+    assert float(ca.evalf(ca.MX(omega))) == pytest.approx(wn * math.sqrt(1 - 2 * zeta**2), rel=1e-7)
 
 
 # -- (b) Bhatia's hydraulic loop -----------------------------------------------------------------
