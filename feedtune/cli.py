@@ -399,9 +399,14 @@ def _examples() -> dict[str, Path]:
     return {p.stem: p for p in sorted(directory.glob("*.json")) if p.is_file()}
 
 
+#: a sentence ends at ". " after a word of two lower-case letters or digits ("… drive. The"),
+#: not after an abbreviation such as "Ch. IV" or "Fig. 3"
+_SENTENCE_END = re.compile(r"(?<=[a-z0-9)][a-z0-9)])\.\s+(?=[A-Z])")
+
+
 def _shorten(text: str, width: int = 90) -> str:
     text = " ".join(text.split())
-    sentence = text.split(". ")[0].rstrip(".")
+    sentence = _SENTENCE_END.split(text)[0].rstrip(".")
     if len(sentence) <= width:
         return sentence
     return sentence[: width - 1].rstrip() + "…"

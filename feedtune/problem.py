@@ -4,7 +4,7 @@ tuner a loop factory and metric callables, and turns its outcome into a TuneResu
 from __future__ import annotations
 
 import math
-from typing import Callable
+from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
@@ -80,14 +80,26 @@ def _report_fn(metric, options) -> Callable:
     return evaluate
 
 
+def _variants(default) -> list:
+    """``default`` and, for each option with a fixed set of choices, each other choice."""
+    variants = [default]
+    for field_name, info in type(default).model_fields.items():
+        if get_origin(info.annotation) is Literal:
+            variants += [default.model_copy(update={field_name: choice})
+                         for choice in get_args(info.annotation)
+                         if choice != getattr(default, field_name)]
+    return variants
+
+
 def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
-    """Every metric the loop supports, with default options and each option set the spec uses."""
+    """Every metric the loop supports: with default options, each single change of a
+    choice option (e.g. ``input: ramp``), and each option set the spec uses."""
     sets: dict[str, tuple] = {}
     for name, metric_cls in METRICS.items():
         metric = metric_cls()
         candidates = []
         try:
-            candidates.append(metric.Options())
+            candidates += _variants(metric.Options())
         except ValueError:  # options without defaults (a circle): only the spec's own
             pass
         for term in list(spec.objective) + list(spec.constraints):
@@ -170,7 +182,10 @@ def tune(spec: Spec, progress: Callable | None = None,
                 at_bound = "max"
         tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=name in fixed,
                                  min=lower, max=upper, at_bound=at_bound)
-    metrics = {key: MetricValue(metric=metric.name, value=outcome.reports[key], unit=metric.unit_of(options),
+    position_unit = getattr(plant, "position_unit", "m")
+    stable = bool(outcome.stability.get("stable"))  # an unstable loop's metrics mean nothing
+    metrics = {key: MetricValue(metric=metric.name, value=outcome.reports[key] if stable else None,
+                                unit=metric.unit_of(options, position_unit),
                                 options=options.model_dump())
                for key, (metric, options) in report_sets.items()}
     constraint_results = [

@@ -30,7 +30,9 @@ class TunedValue(ResultModel):
 
 class MetricValue(ResultModel):
     metric: str
-    value: float | None = Field(description="Value at the tuned point [unit]; null where undefined")
+    value: float | None = Field(
+        description="Value at the tuned point [unit]; null where undefined, and for every "
+                    "metric when the tuned loop is unstable")
     unit: str
     options: dict[str, Any] = Field(default_factory=dict)
 

@@ -55,7 +55,9 @@ class SolverSpec(SpecModel):
     multistart: PositiveInt = Field(8, le=256, description="Number of deterministic starting points [count]")
     max_iter: PositiveInt = Field(500, description="IPOPT iteration limit per start [count]")
     tol: PositiveFloat = Field(1e-9, description="IPOPT convergence tolerance on the scaled problem [1]")
-    time_limit: PositiveFloat = Field(60.0, description="Wall-clock limit per start [s]")
+    time_limit: PositiveFloat = Field(
+        60.0, description="Wall-clock limit of each IPOPT solve [s]; a start makes no further "
+                          "exchange rounds once it has run this long")
     expand: bool | None = Field(
         None, description="Expand the NLP to CasADi SX before solving: faster solves, slower "
                           "build; null (default) expands when step responses are short")

@@ -31,8 +31,9 @@ class Metric:
     reference: ClassVar[str] = ""
     Options: ClassVar[type[SpecModel]] = NoOptions
 
-    def unit_of(self, options) -> str:
-        """SI unit of the value for these options (most metrics: ``unit``)."""
+    def unit_of(self, options, position_unit: str = "m") -> str:
+        """SI unit of the value for these options on an axis whose position is in
+        ``position_unit`` (m, or rad for a rotary axis); most metrics: ``unit``."""
         return self.unit
 
     def supports(self, loop, options=None) -> bool:

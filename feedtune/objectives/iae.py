@@ -24,4 +24,4 @@ class Iae(StepErrorMetric):
                    "|e − e_ss| after a unit ramp")
     reference = "Koren 1979 eq 20; Bhatia 1971 Ch. IV B"
     time_power = 1
-    units = ('m·s', 'm·rad')
+    units = ('{x}·s', '{x}·rad')  # {x}: the axis' position unit

@@ -22,4 +22,4 @@ class Ise(StepErrorMetric):
                    "(e − e_ss)² after a unit ramp")
     reference = "Bhatia 1971 Ch. IV B"
     time_power = 1
-    units = ('m²·s', 'm²·rad')
+    units = ('{x}²·s', '{x}²·rad')  # {x}: the axis' position unit

@@ -22,4 +22,4 @@ class Itae(StepErrorMetric):
                    "t·|e − e_ss| after a unit ramp")
     reference = "Bhatia 1971 Ch. IV B"
     time_power = 2
-    units = ('m·s²', 'm·rad²')
+    units = ('{x}·s²', '{x}·rad²')  # {x}: the axis' position unit

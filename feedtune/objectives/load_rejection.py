@@ -40,7 +40,7 @@ class LoadRejection(Metric):
     reference = "Bhatia 1971 Ch. IV, App. A2"
     Options = LoadRejectionOptions
 
-    def unit_of(self, options):
+    def unit_of(self, options, position_unit="rad"):  # load torque: rotary axes only
         return "rad/(N·m)" if options.measure == "peak" else "rad·s/(N·m)"
 
     def supports(self, loop, options=None):

@@ -156,8 +156,8 @@ class StepErrorMetric(Metric):
     time_power: int
     units: tuple[str, str]
 
-    def unit_of(self, options):
-        return step_error_unit(options, *self.units)
+    def unit_of(self, options, position_unit="m"):
+        return step_error_unit(options, *self.units).format(x=position_unit)
 
     def supports(self, loop, options=StepErrorOptions()):
         return supports_step_error(loop, options)

@@ -124,6 +124,7 @@ class HydraulicRotary:
     """Plant ``hydraulic_rotary``: position loop around a velocity loop (Bhatia Fig 33)."""
 
     Params = HydraulicRotaryParams
+    position_unit = "rad"  # a rotary axis: motor shaft angle
 
     def __init__(self, params: HydraulicRotaryParams):
         self.params = params

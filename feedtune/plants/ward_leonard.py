@@ -146,6 +146,7 @@ class WardLeonard:
     """Plant ``ward_leonard``: position loop around a tachogenerator velocity loop (Fig 13)."""
 
     Params = WardLeonardParams
+    position_unit = "rad"  # a rotary axis: motor shaft angle
 
     def __init__(self, params: WardLeonardParams):
         self.params = params

@@ -381,6 +381,8 @@ def test_examples_lists_the_bundled_specs():
     assert EXAMPLE_NAME in listed
     assert listed == sorted(p.stem for p in (REPO / "examples").glob("*.json"))
     assert "Koren 1979" in proc.stdout.decode()
+    # the first sentence, not cut at an abbreviation ("Bhatia 1971 (Ch. IV): …")
+    assert "Bhatia 1971 (Ch. IV): rotary" in proc.stdout.decode()
     for line in proc.stdout.decode().splitlines():
         assert len(line) <= 100
     for stem in listed:  # each one a spec the CLI accepts (parsed here: no extra process)

@@ -137,3 +137,27 @@ def test_showcase_beats_the_hand_design(showcase):
     assert showcase.metrics["bandwidth"].value > 3 * hand_bandwidth
     hand_result = tune_dict(dict(SPEC, tunables={n: {"value": v} for n, v in HAND.items()}))
     assert showcase.metrics["iae"].value < hand_result.metrics["iae"].value
+
+
+def test_showcase_reports_ramp_and_load_variants_in_radians(showcase):
+    """Reported-only metrics appear for every choice of their options (a ramp input, the
+    IAE measure of load rejection), with the rotary axis' units."""
+    metrics = showcase.metrics
+    ramp = [k for k, m in metrics.items() if m.metric == "iae" and m.options["input"] == "ramp"]
+    assert len(ramp) == 1 and metrics[ramp[0]].value > 0
+    assert metrics["iae"].unit == metrics[ramp[0]].unit == "rad·s"
+    assert metrics["ise"].unit == "rad²·s"
+    loads = {m.options["measure"]: m for m in metrics.values() if m.metric == "load_rejection"}
+    assert set(loads) == {"peak", "iae"} and all(m.value > 0 for m in loads.values())
+
+
+def test_an_unstable_design_reports_no_metrics():
+    """Bhatia's Fig 21 loop (K'_p = 80, K'_v = 30, no compensators) has two right-half-plane
+    roots: the result says so, and withholds every metric (an unstable loop's IAE or
+    M_peak would be numbers without meaning)."""
+    plant = {k: v for k, v in PLANT.items() if not k.endswith("_compensator")}
+    result = tune_dict({"name": "fig21", "plant": plant,
+                        "tunables": {"position_gain": {"value": 80}, "velocity_gain": {"value": 30}},
+                        "objective": [{"metric": "bandwidth", "goal": "maximize"}]})
+    assert not result.success and not result.stability["stable"]
+    assert result.metrics and all(m.value is None for m in result.metrics.values())

@@ -45,10 +45,14 @@ def test_continuous_unstable_or_marginal(matrix):
     assert result["spectral_abscissa"] >= -MARGIN
 
 
-def test_continuous_margin_is_relative_to_the_fastest_pole():
-    """|Re s| must exceed MARGIN·max(1, max|s|): a pole at −1e-10 next to one at −1e3 is not enough."""
-    assert check_stability(np.diag([-1e-10, -1e3]), discrete=False)["stable"] is False
-    assert check_stability(np.diag([-1e-3, -1e3]), discrete=False)["stable"] is True
+def test_continuous_margin_is_relative_to_each_pole():
+    """Re s < −MARGIN·|s| for every pole: a stiff but stable loop (poles from −0.013 to
+    −1.8e7, as a lag-lead with τ12 = 100 s and τ = 1e-4 s gives) is stable; a pair too close
+    to the jω axis for its own frequency (ζ = 1e-10) is not."""
+    assert check_stability(np.diag([-0.013, -1.8e7]), discrete=False)["stable"] is True
+    assert check_stability(np.diag([-1e-10, -1e3]), discrete=False)["stable"] is True
+    assert check_stability(_rotation(1.0, math.pi / 2 + 1e-10), discrete=False)["stable"] is False
+    assert check_stability(_rotation(1.0, math.pi / 2 + 1e-6), discrete=False)["stable"] is True
 
 
 # -- discrete --------------------------------------------------------------------------------
