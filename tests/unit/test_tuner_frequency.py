@@ -87,3 +87,28 @@ def test_least_peak_over_a_bandwidth_bound_is_exact(velocity_gain, bandwidth_min
     assert bandwidth >= bandwidth_min * (1 - 1e-6)
     assert result.metrics["m_peak"].value == pytest.approx(peak, rel=1e-9)
     assert result.objective == pytest.approx(peak, rel=1e-9)
+
+
+def test_an_unstable_start_is_moved_to_a_stable_one():
+    """K'_p = 900 makes the position loop unstable (K'_v = 0.05); restoration moves the start
+    to the nearest stable gain, from where the optimum is the one found from a stable start."""
+    from_unstable = spec(0.05, {"metric": "bandwidth", "goal": "maximize"},
+                         {"metric": "m_peak", "max": 1.1})
+    from_unstable["tunables"]["position_gain"]["initial"] = 900
+    result = tune(parse_spec(from_unstable))
+    reference = tune(parse_spec(spec(0.05, {"metric": "bandwidth", "goal": "maximize"},
+                                     {"metric": "m_peak", "max": 1.1})))
+    assert result.success and result.solver.iterations > 0, result.message
+    assert result.tuned["position_gain"].value == pytest.approx(
+        reference.tuned["position_gain"].value, rel=1e-6)
+
+
+def test_a_start_no_gain_can_stabilise_is_not_solved_from():
+    """With K'_v = 30 the velocity loop is unstable whatever K'_p is (Bhatia's Fig 21 data):
+    restoration finds no stable point, IPOPT is not run from an unstable one."""
+    result = tune(parse_spec(spec(30, {"metric": "bandwidth", "goal": "maximize"},
+                                  {"metric": "m_peak", "max": 1.3})))
+    start = result.solver.starts[0]
+    assert not result.success and result.status == "infeasible"
+    assert start.return_status == "No_Stable_Start" and start.iterations == 0
+    assert not result.stability["inner_loop"]["stable"]
