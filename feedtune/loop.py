@@ -1,15 +1,18 @@
 """Closed-loop models: what plants produce and what metrics read.
 
 A Loop's numbers are CasADi expressions of the tunable parameters, so one Loop serves
-the NLP (symbols) and the evaluation of a tuned design (numbers). Two kinds exist:
+the NLP (symbols) and the evaluation of a tuned design (numbers). Three kinds exist:
 
 * :class:`ContinuousLoop` — ẋ = A x + B r, position y = C x (Koren's reference-pulse loop);
-* :class:`SampledLoop` — a continuous :class:`IntegratorLag` plant behind a zero-order
-  hold, position sampled every T, a proportional position controller with an integer
-  computation delay (Koren's sampled-data loop, Fig 4), discretised exactly.
+* :class:`SampledLoop` — a continuous :class:`IntegratorLag` (or ideal :class:`Integrator`)
+  plant behind a zero-order hold, position sampled every T, a proportional position
+  controller with an integer computation delay (Koren's sampled-data loop, Fig 4; Sato's
+  software servo, Fig 1), discretised exactly;
+* :class:`TransferLoop` — a continuous loop given by polynomials in s.
 
-Both give the characteristic polynomial, stability conditions, frequency response from
-reference to position, and exact step-error integrals.
+All give the characteristic polynomial, stability conditions and the frequency response
+from reference to position; Koren's loops also exact step-error integrals. A loop whose
+reference comes from a linear interpolator carries its :class:`Interpolator`.
 """
 
 from __future__ import annotations
@@ -64,6 +67,39 @@ class Drive:
 
 
 @dataclass(frozen=True)
+class Interpolator:
+    """A path sent to the servo as a polygon (Sato et al., Figs 2–3).
+
+    The interpolator puts a point on the path every ``reference_interval`` T [s]; the servo
+    steps along each chord every ``sampling_period`` Δt_p [s]. Both are expressions of the
+    tunables.
+    """
+
+    reference_interval: object
+    sampling_period: object
+
+    @property
+    def steps_per_interval(self):
+        """q = T/Δt_p [1], servo steps per chord (Sato §3.2.1)."""
+        return self.reference_interval / self.sampling_period
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """Ideal velocity drive: position is the integral of the velocity command; state [position].
+
+    Sato et al. Fig 1 (the velocity loop is taken as much faster than the position loop).
+    """
+
+    time_constant = None
+    order = 1
+
+    def discretise(self, period):
+        """Exact zero-order-hold transition (Φ, Γ) = (1, T) over one period T [s]."""
+        return ca.DM([[1]]), ca.vertcat(period)
+
+
+@dataclass(frozen=True)
 class IntegratorLag:
     """Velocity drive 1/(1 + sτ) integrating to position; states [position, velocity].
 
@@ -71,6 +107,7 @@ class IntegratorLag:
     """
 
     time_constant: float
+    order = 2
 
     def discretise(self, period):
         """Exact zero-order-hold transition (Φ, Γ) over one period T [s]."""
@@ -88,6 +125,7 @@ class _LoopBase:
     state_matrix: object
     input_matrix: object
     position_row: object
+    interpolator: Interpolator | None = None
 
     @property
     def order(self) -> int:
@@ -102,6 +140,15 @@ class _LoopBase:
     def characteristic_polynomial(self) -> list:
         """Monic closed-loop characteristic polynomial, highest power first."""
         return linalg.characteristic_polynomial(self.state_matrix)
+
+    def natural_frequency(self):
+        """ω_n = √a0 [rad/s] of s² + a1 s + a0 (continuous second-order loops; Koren eq 10)."""
+        return ca.sqrt(self.characteristic_polynomial[2])
+
+    def damping_ratio(self):
+        """ζ = a1 / (2√a0) of s² + a1 s + a0 (continuous second-order loops; Koren eq 9)."""
+        _, a1, a0 = self.characteristic_polynomial
+        return a1 / (2 * ca.sqrt(a0))
 
     def settling_conditions(self) -> list:
         """Expressions positive iff the loop settles within the horizon its metrics sum over.
@@ -168,15 +215,6 @@ class ContinuousLoop(_LoopBase):
         c_re, c_im = ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
         return omega * c_im, -omega * c_re  # −jω·(c_re + j c_im)
 
-    def natural_frequency(self):
-        """ω_n = √a0 [rad/s] of s² + a1 s + a0 (second-order loops; Koren eq 10)."""
-        return ca.sqrt(self.characteristic_polynomial[2])
-
-    def damping_ratio(self):
-        """ζ = a1 / (2√a0) of s² + a1 s + a0 (second-order loops; Koren eq 9)."""
-        _, a1, a0 = self.characteristic_polynomial
-        return a1 / (2 * ca.sqrt(a0))
-
     @property
     def has_exact_step_error(self) -> bool:
         return self.order == 2
@@ -201,11 +239,12 @@ class SampledLoop(_LoopBase):
 
     Every period T the position is sampled, the error e(n) = r − x(nT) times the gain K
     becomes the velocity command, which a zero-order hold applies ``delay`` periods later.
-    State at sample n: [position, velocity, c(n−1), ..., c(n−delay)].
+    State at sample n: [plant states, c(n−1), ..., c(n−delay)], the plant's states being
+    [position, velocity] (IntegratorLag) or [position] (Integrator).
 
     Attributes
     ----------
-    plant : IntegratorLag
+    plant : IntegratorLag or Integrator
     gain : expression
         Position-loop gain K [1/s] (Koren eq 5).
     period : expression
@@ -218,44 +257,47 @@ class SampledLoop(_LoopBase):
         summed over ``horizon / period_min`` samples.
     period_min : float
         Smallest period [s] the tuner may choose.
+    interpolator : Interpolator or None
     """
 
-    plant: IntegratorLag
+    plant: IntegratorLag | Integrator
     gain: object
     period: object
     delay: int = 0
     drive: Drive = field(default_factory=Drive)
     horizon: float = 1.0
     period_min: float = 1e-3
+    interpolator: Interpolator | None = None
     discrete = True
 
     @property
     def velocity_constant(self):
-        """C_v = K [1/s]: the open loop K·ZOH·1/(s(1+sτ)) is type 1 with gain K."""
+        """C_v = K [1/s]: the open loop K·ZOH·1/(s(1+sτ)) (or K·ZOH/s) is type 1 with gain K."""
         return self.gain
 
     @cached_property
     def _matrices(self):
         phi_p, gamma_p = self.plant.discretise(self.period)
         k = self.gain
-        n = 2 + self.delay
+        m = self.plant.order
+        n = m + self.delay
         phi = ca.MX.zeros(n, n)
         gamma = ca.MX.zeros(n, 1)
         # feedback u = kx·state + kr·r applied over the coming period
         if self.delay == 0:
-            kx = ca.horzcat(-k, 0)
+            kx = ca.horzcat(-k, ca.DM.zeros(1, m - 1))
             kr = k
         else:
             kx = ca.horzcat(ca.DM.zeros(1, n - 1), 1)
             kr = 0
-        plant_rows = ca.horzcat(phi_p, ca.DM.zeros(2, self.delay)) + ca.mtimes(gamma_p, kx)
-        phi[0:2, :] = plant_rows
-        gamma[0:2, 0] = gamma_p * kr
+        plant_rows = ca.horzcat(phi_p, ca.DM.zeros(m, self.delay)) + ca.mtimes(gamma_p, kx)
+        phi[0:m, :] = plant_rows
+        gamma[0:m, 0] = gamma_p * kr
         if self.delay > 0:
-            phi[2, 0] = -k  # c(n) = K (r − x(n))
-            gamma[2, 0] = k
+            phi[m, 0] = -k  # c(n) = K (r − x(n))
+            gamma[m, 0] = k
             for i in range(1, self.delay):
-                phi[2 + i, 1 + i] = 1
+                phi[m + i, m + i - 1] = 1
         return phi, gamma, kx, kr
 
     @property
@@ -331,7 +373,8 @@ class SampledLoop(_LoopBase):
 
     @property
     def has_exact_step_error(self) -> bool:
-        return True
+        """The intersample error is integrated for a drive with a time constant only."""
+        return self.plant.time_constant is not None
 
     @property
     def unrolled_steps(self) -> int:
@@ -476,6 +519,7 @@ class TransferLoop(_LoopBase):
     frequency_band
         (low, high) [rad/s] containing every corner of the loop for any tunable in its box.
     drive : Drive
+    interpolator : Interpolator or None
     """
 
     open_numerator: list
@@ -485,6 +529,7 @@ class TransferLoop(_LoopBase):
     loop_gain_product: object = None
     frequency_band: tuple = (1e-2, 1e5)
     drive: Drive = field(default_factory=Drive)
+    interpolator: Interpolator | None = None
     discrete = False
     period = None
 

@@ -1,5 +1,6 @@
 """Registry of metrics: spec ``metric`` name → metric class, one module each."""
 
+from feedtune.objectives.average_radius import AverageRadius
 from feedtune.objectives.bandwidth import Bandwidth
 from feedtune.objectives.counter_utilisation import CounterUtilisation
 from feedtune.objectives.crossover_frequency import CrossoverFrequency
@@ -18,9 +19,11 @@ from feedtune.objectives.overshoot import Overshoot
 from feedtune.objectives.phase_margin import PhaseMargin
 from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.radial_error_koren import RadialErrorKoren
+from feedtune.objectives.radius_decrease import RadiusDecrease
 from feedtune.objectives.sampling_ratio import SamplingRatio
 from feedtune.objectives.sensitivity import Sensitivity
 from feedtune.objectives.settling_time import SettlingTime
+from feedtune.objectives.surface_roughness import SurfaceRoughness
 from feedtune.objectives.velocity_constant import VelocityConstant
 
 METRICS = {
@@ -29,5 +32,5 @@ METRICS = {
                    NaturalFrequency, MinRadius, MinRadiusKoren, EncoderRatio, SamplingRatio,
                    CounterUtilisation, MPeak, Bandwidth, GainMargin, PhaseMargin,
                    CrossoverFrequency, VelocityConstant, Sensitivity, SettlingTime, Overshoot,
-                   LoadRejection)
+                   LoadRejection, AverageRadius, RadiusDecrease, SurfaceRoughness)
 }

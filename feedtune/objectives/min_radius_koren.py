@@ -19,8 +19,7 @@ class MinRadiusKoren(Metric):
 
     def supports(self, loop, options=None):
         d = loop.drive
-        return (d.time_constant is not None and d.max_pulse_rate is not None
-                and (not loop.discrete or loop.delay == 0))
+        return d.time_constant is not None and d.max_pulse_rate is not None and loop.order == 2
 
     def evaluate(self, loop, options):
         d = loop.drive

@@ -25,7 +25,8 @@ class RadialErrorKoren(Metric):
     Options = CircleOptions
 
     def supports(self, loop, options=None):
-        return loop.drive.time_constant is not None and (not loop.discrete or loop.delay == 0)
+        # K/(s(1+sτ)) closed continuously or sampled without delay: order two (not a Padé loop)
+        return loop.drive.time_constant is not None and loop.order == 2
 
     def evaluate(self, loop, options):
         omega = options.feed / options.radius

@@ -1,18 +1,32 @@
-"""Koren's software servo: a first-order velocity drive in a position loop (Koren 1979).
+"""Software servo: a velocity drive in a position loop (Koren 1979; Sato et al.).
 
 ``reference_pulse``: the up-down counter closes the loop continuously, open loop
-K/(s(1 + sτ)) (eqs 3–7). ``sampled_data``: the computer samples the position every T,
-and the error, times K, drives the motor through a DAC (zero-order hold), optionally
-``computation_delay`` samples late (Fig 4, eqs 12–19).
+K/(s(1 + sτ)) (Koren eqs 3–7). ``sampled_data``: the computer samples the position every
+T (Sato's Δt_p), and the error, times K, drives the motor through a DAC (zero-order hold),
+optionally ``computation_delay`` samples late (Koren Fig 4, eqs 12–19). Without a time
+constant the drive is ideal, 1/s: Sato's software servo is that drive with one sample of
+computation delay (Fig 1, total dead time L = 1.5 Δt_p).
+
+``model``: ``exact`` discretises the sampled loop exactly; ``pade`` is Sato's continuous
+approximation, the dead time L = (computation_delay + ½)·T in the loop replaced by its
+(1,1) Padé approximant (1 − Ls/2)/(1 + Ls/2) (Sato eqs 4–5).
+
+``interpolation``: ``linear`` puts an interpolator in front of the servo that sends a
+point on the path every reference interval (Sato Figs 2–3); the loop then carries an
+:class:`~feedtune.loop.Interpolator` for the circle metrics of Sato et al.
 
 References
 ----------
 Y. Koren, "Design of Computer Control for Manufacturing Systems", ASME J. Eng. Ind.
 101(3), 1979, pp. 326–332.
+S. Sato, M. Nakamura, S. Goto, N. Egashira, N. Kyura, "Decision Method of Reference
+Input Time Interval and Sampling Time Interval that Considered Contour Control
+Performance in Software Servo System", eqs 1–10, Figs 1–3.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Literal, Mapping
 
@@ -20,7 +34,9 @@ import casadi as ca
 import numpy as np
 from pydantic import Field, PositiveFloat, model_validator
 
-from feedtune.loop import ContinuousLoop, Drive, IntegratorLag, SampledLoop
+from feedtune import linalg
+from feedtune.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
+                           SampledLoop, TransferLoop)
 from feedtune.model import SpecModel
 from feedtune.plants.base import Tunable
 
@@ -29,17 +45,21 @@ SETTLING_TIME_CONSTANTS = 20.0
 
 
 class SoftwareServoParams(SpecModel):
-    """Koren 1979, Figs 2 (reference pulse) and 4 (sampled data)."""
+    """Koren 1979, Figs 2 (reference pulse) and 4 (sampled data); Sato et al., Fig 1."""
 
     type: Literal["software_servo"]
     technique: Literal["reference_pulse", "sampled_data"] = Field(
         description="reference_pulse: continuous loop K/(s(1+sτ)) (eqs 3–7); "
                     "sampled_data: position sampled every T through a zero-order hold (Fig 4)")
-    time_constant: PositiveFloat = Field(
-        description="Mechanical time constant τ of the loaded drive [s] (eq 3)")
-    blu: PositiveFloat = Field(description="Basic length unit, one encoder pulse [m]")
-    max_velocity: PositiveFloat = Field(
-        description="Maximum axis velocity V_m [m/s]; f_m = V_m/BLU (eq 1)")
+    time_constant: PositiveFloat | None = Field(
+        description="Mechanical time constant τ of the loaded drive [s] (Koren eq 3); null: an "
+                    "ideal velocity drive, position the integral of the command (Sato Fig 1; "
+                    "sampled_data only)")
+    blu: PositiveFloat | None = Field(
+        None, description="Basic length unit, one encoder pulse [m]; omitted: the metrics that "
+                          "need it (min_radius, encoder_ratio, ...) are not available")
+    max_velocity: PositiveFloat | None = Field(
+        None, description="Maximum axis velocity V_m [m/s]; f_m = V_m/BLU (eq 1); omitted: as blu")
     counter_bits: int = Field(
         8, ge=2, le=64,
         description="Bits of the feedback counter read every sample, sign bit included "
@@ -47,12 +67,31 @@ class SoftwareServoParams(SpecModel):
     computation_delay: int = Field(
         0, ge=0, le=8,
         description="Delay between sampling and output, in whole sampling periods "
-                    "[samples] (sampled_data only)")
+                    "[samples] (sampled_data only; Sato's servo has 1)")
+    model: Literal["exact", "pade"] = Field(
+        "exact",
+        description="exact: the sampled loop discretised exactly; pade: Sato's approximation, "
+                    "the dead time L = (computation_delay + 1/2)·sampling_period [s] as its "
+                    "(1,1) Padé approximant in a continuous loop (Sato eqs 4–5) "
+                    "(sampled_data only)")
+    interpolation: Literal["none", "linear"] = Field(
+        "none",
+        description="none: the servo reads the path itself every sample (Koren's circle of "
+                    "sinusoids); linear: an interpolator sends a point on the path every "
+                    "reference_interval [s], the servo steps along each chord (Sato Figs 2–3); "
+                    "adds the tunable reference_interval (sampled_data only)")
 
     @model_validator(mode="after")
-    def _delay_needs_sampling(self):
-        if self.technique == "reference_pulse" and self.computation_delay:
-            raise ValueError("computation_delay applies to technique 'sampled_data' only")
+    def _sampling_options_need_sampling(self):
+        if self.technique == "reference_pulse":
+            sampled_only = {"computation_delay": self.computation_delay != 0,
+                            "time_constant": self.time_constant is None,
+                            "model": self.model != "exact",
+                            "interpolation": self.interpolation != "none"}
+            for name, given in sampled_only.items():
+                if given:
+                    raise ValueError(f"{name} = {json.dumps(getattr(self, name))} applies to "
+                                     "technique 'sampled_data' only")
         return self
 
 
@@ -70,7 +109,12 @@ class SoftwareServo:
         }
         if self.params.technique == "sampled_data":
             tunables["sampling_period"] = Tunable(
-                "s", "Sampling period T = 1/f_s (eqs 14–19)", 1e-3, 0.5)
+                "s", "Sampling period T = 1/f_s (Koren eqs 14–19), Sato's Δt_p", 1e-3, 0.5)
+            if self.params.interpolation == "linear":
+                tunables["reference_interval"] = Tunable(
+                    "s", "Reference input interval T of the linear interpolator, one point on "
+                         "the path every T: N = 2π/(ωT) sides per circle, q = T/Δt_p steps "
+                         "per side (Sato eq 1; interpolation linear only)", 1e-3, 1.0)
         return tunables
 
     def drive(self) -> Drive:
@@ -97,14 +141,41 @@ class SoftwareServo:
             b = ca.MX.zeros(2, 1)
             b[1, 0] = gain / tau
             return ContinuousLoop(a, b, ca.DM([[1, 0]]), gain, self.drive())
+        period = values["sampling_period"]
+        interpolator = None
+        if p.interpolation == "linear":
+            interpolator = Interpolator(values["reference_interval"], period)
+        if p.model == "pade":
+            return self._pade_loop(gain, period, box, interpolator)
         period_min, period_max = box["sampling_period"]
         # loops near the optimum settle within tens of (2τ + dead time); slower, overdamped
-        # loops are still exact through the closed-form tail of SampledLoop
-        settle = 2 * tau + (p.computation_delay + 1) * period_max
-        return SampledLoop(IntegratorLag(tau), gain, values["sampling_period"],
-                           delay=p.computation_delay, drive=self.drive(),
+        # loops are still exact through the closed-form tail of SampledLoop (an ideal drive
+        # has no step integrals, so its horizon is unused)
+        settle = 2 * (tau or 0.0) + (p.computation_delay + 1) * period_max
+        plant = IntegratorLag(tau) if tau is not None else Integrator()
+        return SampledLoop(plant, gain, period, delay=p.computation_delay, drive=self.drive(),
                            horizon=SETTLING_TIME_CONSTANTS * settle * horizon_scale,
-                           period_min=period_min)
+                           period_min=period_min, interpolator=interpolator)
+
+    def _pade_loop(self, gain, period, box, interpolator) -> TransferLoop:
+        """Sato eqs 4–5: open loop K·(1 − Ls/2)/((1 + Ls/2)·s·(1 + sτ)), L = (d + ½)·T.
+
+        Without τ the closed loop is K(2/L − s)/(s² + (2/L − K)s + 2K/L), eq 5.
+        """
+        p = self.params
+        half_dead_time = (p.computation_delay + 0.5) * period / 2  # L/2 [s]
+        lag = [p.time_constant, 1] if p.time_constant is not None else [1]
+        denominator = linalg.poly_mul(linalg.poly_mul([half_dead_time, 1], lag), [1, 0])
+        # corners: K, 2/L and 1/τ over the box, two decades either side
+        (k_min, k_max), (t_min, t_max) = box["position_gain"], box["sampling_period"]
+        corners = [k_min, k_max, 2 / ((p.computation_delay + 0.5) * t_max),
+                   2 / ((p.computation_delay + 0.5) * t_min)]
+        if p.time_constant is not None:
+            corners.append(1 / p.time_constant)
+        return TransferLoop(open_numerator=[-gain * half_dead_time, gain],
+                            open_denominator=denominator,
+                            frequency_band=(min(corners) / 100, max(corners) * 100),
+                            drive=self.drive(), interpolator=interpolator)
 
 
 def koren_step_response(gain: float, period: float, time_constant: float, samples: int):

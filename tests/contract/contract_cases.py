@@ -48,7 +48,15 @@ PLANT_EXAMPLES: dict[str, dict] = {
 #: configurations beyond one per Literal value (options that change the loop's shape)
 EXTRA_VARIANTS: dict[str, list[dict]] = {
     "software_servo": [{"technique": "sampled_data", "computation_delay": 1},
-                       {"technique": "sampled_data", "computation_delay": 2}],
+                       {"technique": "sampled_data", "computation_delay": 2},
+                       # Koren's drive with the dead time L = T/2 as its Padé approximant
+                       {"technique": "sampled_data", "model": "pade"},
+                       # Sato's software servo (ideal drive, L = 1.5 Δt_p), exact and Padé,
+                       # behind a linear interpolator (the tunable reference_interval)
+                       {"technique": "sampled_data", "time_constant": None,
+                        "computation_delay": 1, "interpolation": "linear"},
+                       {"technique": "sampled_data", "time_constant": None,
+                        "computation_delay": 1, "interpolation": "linear", "model": "pade"}],
     "hydraulic_rotary": [
         # Bhatia's design: a lag-lead in both loops (8 tunables, order 8)
         {"velocity_compensator": "lag_lead", "position_compensator": "lag_lead"},

@@ -104,13 +104,15 @@ def test_stability_conditions_agree_with_numpy_eigenvalues(config):
     f = ca.Function("conditions", [z], [ca.vertcat(*sym_loop.stability_conditions())])
     table = np.array(f.map(len(points))(np.column_stack([log_point(config, p) for p in points])))
     counts = {True: 0, False: 0}
-    ambiguous = {"grid": 0, "random": 0}
+    ambiguous = {"grid": set(), "random": set()}  # distinct loops: a tunable the loop does
+    # not depend on (a reference interval) repeats a boundary loop once per grid value
     on_grid = len(grid(config))
     for index, (point, conditions) in enumerate(zip(points, table.T)):
         loop = config.plant.loop(point, box)
         stable, distance = numpy_loop_stable(loop)
         if distance < 1e-9:  # on the boundary to rounding: either answer is right
-            ambiguous["grid" if index < on_grid else "random"] += 1
+            key = tuple(as_array(m).tobytes() for m in loop.stability_matrices().values())
+            ambiguous["grid" if index < on_grid else "random"].add(key)
             continue
         matrices = {name: as_array(m) for name, m in loop.stability_matrices().items()}
         eigenvalues = {name: np.linalg.eigvals(m) for name, m in matrices.items()}
@@ -121,7 +123,8 @@ def test_stability_conditions_agree_with_numpy_eigenvalues(config):
     # The distance is |Re s| relative to the fastest pole (as the validator measures it), so a
     # random lag-lead with τ1τ2 tiny and τ12 large (a pole near −τ12/(τ1τ2) ≈ −1e8 rad/s) makes
     # a clearly stable slow pair "ambiguous": a few per cent of random points may be.
-    assert ambiguous["grid"] <= 1 and ambiguous["random"] <= 0.05 * (len(points) - on_grid)
+    assert (len(ambiguous["grid"]) <= 1
+            and len(ambiguous["random"]) <= 0.05 * (len(points) - on_grid))
     assert counts[True] > 0
 
 
