@@ -502,7 +502,8 @@ class Problem:
             solution = solver(x0=x0, p=np.concatenate([[p_scale], slots]),
                               lbx=self.lbw, ubx=self.ubw, lbg=lbg, ubg=ubg)
             stats = solver.stats()
-            iterations += int(stats.get("iter_count", 0))
+            # IPOPT leaves iter_count unset (garbage) when it stops before iterating
+            iterations += min(max(int(stats.get("iter_count", 0)), 0), self.settings.max_iter)
             return_status = stats.get("return_status", "unknown")
             x0 = np.asarray(solution["x"], dtype=float).ravel()
             if _STATUS.get(return_status) not in SOLVED:
