@@ -312,6 +312,11 @@ class SampledLoop(_LoopBase):
     def position_row(self):
         return ca.horzcat(1, ca.DM.zeros(1, self.order - 1))
 
+    @property
+    def hold_input(self):
+        """(k_x, k_r): the command held over the coming period is k_x·state + k_r·r."""
+        return self._matrices[2], self._matrices[3]
+
     def frequency_response(self, omega):
         """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]."""
         n = self.order

@@ -13,7 +13,7 @@ from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
 from feedtune.result import (ConstraintResult, MetricValue, SolverResult, StartResult, TunedValue,
                              TuneResult, provenance)
-from feedtune.spec import Spec, SpecError
+from feedtune.spec import Spec, SpecError, parse_spec
 from feedtune.tuner import Bound, Problem, Settings, Term, Variable
 
 
@@ -93,17 +93,25 @@ def _variants(default) -> list:
 
 def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
     """Every metric the loop supports: with default options, each single change of a
-    choice option (e.g. ``input: ramp``), and each option set the spec uses."""
+    choice option (e.g. ``input: ramp``), and each option set the spec uses.
+
+    A metric whose options have no defaults (a circle) and that is reported only (so no
+    term can name it) takes the option sets of the terms whose metrics share its options:
+    the exact circle test runs on every circle the spec's paper-formula terms name.
+    """
     sets: dict[str, tuple] = {}
+    terms = list(spec.objective) + list(spec.constraints)
     for name, metric_cls in METRICS.items():
         metric = metric_cls()
         candidates = []
+        borrows = False
         try:
             candidates += _variants(metric.Options())
         except ValueError:  # options without defaults (a circle): only the spec's own
-            pass
-        for term in list(spec.objective) + list(spec.constraints):
-            if term.metric == name:
+            borrows = (metric.supports(probe_loop)
+                       and not metric.optimisable(probe_loop))
+        for term in terms:
+            if term.metric == name or (borrows and METRICS[term.metric].Options is metric.Options):
                 candidates.append(metric.Options(**_options_dict(term)))
         unique = []
         for options in candidates:
@@ -118,6 +126,55 @@ def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
 def tune(spec: Spec, progress: Callable | None = None,
          notify: Callable[[str], None] | None = None) -> TuneResult:
     """Solve ``spec``; a failed solve is a result with ``success`` false, never an exception.
+
+    A plant that asks for a whole-number ratio of its interpolator (``integer_ratio``) is
+    solved as :func:`_tune_integer_ratio` describes; otherwise see :func:`_tune_once`.
+    """
+    if getattr(spec.plant, "integer_ratio", False):
+        return _tune_integer_ratio(spec, progress, notify)
+    return _tune_once(spec, progress, notify)
+
+
+def _tune_integer_ratio(spec: Spec, progress, notify) -> TuneResult:
+    """q = T/Δt_p whole: solve with q continuous, then again with q fixed (a constraint
+    ``interpolation_ratio`` min = max) at ⌊q⌋ and ⌈q⌉ (≥ 1); the feasible one with the
+    lower objective is the result, whose spec is the one solved (the added constraint shows
+    among its constraints) and whose message tells the story. Without a feasible relaxed
+    optimum, the relaxed result is returned with a note."""
+    relaxed = _tune_once(spec, progress, notify)
+    ratio = relaxed.metrics.get("interpolation_ratio")
+    if not relaxed.success or ratio is None or ratio.value is None:
+        return relaxed.model_copy(update={
+            "message": relaxed.message + "; integer_ratio: no relaxed optimum to round, q "
+                                         "not made whole"})
+    q = ratio.value
+    wholes = sorted({max(1, math.floor(q + 1e-9)), max(1, math.ceil(q - 1e-9))})
+    results = []
+    for whole in wholes:
+        if notify is not None:
+            notify(f"integer_ratio: relaxed q = {q:.6g}; solving again with q = {whole}")
+        data = spec.model_dump(mode="json")
+        data["constraints"].append({"metric": "interpolation_ratio", "min": whole, "max": whole})
+        results.append((whole, _tune_once(parse_spec(data), progress, notify)))
+    feasible = [(whole, r) for whole, r in results if r.success and r.objective is not None]
+    story = "; ".join(f"q = {whole}: {r.status}" + (f", objective {r.objective:.6g}"
+                                                    if r.objective is not None else "")
+                      for whole, r in results)
+    if not feasible:
+        return relaxed.model_copy(update={
+            "success": False, "status": results[-1][1].status,
+            "message": (f"integer_ratio: relaxed q = {q:.6g} (objective "
+                        f"{relaxed.objective:.6g}), no whole q feasible ({story}); the relaxed "
+                        "optimum is shown")})
+    whole, best = min(feasible, key=lambda item: item[1].objective)
+    return best.model_copy(update={
+        "message": (f"{best.message}; integer_ratio: relaxed q = {q:.6g} (objective "
+                    f"{relaxed.objective:.6g}), {story}; kept q = {whole}")})
+
+
+def _tune_once(spec: Spec, progress: Callable | None = None,
+               notify: Callable[[str], None] | None = None) -> TuneResult:
+    """Solve ``spec`` once; a failed solve is a result with ``success`` false.
 
     ``progress(start, total)`` is called after each multistart start (see
     :meth:`feedtune.tuner.Problem.solve`); ``notify(text)`` with a sentence for people when

@@ -2,12 +2,16 @@
 
 from feedtune.objectives.average_radius import AverageRadius
 from feedtune.objectives.bandwidth import Bandwidth
+from feedtune.objectives.circle_mean_deviation import CircleMeanDeviation
+from feedtune.objectives.circle_roughness import CircleRoughness
+from feedtune.objectives.circularity import Circularity
 from feedtune.objectives.counter_utilisation import CounterUtilisation
 from feedtune.objectives.crossover_frequency import CrossoverFrequency
 from feedtune.objectives.damping_ratio import DampingRatio
 from feedtune.objectives.encoder_ratio import EncoderRatio
 from feedtune.objectives.gain_margin import GainMargin
 from feedtune.objectives.iae import Iae
+from feedtune.objectives.interpolation_ratio import InterpolationRatio
 from feedtune.objectives.ise import Ise
 from feedtune.objectives.itae import Itae
 from feedtune.objectives.load_rejection import LoadRejection
@@ -20,6 +24,7 @@ from feedtune.objectives.phase_margin import PhaseMargin
 from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.radial_error_koren import RadialErrorKoren
 from feedtune.objectives.radius_decrease import RadiusDecrease
+from feedtune.objectives.reference_interval import ReferenceInterval
 from feedtune.objectives.sampling_ratio import SamplingRatio
 from feedtune.objectives.sensitivity import Sensitivity
 from feedtune.objectives.settling_time import SettlingTime
@@ -32,5 +37,7 @@ METRICS = {
                    NaturalFrequency, MinRadius, MinRadiusKoren, EncoderRatio, SamplingRatio,
                    CounterUtilisation, MPeak, Bandwidth, GainMargin, PhaseMargin,
                    CrossoverFrequency, VelocityConstant, Sensitivity, SettlingTime, Overshoot,
-                   LoadRejection, AverageRadius, RadiusDecrease, SurfaceRoughness)
+                   LoadRejection, AverageRadius, RadiusDecrease, SurfaceRoughness,
+                   CircleMeanDeviation, CircleRoughness, Circularity, InterpolationRatio,
+                   ReferenceInterval)
 }

@@ -14,6 +14,7 @@ approximation, the dead time L = (computation_delay + ½)·T in the loop replace
 ``interpolation``: ``linear`` puts an interpolator in front of the servo that sends a
 point on the path every reference interval (Sato Figs 2–3); the loop then carries an
 :class:`~feedtune.loop.Interpolator` for the circle metrics of Sato et al.
+``integer_ratio`` asks the tuner (``feedtune.problem``) for a whole q = T/Δt_p.
 
 References
 ----------
@@ -80,6 +81,12 @@ class SoftwareServoParams(SpecModel):
                     "sinusoids); linear: an interpolator sends a point on the path every "
                     "reference_interval [s], the servo steps along each chord (Sato Figs 2–3); "
                     "adds the tunable reference_interval (sampled_data only)")
+    integer_ratio: bool = Field(
+        False,
+        description="q = reference_interval/sampling_period must be a whole number [1]: the "
+                    "tuner solves with q continuous, then again with q fixed at the whole "
+                    "numbers below and above (a constraint interpolation_ratio min = max) and "
+                    "keeps the better feasible result (interpolation linear only)")
 
     @model_validator(mode="after")
     def _sampling_options_need_sampling(self):
@@ -92,6 +99,8 @@ class SoftwareServoParams(SpecModel):
                 if given:
                     raise ValueError(f"{name} = {json.dumps(getattr(self, name))} applies to "
                                      "technique 'sampled_data' only")
+        if self.integer_ratio and self.interpolation != "linear":
+            raise ValueError("integer_ratio = true applies to interpolation 'linear' only")
         return self
 
 

@@ -180,3 +180,59 @@ def test_table1_rows_as_printed():
     np.testing.assert_allclose(chord, [8 / math.pi**2, 2 / math.pi**2], rtol=5e-3)
     assert 0.846 / chord[0] - 1 == pytest.approx(0.043, abs=0.001)
     assert 0.209 / chord[1] - 1 == pytest.approx(0.035, abs=0.001)
+
+
+#: exact circle test of the sampled loop at Table 2's conditions [m]: (mean radius
+#: decrease −circle_mean_deviation, circle_roughness = circularity); Table 2's experiment
+EXACT_TABLE_2 = {"a": (296.75 * UM, 330.98 * UM), "b": (83.23 * UM, 61.92 * UM)}
+EXPERIMENT_TABLE_2 = {"a": (262 * UM, 343 * UM), "b": (80 * UM, 70 * UM)}
+
+
+@pytest.mark.parametrize("key", sorted(TABLE_2))
+def test_exact_circle_test_at_table2(key):
+    """The exact circle test (model exact; the result reports it on the spec's circle):
+    the mean radius falls short of r by Δr to 0.5 µm (eq 3's area radius against the
+    time mean), while the ripple's peak-to-valley is 13.5 % (a) and 14.3 % (b) below eq 10's
+    Δm — the phase-free sum of harmonics is an upper bound, as §4.2 says of (a), where
+    the exact 331 µm lies nearer the measured 343 µm than the formula's 382 µm. Pinned to
+    0.05 µm: exact for the ideal drive (straight between samples) at q = 1309/10 and
+    720/11, the fractions the test takes for q = 130.8997 and 65.4498 (T within 0.6 and
+    9.5 µs; fractions with b ≤ 256 move the values by 0.012 µm at most)."""
+    name = TABLE_2[key][0]
+    spec = load_example(name)
+    spec["plant"]["model"] = "exact"
+    result = tune_dict(spec)
+    metrics = {name: value.value for name, value in result.metrics.items()}
+    decrease, roughness = EXACT_TABLE_2[key]
+    assert -metrics["circle_mean_deviation"] == pytest.approx(decrease, abs=0.05 * UM)
+    assert -metrics["circle_mean_deviation"] == pytest.approx(metrics["radius_decrease"],
+                                                              abs=0.5 * UM)
+    assert metrics["circle_roughness"] == pytest.approx(roughness, abs=0.05 * UM)
+    assert metrics["circularity"] == pytest.approx(roughness, abs=0.05 * UM)
+    assert metrics["circle_roughness"] < 0.9 * metrics["surface_roughness"]
+    if key == "a":
+        measured = EXPERIMENT_TABLE_2[key][1]
+        assert (abs(metrics["circle_roughness"] - measured)
+                < abs(metrics["surface_roughness"] - measured))
+
+
+def test_finish_and_throughput_examples(tuned_example):
+    """The bundled tuning examples (docs/sato.md): finish — T and Δt_p at their minimums
+    (10 and 2 ms), K_p = 43.84 s⁻¹ where Δr ≤ 10 µm binds, Δm = 0.0645 µm; throughput — the
+    largest T = 26.31 ms (K_p = 49.66 s⁻¹) with Δr ≤ 10 µm and Δm ≤ 1 µm both binding. Both
+    report the exact circle test beside the formulas."""
+    finish = tuned_example("sato-finish")
+    assert finish.success
+    assert finish.tuned["sampling_period"].at_bound == "min"
+    assert finish.tuned["reference_interval"].at_bound == "min"
+    assert finish.tuned["position_gain"].value == pytest.approx(43.84, rel=1e-3)
+    assert finish.metrics["radius_decrease"].value == pytest.approx(10 * UM, rel=1e-6)
+    assert finish.metrics["surface_roughness"].value == pytest.approx(0.0645 * UM, rel=1e-3)
+    assert finish.metrics["circle_roughness"].value == pytest.approx(0.0634 * UM, rel=1e-3)
+    throughput = tuned_example("sato-throughput")
+    assert throughput.success
+    assert throughput.tuned["reference_interval"].value == pytest.approx(0.02631, rel=1e-3)
+    assert throughput.tuned["position_gain"].value == pytest.approx(49.66, rel=1e-3)
+    assert throughput.metrics["circle_roughness"].value == pytest.approx(0.870 * UM, rel=1e-3)
+    assert throughput.metrics["circle_mean_deviation"].value == pytest.approx(-10.016 * UM,
+                                                                              rel=1e-3)
