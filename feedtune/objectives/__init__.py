@@ -9,6 +9,7 @@ from feedtune.objectives.counter_utilisation import CounterUtilisation
 from feedtune.objectives.crossover_frequency import CrossoverFrequency
 from feedtune.objectives.damping_ratio import DampingRatio
 from feedtune.objectives.encoder_ratio import EncoderRatio
+from feedtune.objectives.formula_gap import RadiusDecreaseGap, SurfaceRoughnessGap
 from feedtune.objectives.gain_margin import GainMargin
 from feedtune.objectives.iae import Iae
 from feedtune.objectives.interpolation_ratio import InterpolationRatio
@@ -39,5 +40,5 @@ METRICS = {
                    CrossoverFrequency, VelocityConstant, Sensitivity, SettlingTime, Overshoot,
                    LoadRejection, AverageRadius, RadiusDecrease, SurfaceRoughness,
                    CircleMeanDeviation, CircleRoughness, Circularity, InterpolationRatio,
-                   ReferenceInterval)
+                   ReferenceInterval, RadiusDecreaseGap, SurfaceRoughnessGap)
 }
