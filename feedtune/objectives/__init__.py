@@ -9,7 +9,6 @@ from feedtune.objectives.counter_utilisation import CounterUtilisation
 from feedtune.objectives.crossover_frequency import CrossoverFrequency
 from feedtune.objectives.damping_ratio import DampingRatio
 from feedtune.objectives.encoder_ratio import EncoderRatio
-from feedtune.objectives.formula_gap import RadiusDecreaseGap, SurfaceRoughnessGap
 from feedtune.objectives.gain_margin import GainMargin
 from feedtune.objectives.iae import Iae
 from feedtune.objectives.interpolation_ratio import InterpolationRatio
@@ -25,11 +24,13 @@ from feedtune.objectives.phase_margin import PhaseMargin
 from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.radial_error_koren import RadialErrorKoren
 from feedtune.objectives.radius_decrease import RadiusDecrease
+from feedtune.objectives.radius_decrease_gap import RadiusDecreaseGap
 from feedtune.objectives.reference_interval import ReferenceInterval
 from feedtune.objectives.sampling_ratio import SamplingRatio
 from feedtune.objectives.sensitivity import Sensitivity
 from feedtune.objectives.settling_time import SettlingTime
 from feedtune.objectives.surface_roughness import SurfaceRoughness
+from feedtune.objectives.surface_roughness_gap import SurfaceRoughnessGap
 from feedtune.objectives.velocity_constant import VelocityConstant
 
 METRICS = {

@@ -1,4 +1,5 @@
-"""Gap between Sato's formulas and the exact circle test, for the two contour metrics."""
+"""What radius_decrease_gap and surface_roughness_gap share: a paper formula against its
+exact circle-test counterpart."""
 
 import math
 
@@ -7,8 +8,6 @@ import casadi as ca
 from feedtune.objectives import circle_test
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
-from feedtune.objectives.radius_decrease import RadiusDecrease
-from feedtune.objectives.surface_roughness import SurfaceRoughness
 
 
 def relative_gap(formula, exact) -> ca.DM:
@@ -47,28 +46,3 @@ class FormulaGap(Metric):
     def evaluate(self, loop, options):
         exact = self.exact(loop, options)  # first: it refuses a loop of symbols (TypeError)
         return relative_gap(_number(self.formula().evaluate(loop, options)), exact)
-
-
-class RadiusDecreaseGap(FormulaGap):
-    """(Δr by eq 7 − exact mean decrease)/exact, the exact one −circle_mean_deviation."""
-
-    name = "radius_decrease_gap"
-    description = ("Relative gap of Sato's decrease in radius (eq 7) to the exact circle "
-                   "test's mean decrease (reported only)")
-    reference = "Sato et al. eq 7; exact periodic steady state"
-    formula = RadiusDecrease
-    quantity = "mean_deviation"
-
-    def exact(self, loop, options):
-        return -super().exact(loop, options)
-
-
-class SurfaceRoughnessGap(FormulaGap):
-    """(Δm by eq 10 − exact peak-to-valley ripple)/exact (circle_roughness)."""
-
-    name = "surface_roughness_gap"
-    description = ("Relative gap of Sato's surface roughness (eq 10) to the exact circle "
-                   "test's peak-to-valley ripple (reported only)")
-    reference = "Sato et al. eq 10; exact periodic steady state"
-    formula = SurfaceRoughness
-    quantity = "roughness"
