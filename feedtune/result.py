@@ -107,7 +107,7 @@ def ipopt_version() -> str:
         with open(os.devnull, "w") as devnull:
             os.dup2(devnull.fileno(), 1)
             solver = ca.nlpsol("version_probe", "ipopt", {"x": x, "f": x**2},
-                               {"ipopt": {"print_level": 0, "output_file": path,
+                               {"ipopt": {"print_level": 0, "sb": "yes", "output_file": path,
                                           "file_print_level": 5}, "print_time": False})
             solver(x0=1)
     finally:

@@ -430,3 +430,11 @@ def test_help_gives_units_and_exit_statuses():
     assert proc.returncode == 0
     text = proc.stdout.decode()
     assert "Exit status" in text and "stdout" in text
+
+
+def test_a_spec_without_free_tunables_prints_no_ipopt_banner():
+    """Nothing is optimised, so IPOPT's only run is the version probe of the provenance
+    block: its banner must not reach the terminal (it did, on stderr)."""
+    proc = run("tune", str(REPO / "examples" / "sato-table2-a.json"))
+    assert proc.returncode == 0, stderr(proc)
+    assert "Ipopt" not in stderr(proc) and b"Ipopt" not in proc.stdout
