@@ -1,11 +1,9 @@
 """Mean radial deviation of the exact circle test (the measured counterpart of Sato's Δr)."""
 
-from feedtune.objectives import circle_test
-from feedtune.objectives.base import Metric
-from feedtune.objectives.circle import CircleOptions
+from feedtune.objectives.circle_test import CircleTestMetric
 
 
-class CircleMeanDeviation(Metric):
+class CircleMeanDeviation(CircleTestMetric):
     """mean(|y|) − r [m] of the steady circle, signed: negative when the circle shrinks.
 
     The time mean of the radial deviation over the steady state of two identical axes
@@ -18,17 +16,7 @@ class CircleMeanDeviation(Metric):
     """
 
     name = "circle_mean_deviation"
-    unit = "m"
     description = ("Mean radial deviation of the steady interpolated circle, mean |y| − r "
                    "(exact circle test; reported only)")
     reference = "Sato et al. §3 (Δr, eq 7); exact periodic steady state"
-    Options = CircleOptions
-
-    def supports(self, loop, options=None):
-        return circle_test.supports(loop)
-
-    def optimisable(self, loop, options=None):
-        return False
-
-    def evaluate(self, loop, options):
-        return circle_test.circle_value(loop, options, "mean_deviation")
+    quantity = "mean_deviation"

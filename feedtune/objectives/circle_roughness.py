@@ -1,11 +1,9 @@
 """Peak-to-valley of the radial ripple in the exact circle test (measured Sato's Δm)."""
 
-from feedtune.objectives import circle_test
-from feedtune.objectives.base import Metric
-from feedtune.objectives.circle import CircleOptions
+from feedtune.objectives.circle_test import CircleTestMetric
 
 
-class CircleRoughness(Metric):
+class CircleRoughness(CircleTestMetric):
     """Peak-to-valley [m] of the radial deviation within one side (time T), worst side.
 
     The exact counterpart of Sato's surface roughness Δm (eq 10), which sums the ripple's
@@ -18,17 +16,7 @@ class CircleRoughness(Metric):
     """
 
     name = "circle_roughness"
-    unit = "m"
     description = ("Peak-to-valley of the radial ripple within one side of the steady "
                    "interpolated circle (exact circle test; reported only)")
     reference = "Sato et al. §3.2 (Δm, eq 10); exact periodic steady state"
-    Options = CircleOptions
-
-    def supports(self, loop, options=None):
-        return circle_test.supports(loop)
-
-    def optimisable(self, loop, options=None):
-        return False
-
-    def evaluate(self, loop, options):
-        return circle_test.circle_value(loop, options, "roughness")
+    quantity = "roughness"

@@ -42,6 +42,9 @@ import casadi as ca
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
+from feedtune.objectives.base import Metric
+from feedtune.objectives.circle import CircleOptions
+
 #: sub-sample points per servo sample for the continuous response between samples
 SUBDIVISIONS = 16
 #: the most sides a non-integer q = a/b may take to repeat (b ≤ MAX_CHORDS)
@@ -185,3 +188,24 @@ def circle_value(loop, options, quantity: str):
     +∞ for an unstable loop."""
     test = circle_test(loop, options.radius, options.feed)
     return ca.DM(math.inf if test is None else getattr(test, quantity))
+
+
+class CircleTestMetric(Metric):
+    """A metric read from the circle test: ``quantity`` of :class:`CircleTest` [m].
+
+    Sampled loops behind a linear interpolator (``model: exact``) only; reported only,
+    never optimised (numeric, and not smooth in q = T/Δt_p). +∞ for an unstable loop.
+    """
+
+    unit = "m"
+    Options = CircleOptions
+    quantity: str
+
+    def supports(self, loop, options=None):
+        return supports(loop)
+
+    def optimisable(self, loop, options=None):
+        return False
+
+    def evaluate(self, loop, options):
+        return circle_value(loop, options, self.quantity)

@@ -1,11 +1,9 @@
 """Circularity of the exact circle test, max − min radial deviation (ISO 230-4)."""
 
-from feedtune.objectives import circle_test
-from feedtune.objectives.base import Metric
-from feedtune.objectives.circle import CircleOptions
+from feedtune.objectives.circle_test import CircleTestMetric
 
 
-class Circularity(Metric):
+class Circularity(CircleTestMetric):
     """max |y| − min |y| [m] over the whole steady circle (ISO 230-4 circular deviation G).
 
     ISO 230-4 takes the radial range about the least-squares centre; the steady state of
@@ -15,17 +13,7 @@ class Circularity(Metric):
     """
 
     name = "circularity"
-    unit = "m"
     description = ("Max − min radial deviation over the steady interpolated circle, as "
                    "ISO 230-4 (exact circle test; reported only)")
     reference = "ISO 230-4; Sato et al. §3; exact periodic steady state"
-    Options = CircleOptions
-
-    def supports(self, loop, options=None):
-        return circle_test.supports(loop)
-
-    def optimisable(self, loop, options=None):
-        return False
-
-    def evaluate(self, loop, options):
-        return circle_test.circle_value(loop, options, "circularity")
+    quantity = "circularity"

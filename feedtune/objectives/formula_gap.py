@@ -5,9 +5,7 @@ import math
 
 import casadi as ca
 
-from feedtune.objectives import circle_test
-from feedtune.objectives.base import Metric
-from feedtune.objectives.circle import CircleOptions
+from feedtune.objectives.circle_test import CircleTestMetric
 
 
 def relative_gap(formula, exact) -> ca.DM:
@@ -22,7 +20,7 @@ def _number(value) -> float:
     return abs(float(ca.evalf(ca.MX(expr))))
 
 
-class FormulaGap(Metric):
+class FormulaGap(CircleTestMetric):
     """Relative gap [1] between a paper formula and its exact circle-test counterpart.
 
     Reported only, on the same circles as the spec's contour terms: how far Sato's
@@ -30,18 +28,10 @@ class FormulaGap(Metric):
     """
 
     unit = "1"
-    Options = CircleOptions
     formula: type
-    quantity: str
-
-    def supports(self, loop, options=None):
-        return circle_test.supports(loop)
-
-    def optimisable(self, loop, options=None):
-        return False
 
     def exact(self, loop, options) -> float:
-        return float(circle_test.circle_value(loop, options, self.quantity))
+        return float(super().evaluate(loop, options))
 
     def evaluate(self, loop, options):
         exact = self.exact(loop, options)  # first: it refuses a loop of symbols (TypeError)
