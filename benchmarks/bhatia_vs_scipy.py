@@ -87,6 +87,7 @@ DE_POLISH = False  # True would polish with trust-constr (constraints present)
 SLSQP_FTOL = 1e-9
 SLSQP_MAXITER = 500
 TARGET_SPEEDUP = 10.0  # "feedtune ≥ DE bandwidth and ≥ 10× faster"
+FAST_LABEL = "feedtune 1 start, L-BFGS"  # first start only, limited-memory Hessian
 GAP_LIMIT = 1e-3  # feedtune's own metrics vs the dense verification: ≤ 0.1 % relative
 
 
@@ -365,7 +366,7 @@ def best_of(fn, repeats: int):
     return best
 
 
-def run_feedtune(spec: dict, repeats: int) -> Run:
+def run_feedtune(spec: dict, repeats: int, label: str = "feedtune") -> Run:
     from feedtune.problem import tune
     from feedtune.spec import parse_spec
 
@@ -381,7 +382,7 @@ def run_feedtune(spec: dict, repeats: int) -> Run:
         statuses[st.status] = statuses.get(st.status, 0) + 1
     note = (f"{result.status}; build {s.build_time:.1f} s; starts: "
             + ", ".join(f"{n} {k}" for k, n in statuses.items()))
-    return Run("feedtune", seconds, x, iterations=sum(st.iterations for st in s.starts),
+    return Run(label, seconds, x, iterations=sum(st.iterations for st in s.starts),
                note=note, extra={"result": result})
 
 
@@ -487,6 +488,11 @@ def main(argv=None) -> int:
     scale = hand_metrics.bandwidth
 
     ft = run_feedtune(spec, args.repeats)
+    # the same spec from its first start only (Bhatia's design, which DE also gets as x0),
+    # with IPOPT's limited-memory Hessian: exact gradients, no second derivatives to evaluate
+    fast_spec = {**spec, "solver": {**spec["solver"], "multistart": 1, "ipopt_options": {
+        **spec["solver"].get("ipopt_options", {}), "hessian_approximation": "limited-memory"}}}
+    ft_fast = run_feedtune(fast_spec, args.repeats, FAST_LABEL)
     de_iter = DE_MAXITER_QUICK if args.quick else DE_MAXITER
 
     def make_functions():
@@ -495,7 +501,7 @@ def main(argv=None) -> int:
     de = run_de(make_functions, bounds_z, z_hand, de_iter, args.repeats)
     slsqp = run_slsqp(make_functions, bounds_z, starting_points(bounds, initial, multistart),
                       args.repeats)
-    runs = [hand, ft, de, slsqp]
+    runs = [hand, ft, ft_fast, de, slsqp]
     verified = {run.method: verify(model, run.x) for run in runs}
 
     print(f"feedtune vs scipy.optimize on the Bhatia 1971 showcase (casadi {casadi.__version__}, "
@@ -561,16 +567,20 @@ def main(argv=None) -> int:
 
     print()
     print("targets (reported, not asserted):")
-    m_ft, m_de = verified["feedtune"], verified["differential_evolution"]
-    speedup = de.seconds / ft.seconds
-    better = m_ft.feasible(limits) and m_ft.bandwidth >= m_de.bandwidth * (1 - FEAS_TOL)
-    met = better and speedup >= TARGET_SPEEDUP
+    m_de = verified["differential_evolution"]
+
     def word(m):
         return "feasible" if m.feasible(limits) else "INFEASIBLE"
 
-    print(f"  feedtune >= DE bandwidth and >= {TARGET_SPEEDUP:g}x faster: {'yes' if met else 'no'} "
-          f"(ratio DE/feedtune time {speedup:.2f}; bandwidth {m_ft.bandwidth:.3f} vs "
-          f"{m_de.bandwidth:.3f} rad/s, feedtune {word(m_ft)}, DE {word(m_de)})")
+    for run in (ft, ft_fast):
+        m_ft = verified[run.method]
+        speedup = de.seconds / run.seconds
+        better = m_ft.feasible(limits) and m_ft.bandwidth >= m_de.bandwidth * (1 - FEAS_TOL)
+        met = better and speedup >= TARGET_SPEEDUP
+        print(f"  {run.method} >= DE bandwidth and >= {TARGET_SPEEDUP:g}x faster: "
+              f"{'yes' if met else 'no'} (ratio DE/feedtune time {speedup:.2f}; bandwidth "
+              f"{m_ft.bandwidth:.3f} vs {m_de.bandwidth:.3f} rad/s, feedtune {word(m_ft)}, "
+              f"DE {word(m_de)})")
     m_sq = verified["SLSQP multistart"]
     print(f"  for information, SLSQP multistart: bandwidth {m_sq.bandwidth:.3f} rad/s "
           f"({word(m_sq)}), time SLSQP/feedtune {slsqp.seconds / ft.seconds:.3f}")
