@@ -11,7 +11,7 @@ Peaks and crossings over frequency (:class:`~feedtune.expr.Supremum`,
 fixed grid, each point written in a bounded form ((f − c)/(f + c) ≤ 0 for f ≤ c), so no
 constraint blows up where a closed-loop pole crosses the jω axis. After each solve the
 refined peak (or dip) is evaluated; while it violates the bound, its frequency is added as
-one more constraint point (a parameter of the built NLP) and the solve is warm-started:
+one more constraint point (a parameter of the built NLP) and IPOPT runs again from the last solution:
 the exchange method. Putting the refined peak itself in the NLP was tried and stalled
 IPOPT: its value switches between peaks, so its derivatives jump.
 """
