@@ -40,8 +40,9 @@ class LoadRejection(Metric):
     reference = "Bhatia 1971 Ch. IV, App. A2"
     Options = LoadRejectionOptions
 
-    def unit_of(self, options, position_unit="rad"):  # load torque: rotary axes only
-        return "rad/(N·m)" if options.measure == "peak" else "rad·s/(N·m)"
+    def unit_of(self, options, position_unit="rad"):  # load torque: rotary axes so far
+        per_torque = f"{position_unit}/(N·m)"
+        return per_torque if options.measure == "peak" else f"{position_unit}·s/(N·m)"
 
     def supports(self, loop, options=None):
         return has_numeric_response(loop) and getattr(loop, "load_numerator", None) is not None

@@ -243,9 +243,9 @@ class Problem:
         # exchange points: parameters of the NLP (ω, or x = ω/b for a crossing) whose rows
         # are switched on by their bounds when the refined check adds them
         slots, slot_defaults, checks = [], [], []
-        self._exchange = []  # per peak/crossing: (kind, slot indices, row indices)
+        self._exchange = []  # per peak/crossing: (row bounds when on, slot indices, row indices)
 
-        def exchange_rows(kind, default, constraint_at, check):
+        def exchange_rows(bounds, default, constraint_at, check):
             indices, rows = [], []
             for _ in range(EXCHANGE_POINTS):
                 symbol = ca.MX.sym(f"exchange{len(slots)}")
@@ -254,7 +254,7 @@ class Problem:
                 slot_defaults.append(default)
                 rows.append(len(g))
                 constrain(constraint_at(symbol), -ca.inf, ca.inf)  # off until added
-            self._exchange.append((kind, indices, rows))
+            self._exchange.append((bounds, indices, rows))
             checks.extend(check)
 
         def crossing_variable(value, index, equality):
@@ -273,7 +273,7 @@ class Problem:
             for x in value.relative_grid:
                 constrain(row(x), 0, ca.inf)
             dip, where = value.lowest_minimum(b, DIP_MARGIN)
-            exchange_rows("crossing", float(value.relative_grid[0]), row, [-dip, where / b])
+            exchange_rows((0, ca.inf), float(value.relative_grid[0]), row, [-dip, where / b])
             return b
 
         def supremum_below(value, bound, s):
@@ -287,7 +287,7 @@ class Problem:
 
             for omega in value.grid:
                 constrain(row(omega), -ca.inf, 0)
-            exchange_rows("supremum", float(value.grid[0]), row,
+            exchange_rows((-ca.inf, 0), float(value.grid[0]), row,
                           [(value.exact - bound) / (ca.fabs(bound) + 1e-300), value.argmax])
 
         for index, (value, ((expr, mag), weight), ref) in enumerate(zip(term_values, term_exprs, term_ref)):
@@ -528,7 +528,7 @@ class Problem:
         split = [x[:self.n_z], *x[self.n_z:]]
         checks = np.asarray(self._exchange_check(*split), dtype=float).ravel()
         added = False
-        for group, (kind, indices, rows) in enumerate(self._exchange):
+        for group, (bounds, indices, rows) in enumerate(self._exchange):
             violation, where = checks[2 * group], checks[2 * group + 1]
             if not (violation > EXCHANGE_TOL and math.isfinite(where) and where > 0):
                 continue
@@ -536,10 +536,7 @@ class Problem:
                 return None
             slot, row = indices[used[group]], rows[used[group]]
             slots[slot] = where
-            if kind == "crossing":
-                lbg[row], ubg[row] = 0.0, np.inf
-            else:
-                lbg[row], ubg[row] = -np.inf, 0.0
+            lbg[row], ubg[row] = bounds
             used[group] += 1
             added = True
         return added

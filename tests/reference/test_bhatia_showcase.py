@@ -149,6 +149,7 @@ def test_showcase_reports_ramp_and_load_variants_in_radians(showcase):
     assert metrics["ise"].unit == "rad²·s"
     loads = {m.options["measure"]: m for m in metrics.values() if m.metric == "load_rejection"}
     assert set(loads) == {"peak", "iae"} and all(m.value > 0 for m in loads.values())
+    assert loads["peak"].unit == "rad/(N·m)" and loads["iae"].unit == "rad·s/(N·m)"
 
 
 def test_an_unstable_design_reports_no_metrics():

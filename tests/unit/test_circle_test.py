@@ -24,13 +24,14 @@ from feedtune.objectives import METRICS
 from feedtune.objectives.circle import CircleOptions
 from feedtune.objectives.circle_test import circle_test
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
-from tests.unit.test_sato_metrics import _num, sato_loop
+from expression_values import as_number
+from test_sato_metrics import sato_loop
 
 CIRCLE = CircleOptions(radius=0.05, feed=0.05)
 
 
 def values(loop, options=CIRCLE):
-    return {name: _num(METRICS[name]().evaluate(loop, options))
+    return {name: as_number(METRICS[name]().evaluate(loop, options))
             for name in ("circle_mean_deviation", "circle_roughness", "circularity")}
 
 
@@ -85,9 +86,9 @@ def test_fine_sampling_tends_to_the_continuous_loop():
 def simulate(loop, radius, feed, revolutions_samples, fine=64):
     """Brute force: both axes from rest, sample by sample; the plant between samples by its
     matrix exponential on ``fine`` points. Returns (time [s], radius [m]) on the fine grid."""
-    gain = _num(loop.gain)
-    period = _num(loop.period)
-    interval = _num(loop.interpolator.reference_interval)
+    gain = as_number(loop.gain)
+    period = as_number(loop.period)
+    interval = as_number(loop.interpolator.reference_interval)
     tau = loop.plant.time_constant
     delay = loop.delay
     omega = feed / radius
@@ -162,8 +163,8 @@ def test_supports_the_exact_sampled_loop_only():
 
 def test_interpolation_ratio_and_reference_interval():
     loop = sato_loop(period=0.002, interval=0.13)
-    assert _num(METRICS["interpolation_ratio"]().evaluate(loop, None)) == pytest.approx(65)
-    assert _num(METRICS["reference_interval"]().evaluate(loop, None)) == pytest.approx(0.13)
+    assert as_number(METRICS["interpolation_ratio"]().evaluate(loop, None)) == pytest.approx(65)
+    assert as_number(METRICS["reference_interval"]().evaluate(loop, None)) == pytest.approx(0.13)
     plain = SoftwareServo(SoftwareServoParams(type="software_servo", technique="sampled_data",
                                               time_constant=0.02))
     box = {n: (t.min, t.max) for n, t in plain.tunables().items()}

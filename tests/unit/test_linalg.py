@@ -13,17 +13,7 @@ import numpy as np
 import pytest
 
 from feedtune import linalg
-
-
-def _num(x) -> float:
-    """A CasADi scalar expression (or a plain number) as a float."""
-    if isinstance(x, (int, float)):
-        return float(x)
-    return float(ca.evalf(ca.MX(x)))
-
-
-def _nums(xs) -> np.ndarray:
-    return np.array([_num(x) for x in xs])
+from expression_values import as_number, as_numbers
 
 
 def _random_roots(rng, degree: int, stable: bool | None, *, discrete: bool = False) -> np.ndarray:
@@ -68,7 +58,7 @@ def test_characteristic_polynomial_matches_numpy_poly(n):
     rng = np.random.default_rng(100 + n)
     for _ in range(5):
         a = rng.normal(size=(n, n))
-        got = _nums(linalg.characteristic_polynomial(ca.DM(a)))
+        got = as_numbers(linalg.characteristic_polynomial(ca.DM(a)))
         expected = np.poly(a)
         assert got.shape == (n + 1,)
         assert got[0] == 1.0
@@ -85,13 +75,13 @@ def test_characteristic_polynomial_symbolic_equals_numeric():
     sym = ca.MX.sym("a", 4, 4)
     f = ca.Function("poly", [sym], linalg.characteristic_polynomial(sym))
     got = np.array([float(v) for v in f(a)])
-    np.testing.assert_allclose(got, _nums(linalg.characteristic_polynomial(ca.DM(a))), rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(got, as_numbers(linalg.characteristic_polynomial(ca.DM(a))), rtol=1e-13, atol=1e-13)
 
 
 def test_characteristic_polynomial_roots_are_eigenvalues():
     rng = np.random.default_rng(11)
     a = rng.normal(size=(5, 5))
-    roots = np.sort_complex(np.roots(_nums(linalg.characteristic_polynomial(ca.DM(a)))))
+    roots = np.sort_complex(np.roots(as_numbers(linalg.characteristic_polynomial(ca.DM(a)))))
     eig = np.sort_complex(np.linalg.eigvals(a))
     np.testing.assert_allclose(roots, eig, atol=1e-8)  # simple, well separated eigenvalues
 
@@ -107,19 +97,19 @@ def test_hurwitz_conditions_positive_iff_roots_in_left_half_plane(degree, stable
         # a leading coefficient of either sign: the conditions must not depend on it
         lead = rng.choice([-1.0, 1.0]) * rng.uniform(0.5, 2.0)
         coefficients = lead * np.real(np.poly(roots))
-        conditions = _nums(linalg.hurwitz_conditions([ca.DM(c) for c in coefficients]))
+        conditions = as_numbers(linalg.hurwitz_conditions([ca.DM(c) for c in coefficients]))
         assert len(conditions) == max(degree, 2 * degree - 2)  # n coefficients + minors Δ2..Δ(n-1)
         assert bool(np.all(conditions > 0)) == stable, (roots, conditions)
 
 
 def test_hurwitz_conditions_on_known_polynomials():
     # s² + 3s + 2 = (s+1)(s+2): stable; s³ + s² + s + 1 = (s+1)(s²+1): on the axis, Δ2 = 0
-    assert np.all(_nums(linalg.hurwitz_conditions([1, 3, 2])) > 0)
-    marginal = _nums(linalg.hurwitz_conditions([1.0, 1.0, 1.0, 1.0]))
+    assert np.all(as_numbers(linalg.hurwitz_conditions([1, 3, 2])) > 0)
+    marginal = as_numbers(linalg.hurwitz_conditions([1.0, 1.0, 1.0, 1.0]))
     assert not np.all(marginal > 0)
     assert marginal[-1] == pytest.approx(0.0, abs=1e-15)
     # s³ + s² + 2s + 8: all coefficients positive yet unstable (Δ2 = 1·2 − 8 < 0)
-    unstable = _nums(linalg.hurwitz_conditions([1.0, 1.0, 2.0, 8.0]))
+    unstable = as_numbers(linalg.hurwitz_conditions([1.0, 1.0, 2.0, 8.0]))
     assert np.all(unstable[:3] > 0) and unstable[3] == pytest.approx(-6.0)
 
 
@@ -135,10 +125,10 @@ def test_bilinear_maps_unit_disc_to_left_half_plane(degree):
         lead = rng.choice([-1.0, 1.0]) * rng.uniform(0.5, 2.0)
         coefficients = lead * np.real(np.poly(roots))
         w_poly = linalg.bilinear_to_continuous([ca.DM(c) for c in coefficients])
-        w_numbers = _nums(w_poly)
+        w_numbers = as_numbers(w_poly)
         schur = bool(np.all(np.abs(roots) < 1))
         outcomes.add(schur)
-        assert bool(np.all(_nums(linalg.hurwitz_conditions(w_poly)) > 0)) == schur, roots
+        assert bool(np.all(as_numbers(linalg.hurwitz_conditions(w_poly)) > 0)) == schur, roots
         # and each root maps as w = (z − 1)/(z + 1)
         expected_w = np.sort_complex((roots - 1) / (roots + 1))
         np.testing.assert_allclose(np.sort_complex(np.roots(w_numbers)), expected_w, atol=1e-6)
@@ -147,9 +137,9 @@ def test_bilinear_maps_unit_disc_to_left_half_plane(degree):
 
 def test_bilinear_of_a_known_polynomial():
     # z − 0.5 → (1 + w) − 0.5(1 − w) = 1.5 w + 0.5 (highest power first)
-    np.testing.assert_allclose(_nums(linalg.bilinear_to_continuous([1.0, -0.5])), [1.5, 0.5])
+    np.testing.assert_allclose(as_numbers(linalg.bilinear_to_continuous([1.0, -0.5])), [1.5, 0.5])
     # z² (double root at 0) → (1 + w)²
-    np.testing.assert_allclose(_nums(linalg.bilinear_to_continuous([1.0, 0.0, 0.0])), [1.0, 2.0, 1.0])
+    np.testing.assert_allclose(as_numbers(linalg.bilinear_to_continuous([1.0, 0.0, 0.0])), [1.0, 2.0, 1.0])
 
 
 # -- complex_solve --------------------------------------------------------------------------

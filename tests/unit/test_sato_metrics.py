@@ -23,13 +23,10 @@ from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.surface_roughness import TABLE_1, TABLE_1_Q, table_1_coefficients
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.spec import SpecError, parse_spec
+from expression_values import as_number
 
 CIRCLE = CircleOptions(radius=0.05, feed=0.05)  # Sato's circle: 50 mm at 1 rad/s
 OMEGA = 1.0
-
-
-def _num(x) -> float:
-    return float(np.array(ca.evalf(ca.MX(getattr(x, "expr", x)))).ravel()[0])
 
 
 def sato_servo(model="exact", time_constant=None, delay=1) -> SoftwareServo:
@@ -46,7 +43,7 @@ def sato_loop(model="exact", gain=40.0, period=0.002, interval=0.13, **kwargs):
 
 
 def metric(name, loop, options=CIRCLE) -> float:
-    return _num(METRICS[name]().evaluate(loop, options))
+    return as_number(METRICS[name]().evaluate(loop, options))
 
 
 # -- the loops ---------------------------------------------------------------------------------
@@ -68,12 +65,12 @@ def test_exact_loop_is_the_delayed_integrator():
     k, dt = 40.0, 0.002
     loop = sato_loop("exact", k, dt)
     assert loop.order == 2 and loop.discrete and not loop.has_exact_step_error
-    poly = [_num(c) for c in loop.characteristic_polynomial]
+    poly = [as_number(c) for c in loop.characteristic_polynomial]
     np.testing.assert_allclose(poly, [1, -1, k * dt], rtol=1e-14)
     for omega in (1.0, 48.3, 700.0):
         re, im = loop.frequency_response(omega)
         # the loop solves (zI − Φ)x = Γ at z = e^{jωΔt} near 1, conditioned as 1/(ωΔt)²
-        np.testing.assert_allclose(_num(re) + 1j * _num(im), delayed_integrator(omega, k, dt),
+        np.testing.assert_allclose(as_number(re) + 1j * as_number(im), delayed_integrator(omega, k, dt),
                                    rtol=1e-9)
 
 
@@ -83,13 +80,13 @@ def test_pade_loop_is_eq5():
     k, dt = 40.0, 0.002
     dead = 1.5 * dt
     loop = sato_loop("pade", k, dt)
-    poly = [_num(c) for c in loop.characteristic_polynomial]
+    poly = [as_number(c) for c in loop.characteristic_polynomial]
     np.testing.assert_allclose(poly, [1, 2 / dead - k, 2 * k / dead], rtol=1e-14)
-    assert _num(loop.velocity_constant) == pytest.approx(k, rel=1e-15)
+    assert as_number(loop.velocity_constant) == pytest.approx(k, rel=1e-15)
     for omega in (1.0, 24.0, 300.0):
         expected = pade(omega, k, dt)
         re, im = loop.frequency_response(omega)
-        np.testing.assert_allclose(_num(re) + 1j * _num(im), expected, rtol=1e-12)
+        np.testing.assert_allclose(as_number(re) + 1j * as_number(im), expected, rtol=1e-12)
         eq6 = math.sqrt(((k * omega) ** 2 + (2 * k / dead) ** 2)
                         / ((2 * k / dead - omega**2) ** 2 + ((2 / dead - k) * omega) ** 2))
         assert abs(expected) == pytest.approx(eq6, rel=1e-12)
@@ -106,14 +103,14 @@ def test_pade_with_a_drive_time_constant_and_no_delay():
     assert "reference_interval" not in servo.tunables() and loop.interpolator is None
     half = dt / 4
     expected = np.polyadd(np.polymul(np.polymul([half, 1], [tau, 1]), [1, 0]), [-k * half, k])
-    poly = [_num(c) for c in loop.characteristic_polynomial]
+    poly = [as_number(c) for c in loop.characteristic_polynomial]
     np.testing.assert_allclose(poly, expected / expected[0], rtol=1e-13)
 
 
 def test_interpolator_carries_t_and_q():
     loop = sato_loop("pade", period=0.002, interval=0.13)
     assert isinstance(loop.interpolator, Interpolator)
-    assert _num(loop.interpolator.steps_per_interval) == pytest.approx(65, rel=1e-15)
+    assert as_number(loop.interpolator.steps_per_interval) == pytest.approx(65, rel=1e-15)
 
 
 # -- eq 3 -------------------------------------------------------------------------------------
@@ -142,7 +139,7 @@ def test_radius_decrease_tends_to_the_radial_error_as_t_goes_to_zero(model):
     # r̄ → r as T → 0, so Δr → r(1 − |G(jω)|): the loop's own radial error, in Sato's sign
     # (positive when the circle shrinks). At T = 1 µs, r − r̄ = r(ωT)²/12 ≈ 4e-15 m.
     loop = sato_loop(model, interval=1e-6)
-    radial = _num(RadialError().evaluate(loop, CIRCLE))  # r(|G| − 1), signed
+    radial = as_number(RadialError().evaluate(loop, CIRCLE))  # r(|G| − 1), signed
     assert radial < 0
     assert metric("radius_decrease", loop) == pytest.approx(-radial, rel=1e-6)
 
@@ -151,12 +148,12 @@ def test_radius_decrease_tends_to_the_radial_error_as_t_goes_to_zero(model):
 
 def test_table1_rows_beyond_and_between():
     for q, row in zip(TABLE_1_Q, TABLE_1):
-        np.testing.assert_allclose([_num(c) for c in table_1_coefficients(q)], row, atol=1e-12)
+        np.testing.assert_allclose([as_number(c) for c in table_1_coefficients(q)], row, atol=1e-12)
     # q beyond the table: the q = 50 row; below q = 2: the q = 2 row
     for q, row in ((65, TABLE_1[-1]), (1e4, TABLE_1[-1]), (1.0, TABLE_1[0])):
-        np.testing.assert_allclose([_num(c) for c in table_1_coefficients(q)], row, atol=1e-12)
+        np.testing.assert_allclose([as_number(c) for c in table_1_coefficients(q)], row, atol=1e-12)
     # between rows: linear in 1/q, so q = 20/3 lies a third of the way from q = 5 to q = 10
-    between = [_num(c) for c in table_1_coefficients(20 / 3)]
+    between = [as_number(c) for c in table_1_coefficients(20 / 3)]
     np.testing.assert_allclose(between, np.array(TABLE_1[3]) + (np.array(TABLE_1[4])
                                                                 - np.array(TABLE_1[3])) / 2,
                                atol=1e-12)
@@ -164,7 +161,7 @@ def test_table1_rows_beyond_and_between():
 
 def test_table1_coefficients_are_continuous_in_q():
     qs = np.geomspace(1.5, 80, 2000)
-    table = np.array([[_num(c) for c in table_1_coefficients(q)] for q in qs])
+    table = np.array([[as_number(c) for c in table_1_coefficients(q)] for q in qs])
     assert np.abs(np.diff(table, axis=0)).max() < 0.01  # no jumps between rows
 
 

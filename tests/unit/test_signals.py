@@ -22,15 +22,10 @@ from scipy.integrate import IntegrationWarning, quad
 from scipy.optimize import brentq
 
 from feedtune.signals import second_order_error_integrals, sample_error_integrals
+from expression_values import as_number
 
 DAMPING_RATIOS = [0.1, 0.5, 0.707, 0.99, 1.0, 1.5, 3.0]
 OMEGA_N = 7.0  # rad/s; any positive value, not 1, so that time scaling is exercised
-
-
-def _num(x) -> float:
-    if isinstance(x, (int, float)):
-        return float(x)
-    return float(ca.evalf(ca.MX(x)))
 
 
 def _quad(fn, a, b) -> float:
@@ -85,7 +80,7 @@ def _quadrature_integrals(e, points) -> np.ndarray:
 @pytest.mark.parametrize("zeta", DAMPING_RATIOS)
 def test_second_order_integrals_match_quadrature(zeta):
     a1, a0 = 2 * zeta * OMEGA_N, OMEGA_N**2
-    got = np.array([_num(v) for v in second_order_error_integrals(a1, a0, 1.0, 0.0)])
+    got = np.array([as_number(v) for v in second_order_error_integrals(a1, a0, 1.0, 0.0)])
     expected = _quadrature_integrals(*_second_order_error(zeta, OMEGA_N, 1.0, 0.0))
     # both sides are exact up to rounding (quad at epsrel 1e-12 between the zeros of e):
     # measured agreement is ≤ 3e-15; 1e-10 leaves room for other BLAS/libm builds
@@ -98,7 +93,7 @@ def test_second_order_underdamped_with_initial_slope(zeta, de0_over_wn):
     """The underdamped formula is stated for any ė(0); check slopes of both signs."""
     a1, a0 = 2 * zeta * OMEGA_N, OMEGA_N**2
     de0 = de0_over_wn * OMEGA_N
-    got = np.array([_num(v) for v in second_order_error_integrals(a1, a0, 1.0, de0)])
+    got = np.array([as_number(v) for v in second_order_error_integrals(a1, a0, 1.0, de0)])
     expected = _quadrature_integrals(*_second_order_error(zeta, OMEGA_N, 1.0, de0))
     np.testing.assert_allclose(got, expected, rtol=1e-10)  # as above
 
@@ -110,7 +105,7 @@ def test_second_order_overdamped_with_initial_slope(zeta, de0_over_wn):
     a1, a0 = 2 * zeta * OMEGA_N, OMEGA_N**2
     de0 = de0_over_wn * OMEGA_N
     assert de0 >= -a1 / 2
-    got = np.array([_num(v) for v in second_order_error_integrals(a1, a0, 1.0, de0)])
+    got = np.array([as_number(v) for v in second_order_error_integrals(a1, a0, 1.0, de0)])
     expected = _quadrature_integrals(*_second_order_error(zeta, OMEGA_N, 1.0, de0))
     np.testing.assert_allclose(got, expected, rtol=1e-10)
 
@@ -118,7 +113,7 @@ def test_second_order_overdamped_with_initial_slope(zeta, de0_over_wn):
 @pytest.mark.parametrize("zeta", DAMPING_RATIOS)
 def test_second_order_ise_closed_form(zeta):
     """ISE = (1 + 4ζ²)/(4ζω_n) for the standard second-order step error."""
-    ise = _num(second_order_error_integrals(2 * zeta * OMEGA_N, OMEGA_N**2, 1.0, 0.0).ise)
+    ise = as_number(second_order_error_integrals(2 * zeta * OMEGA_N, OMEGA_N**2, 1.0, 0.0).ise)
     assert ise == pytest.approx((1 + 4 * zeta**2) / (4 * zeta * OMEGA_N), rel=1e-13)
 
 
@@ -127,15 +122,15 @@ def test_second_order_overdamped_iae_itae_closed_form(zeta):
     """No zero crossing for ζ ≥ 1: IAE = ∫e = a1/a0, ITAE = ∫te = (a1² − a0)/a0²."""
     a1, a0 = 2 * zeta * OMEGA_N, OMEGA_N**2
     result = second_order_error_integrals(a1, a0, 1.0, 0.0)
-    assert _num(result.iae) == pytest.approx(a1 / a0, rel=1e-13)
-    assert _num(result.itae) == pytest.approx((a1**2 - a0) / a0**2, rel=1e-13)
+    assert as_number(result.iae) == pytest.approx(a1 / a0, rel=1e-13)
+    assert as_number(result.itae) == pytest.approx((a1**2 - a0) / a0**2, rel=1e-13)
 
 
 @pytest.mark.parametrize("zeta", [0.1, 0.5, 0.707])
 def test_second_order_underdamped_iae_exceeds_signed_integral(zeta):
     """With overshoot, IAE > ∫e = a1/a0 (the lobes below zero count positively)."""
     a1, a0 = 2 * zeta * OMEGA_N, OMEGA_N**2
-    assert _num(second_order_error_integrals(a1, a0, 1.0, 0.0).iae) > a1 / a0 * (1 + 1e-6)
+    assert as_number(second_order_error_integrals(a1, a0, 1.0, 0.0).iae) > a1 / a0 * (1 + 1e-6)
 
 
 @pytest.mark.parametrize("zeta", [1 - 1e-6, 1 - 1e-8, 1 - 1e-11, 1 + 1e-11])
@@ -143,8 +138,8 @@ def test_second_order_continuous_through_critical_damping(zeta):
     """The under/overdamped switch at ζ = 1 does not jump: IAE → 2/ω_n, ITAE → 3/ω_n²."""
     result = second_order_error_integrals(2 * zeta * OMEGA_N, OMEGA_N**2, 1.0, 0.0)
     # within 1e-6 of ζ = 1 the integrals move by O(1e-6) relative; 1e-5 bounds that
-    assert _num(result.iae) == pytest.approx(2 / OMEGA_N, rel=1e-5)
-    assert _num(result.itae) == pytest.approx(3 / OMEGA_N**2, rel=1e-5)
+    assert as_number(result.iae) == pytest.approx(2 / OMEGA_N, rel=1e-5)
+    assert as_number(result.itae) == pytest.approx(3 / OMEGA_N**2, rel=1e-5)
 
 
 def test_second_order_symbolic_matches_numeric():
@@ -152,7 +147,7 @@ def test_second_order_symbolic_matches_numeric():
     f = ca.Function("f", [a1, a0], list(second_order_error_integrals(a1, a0, 1.0, 0.0)))
     for zeta in (0.3, 2.0):
         sym = np.array([float(v) for v in f(2 * zeta * OMEGA_N, OMEGA_N**2)])
-        num = np.array([_num(v) for v in second_order_error_integrals(2 * zeta * OMEGA_N, OMEGA_N**2, 1.0, 0.0)])
+        num = np.array([as_number(v) for v in second_order_error_integrals(2 * zeta * OMEGA_N, OMEGA_N**2, 1.0, 0.0)])
         np.testing.assert_allclose(sym, num, rtol=1e-14)
 
 
@@ -215,7 +210,7 @@ def test_sample_error_integrals_match_quadrature(alpha, beta, gamma, h, zeros, t
         assert found <= 2
     else:
         assert found == zeros  # the case really has the number of zeros it claims
-    got = np.array([_num(v) for v in sample_error_integrals(alpha, beta, gamma, h, tau, t_start)])
+    got = np.array([as_number(v) for v in sample_error_integrals(alpha, beta, gamma, h, tau, t_start)])
     # closed form vs quad at epsrel 1e-12: measured ≤ 1e-15 relative; abs 1e-16 for tiny cases
     np.testing.assert_allclose(got, expected, rtol=1e-10, atol=1e-16)
 
@@ -224,9 +219,9 @@ def test_sample_error_integrals_of_decaying_exponential():
     """e(t) = e^{−t/τ}: IAE = τ, ISE = τ/2, ITAE = τ² (α = β = 0, γ = 1, h = 50 ⇒ e^{−50} ≈ 2e-22)."""
     for tau in (1.0, 0.02, 3.5):
         result = sample_error_integrals(0.0, 0.0, 1.0, 50.0, tau, 0.0)
-        assert _num(result.iae) == pytest.approx(tau, rel=1e-14)
-        assert _num(result.ise) == pytest.approx(tau / 2, rel=1e-14)
-        assert _num(result.itae) == pytest.approx(tau**2, rel=1e-14)
+        assert as_number(result.iae) == pytest.approx(tau, rel=1e-14)
+        assert as_number(result.ise) == pytest.approx(tau / 2, rel=1e-14)
+        assert as_number(result.itae) == pytest.approx(tau**2, rel=1e-14)
 
 
 def test_sample_error_integrals_symbolic_matches_numeric():

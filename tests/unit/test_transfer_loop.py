@@ -24,16 +24,7 @@ import pytest
 from feedtune import linalg
 from feedtune.loop import TransferLoop
 from feedtune.plants.hydraulic_rotary import HydraulicRotary, HydraulicRotaryParams
-
-
-def _num(x) -> float:
-    if isinstance(x, (int, float)):
-        return float(x)
-    return float(ca.evalf(ca.MX(x)))
-
-
-def _nums(xs) -> np.ndarray:
-    return np.array([_num(x) for x in xs])
+from expression_values import as_number, as_numbers
 
 
 def _random_roots(rng, degree: int, stable: bool, decades: float) -> np.ndarray:
@@ -92,7 +83,7 @@ OMEGAS = np.geomspace(1e-3, 1e5, 41)
 # -- responses -------------------------------------------------------------------------------
 
 def _check_responses(loop: TransferLoop, rtol: float):
-    num, den = _nums(loop.open_numerator), _nums(loop.open_denominator)
+    num, den = as_numbers(loop.open_numerator), as_numbers(loop.open_denominator)
     closed = np.polyadd(den, num)
     for omega in OMEGAS:
         s = 1j * omega
@@ -104,7 +95,7 @@ def _check_responses(loop: TransferLoop, rtol: float):
         got = {"open": loop.open_loop_response(omega), "closed": loop.frequency_response(omega),
                "error": loop.error_response(omega)}
         for name in expected:
-            re, im = (_num(v) for v in got[name])
+            re, im = (as_number(v) for v in got[name])
             # relative to |response|: both are one Horner pass and one complex division
             assert abs(complex(re, im) - expected[name]) <= rtol * abs(expected[name]), (name, omega)
 
@@ -127,15 +118,15 @@ def test_responses_of_bhatias_loop_match_polyval():
 def test_error_response_is_exact_where_one_minus_h_cancels():
     """S = den/(den + num) directly: at ω = 1e-6 rad/s, 1 − T loses ~8 digits, S does not."""
     loop = _loop_with_characteristic(_poly([-3.0, -40.0 + 20j, -40.0 - 20j]))
-    den, closed = _nums(loop.open_denominator), _nums(loop.closed_denominator)
+    den, closed = as_numbers(loop.open_denominator), as_numbers(loop.closed_denominator)
     omega = 1e-6
     expected = np.polyval(den, 1j * omega) / np.polyval(closed, 1j * omega)
-    re, im = (_num(v) for v in loop.error_response(omega))
+    re, im = (as_number(v) for v in loop.error_response(omega))
     assert abs(complex(re, im) - expected) <= 1e-13 * abs(expected)
 
 
 def test_dc_gain_of_a_type_1_loop_is_one():
-    assert _num(_bhatia_loop().dc_gain()) == pytest.approx(1.0, rel=1e-15)
+    assert as_number(_bhatia_loop().dc_gain()) == pytest.approx(1.0, rel=1e-15)
 
 
 def test_symbolic_responses_equal_numeric():
@@ -147,7 +138,7 @@ def test_symbolic_responses_equal_numeric():
                                                   *sym.open_loop_response(7.0), sym.velocity_constant)])
     got = np.array(f(3.5), dtype=float).ravel()
     numeric = TransferLoop([3.5, 7.0], den)
-    expected = [_num(v) for v in (*numeric.frequency_response(7.0), *numeric.error_response(7.0),
+    expected = [as_number(v) for v in (*numeric.frequency_response(7.0), *numeric.error_response(7.0),
                                   *numeric.open_loop_response(7.0), numeric.velocity_constant)]
     np.testing.assert_allclose(got, expected, rtol=1e-14)
 
@@ -162,8 +153,8 @@ def test_velocity_constant_is_the_limit_of_s_times_l():
         loop = TransferLoop(list(num), list(den))
         s = 1e-9j  # s·L(s) = C_v (1 + O(s))
         expected = s * np.polyval(num, s) / np.polyval(den, s)
-        assert _num(loop.velocity_constant) == pytest.approx(expected.real, rel=1e-7)
-        assert _num(loop.velocity_constant) == pytest.approx(num[-1] / den[-2], rel=1e-15)
+        assert as_number(loop.velocity_constant) == pytest.approx(expected.real, rel=1e-7)
+        assert as_number(loop.velocity_constant) == pytest.approx(num[-1] / den[-2], rel=1e-15)
 
 
 @pytest.mark.parametrize("position_gain", [80.0, 120.0])
@@ -173,7 +164,7 @@ def test_velocity_constant_of_bhatias_loop(position_gain):
     optimum; his hand design is 0.3 % short)."""
     g0 = 0.254 * 5.44225e-6 / 1.38233e-7
     expected = position_gain * 30 * g0 / (1 + 30 * g0)
-    assert _num(_bhatia_loop(position_gain).velocity_constant) == pytest.approx(expected, rel=1e-13)
+    assert as_number(_bhatia_loop(position_gain).velocity_constant) == pytest.approx(expected, rel=1e-13)
 
 
 # -- stability conditions --------------------------------------------------------------------
@@ -190,7 +181,7 @@ def test_stability_conditions_agree_with_numpy_roots(degree, stable, decades):
         roots = _random_roots(rng, degree, stable, decades)
         lead = rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-6, 6)
         loop = _loop_with_characteristic(_poly(roots, lead))
-        conditions = _nums(loop.stability_conditions())
+        conditions = as_numbers(loop.stability_conditions())
         assert bool(np.all(conditions > 0)) == stable, (roots, conditions)
         assert np.all(np.isfinite(conditions))
         # the companion matrix carries the same poles (what the validator reads)
@@ -205,7 +196,7 @@ def test_inner_loop_must_be_stable_too(closed_stable, inner_stable):
         closed = _poly(_random_roots(rng, 5, closed_stable, 3))
         inner = _poly(_random_roots(rng, 3, inner_stable, 3))
         loop = _loop_with_characteristic(closed, inner)
-        conditions = _nums(loop.stability_conditions())
+        conditions = as_numbers(loop.stability_conditions())
         assert bool(np.all(conditions > 0)) == (closed_stable and inner_stable)
         matrices = loop.stability_matrices()
         assert list(matrices) == ["closed_loop", "inner_loop"]
@@ -213,17 +204,17 @@ def test_inner_loop_must_be_stable_too(closed_stable, inner_stable):
         np.testing.assert_allclose(np.sort_complex(inner_poles), np.sort_complex(np.roots(inner)),
                                    rtol=1e-8)
         # without an inner loop only the closed loop counts
-        alone = _nums(_loop_with_characteristic(closed).stability_conditions())
+        alone = as_numbers(_loop_with_characteristic(closed).stability_conditions())
         assert bool(np.all(alone > 0)) == closed_stable
 
 
 def test_bhatias_loop_is_stable_by_conditions_and_roots():
     loop = _bhatia_loop()
-    assert np.all(_nums(loop.stability_conditions()) > 0)
-    closed = _nums(loop.closed_denominator)
-    inner = _nums(loop.inner_characteristic)
+    assert np.all(as_numbers(loop.stability_conditions()) > 0)
+    closed = as_numbers(loop.closed_denominator)
+    inner = as_numbers(loop.inner_characteristic)
     assert np.all(np.roots(closed).real < 0) and np.all(np.roots(inner).real < 0)
-    poly = _nums(loop.characteristic_polynomial)
+    poly = as_numbers(loop.characteristic_polynomial)
     assert poly[0] == 1.0
     np.testing.assert_allclose(poly, closed / closed[0], rtol=1e-15)
 
@@ -238,14 +229,14 @@ def test_balanced_polynomial_scales_roots_and_keeps_stability(seed):
     stable = bool(seed % 2)
     roots = _random_roots(rng, degree, stable, 4)
     p = _poly(roots, rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-20, 5))
-    balanced = _nums(linalg.balanced_polynomial([ca.DM(c) for c in p]))
+    balanced = as_numbers(linalg.balanced_polynomial([ca.DM(c) for c in p]))
     omega0 = abs(p[-1] / p[0]) ** (1 / degree)
     assert balanced[0] == pytest.approx(1.0, rel=1e-15)
     assert abs(balanced[-1]) == pytest.approx(1.0, rel=1e-12)
     np.testing.assert_allclose(np.sort_complex(np.roots(balanced)), np.sort_complex(roots / omega0),
                                rtol=1e-6, atol=1e-9)  # numpy.roots of a polynomial with
     # roots over four decades: 1e-6 relative on the scaled roots is its own accuracy
-    assert bool(np.all(_nums(linalg.hurwitz_conditions(list(balanced))) > 0)) == stable
+    assert bool(np.all(as_numbers(linalg.hurwitz_conditions(list(balanced))) > 0)) == stable
 
 
 def test_balanced_polynomial_is_symbolic():
@@ -253,13 +244,13 @@ def test_balanced_polynomial_is_symbolic():
     f = ca.Function("balanced", [a], linalg.balanced_polynomial([a[i] for i in range(4)]))
     p = [2.0, 30.0, 400.0, 5000.0]
     got = np.array([float(v) for v in f(p)])
-    np.testing.assert_allclose(got, _nums(linalg.balanced_polynomial(p)), rtol=1e-15)
+    np.testing.assert_allclose(got, as_numbers(linalg.balanced_polynomial(p)), rtol=1e-15)
 
 
 # -- det -------------------------------------------------------------------------------------
 
 def _det(matrix) -> float:
-    return _num(linalg.det([[ca.DM(v) for v in row] for row in np.asarray(matrix)]))
+    return as_number(linalg.det([[ca.DM(v) for v in row] for row in np.asarray(matrix)]))
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6, 7])
@@ -323,10 +314,10 @@ def test_numeric_transfer_reference_paths():
     loop = _bhatia_loop()
     num, den = loop.numeric_transfer()
     assert isinstance(num, np.ndarray) and num.dtype == float
-    np.testing.assert_array_equal(num, _nums(loop.open_numerator))
-    np.testing.assert_array_equal(den, _nums(loop.closed_denominator))
+    np.testing.assert_array_equal(num, as_numbers(loop.open_numerator))
+    np.testing.assert_array_equal(den, as_numbers(loop.closed_denominator))
     err_num, err_den = loop.numeric_transfer(output="error")
-    np.testing.assert_array_equal(err_num, _nums(loop.open_denominator))
+    np.testing.assert_array_equal(err_num, as_numbers(loop.open_denominator))
     np.testing.assert_array_equal(err_den, den)
     # position + error = reference: T + S = 1 at every frequency
     for omega in (0.1, 10.0, 1000.0):
@@ -338,7 +329,7 @@ def test_numeric_transfer_reference_paths():
 def test_numeric_transfer_agrees_with_python_control_feedback():
     """T = feedback(L, 1) built by python-control from the open loop's polynomials."""
     loop = _bhatia_loop()
-    open_loop = control.tf(_nums(loop.open_numerator), _nums(loop.open_denominator))
+    open_loop = control.tf(as_numbers(loop.open_numerator), as_numbers(loop.open_denominator))
     reference = control.feedback(open_loop, 1)
     num, den = loop.numeric_transfer()
     for omega in np.geomspace(0.01, 1e4, 25):
@@ -353,7 +344,7 @@ def test_numeric_transfer_load_path():
     through the integrator: the static stiffness is finite and the error is +θ/T_L·T_L."""
     loop = _bhatia_loop()
     num, den = loop.numeric_transfer(input="load")
-    np.testing.assert_array_equal(num, _nums(loop.load_numerator))
+    np.testing.assert_array_equal(num, as_numbers(loop.load_numerator))
     err, _ = loop.numeric_transfer(output="error", input="load")
     np.testing.assert_array_equal(err, -num)
     kce, dm, vt, be = 5.0123e-14, 1.38233e-7, 4.91612e-6, 689475729.0
