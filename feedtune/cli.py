@@ -16,7 +16,6 @@ import json
 import os
 import re
 import sys
-import tempfile
 import traceback
 import typing
 from pathlib import Path
@@ -27,6 +26,7 @@ from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined, to_jsonable_python
 
 from feedtune import __version__
+from feedtune.files import write_atomic
 
 #: exit statuses, also listed in ``feedtune --help``
 EXIT_OK, EXIT_NOT_SUCCESS, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
@@ -94,29 +94,6 @@ def _parse(spec: str):
         _spec_errors(_label(spec), exc.errors)
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same directory."""
-    directory = path.parent
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        try:
-            mode = path.stat().st_mode & 0o7777
-        except FileNotFoundError:
-            umask = os.umask(0)
-            os.umask(umask)
-            mode = 0o666 & ~umask
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 def _check_output(output: str | None) -> Path | None:
     """The output path (None for stdout); exit 2 now if it cannot be written later."""
     if output is None or output == STDIN:
@@ -137,7 +114,7 @@ def _emit(data: bytes, path: Path | None) -> None:
         stream.flush()
         return
     try:
-        _write_atomic(path, data)
+        write_atomic(path, data)
     except OSError as exc:
         _fail(f"{path}: cannot write: {exc.strerror or exc}")
 
@@ -589,6 +566,131 @@ def examples(name: str | None, output: str | None) -> None:
     _emit(data, target)
     if target is not None:
         _err(f"wrote {target}")
+
+
+# -- batch -------------------------------------------------------------------------------
+
+_BATCH_EPILOG = ("Exit status: 0 every spec solved and met its constraints (and, with "
+                 "--baseline, is not worse); 1 some spec did not; 2 the inputs, the output "
+                 "directory or the baseline cannot be used; 130 interrupted (results so far "
+                 "are kept; rerun to finish).")
+
+
+@main.command(epilog=_BATCH_EPILOG)
+@click.argument("inputs", nargs=-1, required=True, metavar="INPUT...")
+@click.option("--out", "out", required=True, metavar="DIR",
+              help="Directory for one result file per spec (NAME.json) and summary.json; "
+                   "created if missing. Results already there for the same spec and feedtune "
+                   "version are kept, not solved again.")
+@click.option("--executor", type=click.Choice(["local", "dask"]), default=None,
+              help="local (default): worker processes on this machine; dask: a dask.distributed "
+                   "cluster, a local one unless --scheduler names one.")
+@click.option("--scheduler", metavar="ADDRESS",
+              help="Address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786 "
+                   "(implies --executor dask).")
+@click.option("-j", "--workers", type=click.IntRange(min=1), default=None,
+              help="Worker processes [count]; default: every core of this machine.")
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="SECONDS",
+              help="Stop a spec that runs longer than this [s] (status timeout); local "
+                   "executor only. Each IPOPT solve also has the spec's own solver.time_limit.")
+@click.option("--junit", "junit", metavar="FILE",
+              help="Also write JUnit XML: one test case per spec, failing when it is invalid, "
+                   "unsolved, violates a constraint or is worse than the baseline.")
+@click.option("--format", "output_format", type=click.Choice(["text", "github"]),
+              default="text", show_default=True,
+              help="github: also print GitHub Actions ::error annotations on stdout, one per "
+                   "failing spec, naming its file.")
+@click.option("--baseline", metavar="DIR",
+              help="--out directory of an earlier batch: a spec whose objective is now worse "
+                   "than there (beyond --baseline-rtol) fails.")
+@click.option("--baseline-rtol", type=click.FloatRange(min=0), default=1e-6,
+              show_default=True, metavar="RTOL",
+              help="Relative tolerance of the baseline comparison [1].")
+@click.option("-q", "--quiet", is_flag=True,
+              help="No progress and no table on stderr (the totals line is still printed).")
+def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: str | None,
+          workers: int | None, timeout: float | None, junit: str | None,
+          output_format: str, baseline: str | None, baseline_rtol: float, quiet: bool) -> None:
+    """Tune many specs in parallel: one result per spec in DIR, plus DIR/summary.json.
+
+    INPUT is a spec file (*.json), a JSON Lines file (*.jsonl, one spec per line), a
+    directory (every *.json and *.jsonl below it) or a quoted glob pattern ('specs/**/*.json').
+    A spec that is invalid, fails to solve, times out or kills its worker becomes a row with
+    its status and message; the others still run.
+    """
+    from feedtune.batch.dask_cluster import DaskExecutor
+    from feedtune.batch.inputs import InputError
+    from feedtune.batch.local import LocalExecutor
+    from feedtune.batch.progress import Progress
+    from feedtune.batch.reports import (BaselineError, github_annotations, junit_xml,
+                                        load_baseline, table, totals_line)
+    from feedtune.batch.runner import run_batch
+
+    if scheduler is not None and executor == "local":
+        _fail("--scheduler needs the dask executor; drop --executor local")
+    kind = "dask" if scheduler is not None else (executor or "local")
+    if kind == "dask" and timeout is not None:
+        _fail("--timeout is enforced by the local executor only; with Dask, each spec's "
+              "solver.time_limit bounds its IPOPT solves")
+    junit_path = _check_output(junit) if junit is not None else None
+    baseline_rows = None
+    if baseline is not None:
+        try:
+            baseline_rows = load_baseline(Path(baseline))
+        except BaselineError as exc:
+            _fail(str(exc))
+    if kind == "dask":
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            _fail("the dask executor needs dask.distributed: pip install 'dask[distributed]'")
+        runner = DaskExecutor(scheduler, workers)
+        header = {"executor": "dask", "scheduler": scheduler or "local cluster",
+                  "workers": workers}
+    else:
+        runner = LocalExecutor(workers, timeout)
+        header = {"executor": "local", "workers": runner.workers}
+    progress = [None]
+
+    def on_row(row: dict) -> None:
+        if progress[0] is not None:
+            progress[0].update(row["ok"])
+
+    class _Counted:  # starts the progress display once the number of specs is known
+        def __init__(self, inner):
+            self.inner = inner
+
+        def run(self, tasks, on_outcome):
+            progress[0] = Progress(len(tasks), enabled=not quiet)
+            try:
+                self.inner.run(tasks, on_outcome)
+            finally:
+                progress[0].close()
+
+    try:
+        with _stdout_to_stderr():
+            outcome = run_batch(list(inputs), Path(out), _Counted(runner),
+                                baseline=baseline_rows, baseline_rtol=baseline_rtol,
+                                on_row=on_row, header=header)
+    except InputError as exc:
+        _fail(str(exc))
+    except OSError as exc:
+        _fail(f"{out}: {exc.strerror or exc}")
+    rows = outcome.document["rows"]
+    if not quiet:
+        for line in table(rows):
+            _err(line)
+    _err(totals_line(outcome.document, outcome.wall))
+    if junit_path is not None:
+        _emit(junit_xml(rows, outcome.wall), junit_path)
+    if output_format == "github":
+        for line in github_annotations(rows):
+            click.echo(line)
+    if outcome.interrupted:
+        _err("interrupted: the results written so far are kept; rerun the same command to finish")
+        raise SystemExit(130)
+    raise SystemExit(EXIT_OK if outcome.document["failed"] == 0 else EXIT_NOT_SUCCESS)
 
 
 if __name__ == "__main__":  # pragma: no cover

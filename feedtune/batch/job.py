@@ -1,0 +1,88 @@
+"""One spec of a batch, as a worker runs it: parse, skip if already solved, tune.
+
+:func:`solve` is what every executor (local processes, Dask) calls, so their results are
+the same bytes. It never raises: a spec that cannot be used, a solver failure or an
+internal error each comes back as an :class:`Outcome` with its status and message.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from dataclasses import dataclass, field
+
+#: statuses a batch row can have besides a TuneResult's own (feedtune.result.Status)
+INVALID, RESUMED, WORKER_DIED, TIMEOUT = "invalid", "resumed", "worker_died", "timeout"
+
+
+@dataclass
+class Outcome:
+    """What became of one spec.
+
+    ``status``: a TuneResult status, or ``invalid`` (the spec cannot be used; ``errors``
+    lists (JSON pointer, message)), or ``resumed`` (its result already exists for this
+    spec and feedtune version; nothing was solved). ``result``: the result JSON to write.
+    ``row``: the summary's fields taken from the result.
+    """
+
+    status: str
+    message: str
+    spec_sha256: str | None = None
+    errors: list[tuple[str, str]] = field(default_factory=list)
+    result: bytes | None = None
+    row: dict = field(default_factory=dict)
+    time: float = 0.0
+
+
+def summary_fields(result) -> dict:
+    """The summary row's view of a TuneResult: objective, tuned values, verdicts."""
+    return {
+        "status": result.status,
+        "success": result.success,
+        "constraints_satisfied": all(c.satisfied for c in result.constraints),
+        "objective": result.objective,
+        "tuned": {name: tuned.value for name, tuned in result.tuned.items()},
+        "message": result.message,
+    }
+
+
+def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:
+    """Tune the spec in ``data``; skip it when ``existing_sha256`` is its canonical hash."""
+    from feedtune.problem import tune
+    from feedtune.spec import SpecError, parse_spec
+
+    started = time.perf_counter()
+    try:
+        spec = parse_spec(data)
+    except SpecError as exc:
+        return Outcome(INVALID, _errors_text(exc.errors), errors=list(exc.errors),
+                       time=time.perf_counter() - started)
+    except Exception as exc:  # noqa: BLE001 — one spec never stops the batch
+        return _internal(exc, started)
+    sha = spec.sha256()
+    if sha == existing_sha256:
+        return Outcome(RESUMED, "result already present for this spec and feedtune version",
+                       spec_sha256=sha, time=time.perf_counter() - started)
+    try:
+        result = tune(spec)
+    except SpecError as exc:
+        return Outcome(INVALID, _errors_text(exc.errors), spec_sha256=sha,
+                       errors=list(exc.errors), time=time.perf_counter() - started)
+    except Exception as exc:  # noqa: BLE001
+        return _internal(exc, started, sha)
+    data = (result.model_dump_json(indent=2) + "\n").encode("utf-8")
+    return Outcome(result.status, result.message, spec_sha256=sha, result=data,
+                   row=summary_fields(result), time=time.perf_counter() - started)
+
+
+def _errors_text(errors: list[tuple[str, str]]) -> str:
+    return "; ".join(f"{pointer}: {message}" if pointer else message
+                     for pointer, message in errors)
+
+
+def _internal(exc: BaseException, started: float, sha: str | None = None) -> Outcome:
+    """An exception feedtune did not expect: status ``error`` with the traceback's last frame."""
+    frame = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
+    where = f" (at {frame[0].filename}:{frame[0].lineno})" if frame else ""
+    return Outcome("error", f"internal error {type(exc).__name__}: {exc}{where}",
+                   spec_sha256=sha, time=time.perf_counter() - started)

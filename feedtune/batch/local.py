@@ -1,0 +1,200 @@
+"""The default executor: worker processes on this machine, one per core, no server.
+
+Why not ``concurrent.futures`` or joblib: when a worker process dies (a segfault in a
+solver, the kernel's OOM killer), both mark the whole pool broken and cannot say which
+spec killed it. Here each worker tells the parent which spec it starts, so a death is
+charged to that spec alone (status ``worker_died``), the rest of its chunk goes back to
+the queue and a new worker takes over. The same bookkeeping enforces ``timeout``: a spec
+that runs longer has its worker killed (status ``timeout``).
+
+Work goes out in chunks: one spec at first, then as many as take about
+``CHUNK_SECONDS`` at the mean time per spec measured so far (never more than a fair share
+of what is left, so the last chunks still spread over every worker). Each worker is a
+long-lived process, so the solvers it builds are reused for every later spec of the same
+structure (see ``feedtune.tuner.nlp``).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from multiprocessing.connection import wait
+from typing import Callable
+
+from feedtune.batch.job import TIMEOUT, WORKER_DIED, Outcome
+
+#: a chunk should keep a worker busy about this long [s]
+CHUNK_SECONDS = 0.5
+#: how long the parent waits for messages before checking time limits [s]
+POLL_SECONDS = 0.2
+
+
+def default_workers() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to SIGKILL this process when its parent dies (no orphans after a kill)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+def _worker_main(connection) -> None:
+    """A worker: solve each chunk the parent sends, reporting each spec's start and end."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    _die_with_parent()
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)  # solver chatter must not reach the batch's stdout
+    os.close(devnull)
+    from feedtune.batch.job import solve
+
+    while True:
+        try:
+            chunk = connection.recv()
+        except EOFError:
+            return
+        if chunk is None:
+            return
+        for index, data, existing in chunk:
+            connection.send(("start", index))
+            connection.send(("done", index, solve(data, existing)))
+
+
+@dataclass
+class _Worker:
+    process: multiprocessing.Process
+    connection: object
+    chunk: deque = field(default_factory=deque)  # tasks sent and not yet done
+    current: int | None = None  # index of the spec being solved
+    since: float = 0.0  # when it started
+
+
+class LocalExecutor:
+    """Run tasks ``(index, spec bytes, existing sha256)`` on ``workers`` processes."""
+
+    name = "local"
+
+    def __init__(self, workers: int | None = None, timeout: float | None = None):
+        self.workers = workers or default_workers()
+        self.timeout = timeout
+        self._context = multiprocessing.get_context("spawn")
+
+    def run(self, tasks: list[tuple[int, bytes, str | None]],
+            on_outcome: Callable[[int, Outcome], None]) -> None:
+        """Call ``on_outcome(index, outcome)`` once per task, in completion order."""
+        queue = deque(tasks)
+        workers: list[_Worker] = []
+        durations: list[float] = []
+        try:
+            for _ in range(min(self.workers, len(queue))):
+                workers.append(self._spawn())
+            for worker in workers:
+                self._feed(worker, queue, durations)
+            while any(w.chunk for w in workers) or queue:
+                ready = wait([w.connection for w in workers] + [w.process.sentinel for w in workers],
+                             timeout=POLL_SECONDS)
+                for worker in list(workers):
+                    if worker.connection in ready or worker.process.sentinel in ready:
+                        self._receive(worker, on_outcome, durations)
+                    if not worker.process.is_alive():
+                        self._receive(worker, on_outcome, durations)  # what it sent before dying
+                        self._lost(worker, queue, on_outcome, WORKER_DIED,
+                                   _death_message(worker.process.exitcode))
+                        workers[workers.index(worker)] = worker = self._spawn()
+                    elif (self.timeout is not None and worker.current is not None
+                          and time.perf_counter() - worker.since > self.timeout):
+                        worker.process.kill()
+                        worker.process.join()
+                        self._lost(worker, queue, on_outcome, TIMEOUT,
+                                   f"took longer than the batch's time limit of {self.timeout:g} s "
+                                   "per spec; its worker was stopped")
+                        workers[workers.index(worker)] = worker = self._spawn()
+                    if not worker.chunk:
+                        self._feed(worker, queue, durations)
+        finally:
+            for worker in workers:
+                try:
+                    worker.connection.send(None)
+                except (OSError, ValueError):
+                    pass
+            for worker in workers:
+                worker.process.join(timeout=5)
+                if worker.process.is_alive():
+                    worker.process.kill()
+                    worker.process.join()
+
+    def _spawn(self) -> _Worker:
+        parent, child = self._context.Pipe()
+        process = self._context.Process(target=_worker_main, args=(child,), daemon=True,
+                                        name="feedtune-batch-worker")
+        process.start()
+        child.close()
+        return _Worker(process, parent)
+
+    def _feed(self, worker: _Worker, queue: deque, durations: list[float]) -> None:
+        if not queue:
+            return
+        size = self._chunk_size(len(queue), durations)
+        chunk = [queue.popleft() for _ in range(min(size, len(queue)))]
+        worker.chunk.extend(chunk)
+        try:
+            worker.connection.send(chunk)
+        except (OSError, ValueError):  # died meanwhile: the sentinel tells, the chunk is requeued
+            pass
+
+    def _chunk_size(self, remaining: int, durations: list[float]) -> int:
+        if not durations:
+            return 1
+        mean = sum(durations[-200:]) / len(durations[-200:])
+        wanted = max(1, round(CHUNK_SECONDS / max(mean, 1e-6)))
+        fair = max(1, remaining // (2 * self.workers))
+        return min(wanted, fair)
+
+    def _receive(self, worker: _Worker, on_outcome, durations: list[float]) -> None:
+        while worker.connection.poll():
+            try:
+                message = worker.connection.recv()
+            except (EOFError, OSError):  # the worker is gone; the main loop sees its sentinel
+                return
+            if message[0] == "start":
+                worker.current, worker.since = message[1], time.perf_counter()
+            elif message[0] == "done":
+                _, index, outcome = message
+                worker.chunk.popleft()
+                worker.current = None
+                durations.append(outcome.time)
+                on_outcome(index, outcome)
+
+    def _lost(self, worker: _Worker, queue: deque, on_outcome, status: str, message: str) -> None:
+        """The worker is gone: charge its current spec, put the rest of its chunk back."""
+        if worker.current is not None:
+            worker.chunk.popleft()
+            on_outcome(worker.current, Outcome(status, message,
+                                               time=time.perf_counter() - worker.since))
+        queue.extendleft(reversed(worker.chunk))
+        worker.chunk.clear()
+        worker.current = None
+        worker.connection.close()
+
+
+def _death_message(exitcode: int | None) -> str:
+    if exitcode is not None and exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        return f"the worker process solving this spec was killed by {name}"
+    return f"the worker process solving this spec exited unexpectedly (exit code {exitcode})"

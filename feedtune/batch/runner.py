@@ -1,0 +1,158 @@
+"""A batch from start to end: read the inputs, lock the output directory, hand the specs
+to an executor, write each result as it arrives, and the summary at the end.
+
+Files in the output directory, each written atomically (``feedtune.files``):
+``NAME.json`` per spec with a result (named after the spec, see
+:mod:`feedtune.batch.inputs`), and ``summary.json`` (one row per spec, input order),
+rewritten every ``SUMMARY_SECONDS`` while the batch runs, so even a killed batch leaves a
+readable one. A rerun skips every spec whose result file holds the same canonical-spec
+hash and feedtune version (a ``resumed`` row) and solves the rest.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from feedtune import __version__
+from feedtune.batch.inputs import InputError, Item, load_items
+from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
+from feedtune.batch.reports import compare, row_ok, summary_document
+from feedtune.files import remove_stale_temporaries, write_atomic
+
+SUMMARY_SECONDS = 10.0
+LOCK_NAME = ".feedtune-batch.lock"
+#: status of a spec the batch did not reach (interrupted)
+NOT_RUN = "not_run"
+
+
+@dataclass
+class BatchOutcome:
+    document: dict  # what summary.json holds
+    wall: float  # [s]
+    interrupted: bool
+
+
+def existing_sha256(path: Path) -> str | None:
+    """The canonical-spec hash of the result at ``path`` if it is this feedtune's, else None."""
+    try:
+        with open(path, "rb") as handle:
+            provenance = json.load(handle)["provenance"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if not isinstance(provenance, dict) or provenance.get("feedtune") != __version__:
+        return None
+    sha = provenance.get("spec_sha256")
+    return sha if isinstance(sha, str) else None
+
+
+@contextlib.contextmanager
+def locked(directory: Path):
+    """Hold ``directory``'s batch lock (released by the kernel even after SIGKILL)."""
+    handle = open(directory / LOCK_NAME, "a+")
+    try:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(f"{directory}: another feedtune batch is writing to this "
+                             "directory") from None
+        yield
+    finally:
+        handle.close()
+
+
+def prepare_output(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot create the output directory: {exc.strerror or exc}") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise InputError(f"{out}: output directory is not writable")
+
+
+def _base_row(item: Item) -> dict:
+    return {"id": item.stem, "name": item.name, "input": item.label, "path": item.path,
+            "line": item.line, "result": None, "status": NOT_RUN, "ok": False,
+            "success": False, "constraints_satisfied": None, "objective": None, "tuned": {},
+            "message": "not run (the batch was interrupted)", "errors": [], "time": 0.0,
+            "resumed": False, "spec_sha256": None}
+
+
+def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None = None,
+              baseline_rtol: float = 1e-6, on_row: Callable[[dict], None] | None = None,
+              header: dict | None = None) -> BatchOutcome:
+    """Solve every spec named by ``inputs`` into ``out``.
+
+    ``executor`` has ``run(tasks, on_outcome)`` (:class:`~feedtune.batch.local.LocalExecutor`
+    or :class:`~feedtune.batch.dask_cluster.DaskExecutor`); ``baseline`` maps result ids
+    to an earlier batch's rows; ``on_row(row)`` is called as each spec finishes.
+
+    Raises
+    ------
+    InputError
+        When the inputs or the output directory cannot be used.
+    """
+    started = time.perf_counter()
+    items = load_items(inputs)
+    if not items:
+        raise InputError("the inputs hold no specs")
+    prepare_output(out)
+    header = {"feedtune": __version__, **(header or {})}
+    rows = [_base_row(item) for item in items]
+    last_written = [time.monotonic()]
+    interrupted = False
+
+    def write_summary() -> dict:
+        document = summary_document(rows, {**header, "wall_time": time.perf_counter() - started})
+        write_atomic(out / "summary.json", (json.dumps(document, indent=2) + "\n").encode())
+        last_written[0] = time.monotonic()
+        return document
+
+    def finish(index: int, outcome: Outcome) -> None:
+        item, row = items[index], rows[index]
+        path = out / f"{item.stem}.json"
+        row.update(status=outcome.status, message=outcome.message, time=outcome.time,
+                   spec_sha256=outcome.spec_sha256,
+                   errors=[{"pointer": p, "message": m} for p, m in outcome.errors])
+        if outcome.status == RESUMED:
+            from feedtune.result import TuneResult
+
+            try:
+                result = TuneResult.model_validate_json(path.read_bytes())
+                row.update(summary_fields(result), result=path.name, resumed=True)
+            except (OSError, ValueError) as exc:  # replaced meanwhile: say so, don't guess
+                row.update(status="error", message=f"{path.name}: cannot reread: {exc}")
+        elif outcome.result is not None:
+            write_atomic(path, outcome.result)
+            row.update(outcome.row, result=path.name)
+        if baseline is not None:
+            row["baseline"] = compare(row, baseline.get(item.stem), baseline_rtol)
+        row["ok"] = row_ok(row)
+        if on_row is not None:
+            on_row(row)
+        if time.monotonic() - last_written[0] >= SUMMARY_SECONDS:
+            write_summary()
+
+    with locked(out):
+        remove_stale_temporaries(out)
+        tasks = []
+        for item in items:
+            if item.data is None:
+                finish(item.index, Outcome(INVALID, item.read_error or "cannot read",
+                                           errors=[("", item.read_error or "cannot read")]))
+            else:
+                tasks.append((item.index, item.data, existing_sha256(out / f"{item.stem}.json")))
+        try:
+            executor.run(tasks, finish)
+        except KeyboardInterrupt:
+            interrupted = True
+        document = write_summary()
+    return BatchOutcome(document, time.perf_counter() - started, interrupted)
