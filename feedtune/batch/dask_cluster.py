@@ -23,9 +23,11 @@ class DaskExecutor:
 
     name = "dask"
 
-    def __init__(self, address: str | None = None, workers: int | None = None):
+    def __init__(self, address: str | None = None, workers: int | None = None,
+                 job: Callable = solve):
         self.address = address
         self.workers = workers
+        self.job = job
 
     def run(self, tasks: list[tuple[int, bytes, str | None]],
             on_outcome: Callable[[int, Outcome], None]) -> None:
@@ -53,7 +55,7 @@ class DaskExecutor:
                 if task is None:
                     return False
                 index, data, existing = task
-                future = client.submit(solve, data, existing, pure=False,
+                future = client.submit(self.job, data, existing, pure=False,
                                        key=f"feedtune-spec-{index}")
                 submitted[future.key] = index
                 futures.add(future)

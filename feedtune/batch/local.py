@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from typing import Callable
 
-from feedtune.batch.job import TIMEOUT, WORKER_DIED, Outcome
+from feedtune.batch.job import TIMEOUT, WORKER_DIED, Outcome, solve
 
 #: a chunk should keep a worker busy about this long [s]
 CHUNK_SECONDS = 0.5
@@ -52,15 +52,14 @@ def _die_with_parent() -> None:
         pass
 
 
-def _worker_main(connection) -> None:
-    """A worker: solve each chunk the parent sends, reporting each spec's start and end."""
+def _worker_main(connection, job: Callable) -> None:
+    """A worker: run ``job`` on each spec of each chunk the parent sends, reporting each
+    spec's start and end."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     _die_with_parent()
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # solver chatter must not reach the batch's stdout
     os.close(devnull)
-    from feedtune.batch.job import solve
-
     while True:
         try:
             chunk = connection.recv()
@@ -70,7 +69,7 @@ def _worker_main(connection) -> None:
             return
         for index, data, existing in chunk:
             connection.send(("start", index))
-            connection.send(("done", index, solve(data, existing)))
+            connection.send(("done", index, job(data, existing)))
 
 
 @dataclass
@@ -83,13 +82,19 @@ class _Worker:
 
 
 class LocalExecutor:
-    """Run tasks ``(index, spec bytes, existing sha256)`` on ``workers`` processes."""
+    """Run tasks ``(index, spec bytes, existing sha256)`` on ``workers`` processes.
+
+    ``job(data, existing_sha256) -> Outcome`` is :func:`feedtune.batch.job.solve` unless a
+    test gives another module-level function (it is pickled by name into each worker).
+    """
 
     name = "local"
 
-    def __init__(self, workers: int | None = None, timeout: float | None = None):
+    def __init__(self, workers: int | None = None, timeout: float | None = None,
+                 job: Callable = solve):
         self.workers = workers or default_workers()
         self.timeout = timeout
+        self.job = job
         self._context = multiprocessing.get_context("spawn")
 
     def run(self, tasks: list[tuple[int, bytes, str | None]],
@@ -138,7 +143,7 @@ class LocalExecutor:
 
     def _spawn(self) -> _Worker:
         parent, child = self._context.Pipe()
-        process = self._context.Process(target=_worker_main, args=(child,), daemon=True,
+        process = self._context.Process(target=_worker_main, args=(child, self.job), daemon=True,
                                         name="feedtune-batch-worker")
         process.start()
         child.close()

@@ -1,0 +1,29 @@
+"""Jobs that misbehave on purpose, for the executors' failure handling.
+
+Module-level, so the executors can pickle them by name into their workers (spawned
+workers import this module from the test process's sys.path)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+from feedtune.batch.job import solve
+
+CRASH_MARK = b"crash-me"
+SLEEP_MARK = b"sleep-me"
+
+
+def crashing(data: bytes, existing):
+    """Kill the worker (SIGKILL) on a spec whose bytes contain CRASH_MARK; solve the rest."""
+    if CRASH_MARK in data:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return solve(data, existing)
+
+
+def sleeping(data: bytes, existing):
+    """Hang for a minute on a spec whose bytes contain SLEEP_MARK; solve the rest."""
+    if SLEEP_MARK in data:
+        time.sleep(60)
+    return solve(data, existing)

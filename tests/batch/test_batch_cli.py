@@ -1,0 +1,380 @@
+"""``feedtune batch`` through its real entry point, and its executors in process.
+
+What issue 5 asks of a batch, each with a test that fails if it breaks: one result per
+spec named after it (collisions handled) and a summary; resume by canonical-spec hash and
+feedtune version; exit statuses 0/1/2; JUnit XML and GitHub annotations; the baseline
+gate; a worker that dies or overruns charged to its spec alone; SIGKILL mid-run and a
+rerun giving exactly an uninterrupted run's results with no partial file; and the same
+results from 1 worker, all cores and a local Dask cluster.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+import batch_jobs
+from feedtune.batch.job import solve
+from feedtune.batch.local import LocalExecutor
+from feedtune.batch.runner import run_batch
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLES = REPO / "examples"
+FAST = "koren-1979-sampled-data"  # ≈0.1 s to tune
+
+
+def run(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """``python -m feedtune ARGS``, text out, never raising on exit status."""
+    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
+                          text=True, cwd=REPO, timeout=timeout,
+                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+
+
+def batch(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """``python -m feedtune batch ARGS``."""
+    return run("batch", *args, timeout=timeout)
+
+
+def example(name: str = FAST) -> dict:
+    return json.loads((EXAMPLES / f"{name}.json").read_text())
+
+
+def write_specs(directory: Path, count: int, start: int = 0) -> list[Path]:
+    """``count`` distinct fast specs (the example with its gain box varied)."""
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for i in range(start, start + count):
+        spec = example()
+        spec["name"] = f"axis-{i:03d}"
+        spec["tunables"]["position_gain"] = {"min": 1.0, "max": 60.0 + 5 * i}
+        spec["solver"] = {"multistart": 2}
+        path = directory / f"axis-{i:03d}.json"
+        path.write_text(json.dumps(spec))
+        paths.append(path)
+    return paths
+
+
+def without_times(node):
+    """A result or summary row without wall-clock fields (``*_time``, ``time``)."""
+    if isinstance(node, dict):
+        return {k: without_times(v) for k, v in node.items()
+                if not (k.endswith("_time") or k == "time")}
+    if isinstance(node, list):
+        return [without_times(v) for v in node]
+    return node
+
+
+def results(out: Path) -> dict[str, dict]:
+    """Every result file in ``out`` (not the summary), without times."""
+    return {p.name: without_times(json.loads(p.read_text()))
+            for p in sorted(out.glob("*.json")) if p.name != "summary.json"}
+
+
+def summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def rows_by_id(out: Path) -> dict[str, dict]:
+    return {row["id"]: row for row in summary(out)["rows"]}
+
+
+# -- one batch, read every way ------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def mixed_batch(tmp_path_factory):
+    """Three good specs, one whose constraint cannot hold, two sharing a name, one
+    invalid, run once through the CLI with JUnit and GitHub output."""
+    root = tmp_path_factory.mktemp("mixed")
+    specs = root / "specs"
+    write_specs(specs, 3)
+    impossible = example()
+    impossible["name"] = "impossible"
+    impossible["constraints"] = [{"metric": "damping_ratio", "min": 0.9},
+                                 {"metric": "natural_frequency", "min": 500}]
+    (specs / "impossible.json").write_text(json.dumps(impossible))
+    twin = example()
+    twin["name"] = "Axis-000"  # the first spec's name but for case: its own file
+    (specs / "twin.json").write_text(json.dumps(twin))
+    bad = example()
+    bad["name"] = "zz-bad"
+    bad["plant"]["time_constant"] = -0.02
+    (specs / "zz-bad.json").write_text(json.dumps(bad))
+    out = root / "out"
+    proc = batch(str(specs), "--out", str(out), "--junit", str(root / "junit.xml"),
+               "--format", "github")
+    return root, out, proc
+
+
+def test_a_result_per_spec_named_after_it_and_a_summary(mixed_batch):
+    _, out, proc = mixed_batch
+    rows = rows_by_id(out)
+    assert set(rows) == {"axis-000", "axis-001", "axis-002", "impossible", "Axis-000-2", "zz-bad"}
+    assert rows["Axis-000-2"]["name"] == "Axis-000"  # case-insensitive collision → suffix
+    for stem in ("axis-000", "axis-001", "axis-002", "impossible", "Axis-000-2"):
+        assert rows[stem]["result"] == f"{stem}.json"
+        assert (out / f"{stem}.json").is_file()
+    assert rows["zz-bad"]["result"] is None and not (out / "zz-bad.json").exists()
+    assert [r["id"] for r in summary(out)["rows"]] == [  # input order: directory sorted
+        "axis-000", "axis-001", "axis-002", "impossible", "Axis-000-2", "zz-bad"]
+    ok = {stem: row["ok"] for stem, row in rows.items()}
+    assert ok == {"axis-000": True, "axis-001": True, "axis-002": True, "impossible": False,
+                  "Axis-000-2": True, "zz-bad": False}
+    assert rows["axis-001"]["tuned"]["position_gain"] > 0
+    assert rows["axis-001"]["objective"] == json.loads(
+        (out / "axis-001.json").read_text())["objective"]
+    assert "Traceback" not in proc.stderr
+
+
+def test_exit_status_one_and_a_table_naming_the_failures(mixed_batch):
+    _, _, proc = mixed_batch
+    assert proc.returncode == 1, proc.stderr
+    assert "6 specs: 4 ok, 2 failed" in proc.stderr
+    table = {line.split()[0]: line for line in proc.stderr.splitlines()
+             if line and line.split()[0] in {"axis-000", "impossible", "zz-bad"}}
+    assert table["axis-000"].rstrip().endswith("ok")
+    assert "FAIL" in table["impossible"] and "infeasible" in table["impossible"]
+    assert "FAIL" in table["zz-bad"] and "/plant/time_constant" in table["zz-bad"]
+
+
+def test_a_batch_result_is_what_feedtune_tune_writes(mixed_batch, tmp_path):
+    _, out, _ = mixed_batch
+    spec = out.parent / "specs" / "axis-001.json"
+    proc = run("tune", str(spec), "-o", str(tmp_path / "single.json"))
+    assert proc.returncode == 0, proc.stderr
+    single = without_times(json.loads((tmp_path / "single.json").read_text()))
+    assert results(out)["axis-001.json"] == single
+
+
+def test_junit_has_a_case_per_spec_failing_the_bad_ones(mixed_batch):
+    root, _, _ = mixed_batch
+    suite = ET.parse(root / "junit.xml").getroot().find("testsuite")
+    cases = {case.get("name"): case for case in suite.iter("testcase")}
+    assert set(cases) == {"axis-000", "axis-001", "axis-002", "impossible", "Axis-000-2", "zz-bad"}
+    failed = {name for name, case in cases.items() if case.find("failure") is not None}
+    assert failed == {"impossible", "zz-bad"}
+    assert suite.get("tests") == "6" and suite.get("failures") == "2"
+    assert cases["zz-bad"].find("failure").get("type") == "invalid"
+    assert cases["zz-bad"].get("file").endswith("zz-bad.json")
+
+
+def test_github_annotations_name_each_failing_spec_file(mixed_batch):
+    _, _, proc = mixed_batch
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 2 and all(line.startswith("::error file=") for line in lines)
+    assert any("zz-bad.json" in line and "/plant/time_constant" in line for line in lines)
+    assert any("impossible.json" in line and "infeasible" in line for line in lines)
+    assert all("\n" not in line for line in lines)
+
+
+# -- resume -------------------------------------------------------------------------------
+
+def test_a_rerun_skips_solved_specs_and_solves_changed_ones(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 3)
+    out = tmp_path / "out"
+    first = batch(str(specs), "--out", str(out))
+    assert first.returncode == 0, first.stderr
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("axis-*.json")}
+    changed = json.loads((specs / "axis-002.json").read_text())
+    changed["tunables"]["position_gain"]["max"] = 30.0
+    (specs / "axis-002.json").write_text(json.dumps(changed, indent=4))
+    (specs / "axis-000.json").write_text(  # same spec, other formatting: same canonical hash
+        json.dumps(json.loads((specs / "axis-000.json").read_text()), indent=8))
+    second = batch(str(specs), "--out", str(out))
+    assert second.returncode == 0, second.stderr
+    rows = rows_by_id(out)
+    assert [rows[f"axis-00{i}"]["resumed"] for i in range(3)] == [True, True, False]
+    assert (out / "axis-000.json").stat().st_mtime_ns == stamps["axis-000.json"]
+    assert (out / "axis-002.json").stat().st_mtime_ns != stamps["axis-002.json"]
+    assert json.loads((out / "axis-002.json").read_text())["spec"]["tunables"][
+        "position_gain"]["max"] == 30.0
+    assert rows["axis-000"]["objective"] is not None and rows["axis-000"]["ok"]
+
+
+def test_a_result_of_another_feedtune_version_is_solved_again(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    out = tmp_path / "out"
+    assert batch(str(specs), "--out", str(out)).returncode == 0
+    result = json.loads((out / "axis-000.json").read_text())
+    result["provenance"]["feedtune"] = "0.0.0-older"
+    (out / "axis-000.json").write_text(json.dumps(result))
+    assert batch(str(specs), "--out", str(out)).returncode == 0
+    assert rows_by_id(out)["axis-000"]["resumed"] is False
+    assert json.loads((out / "axis-000.json").read_text())["provenance"]["feedtune"] != "0.0.0-older"
+
+
+# -- unusable inputs: exit 2 --------------------------------------------------------------
+
+@pytest.mark.parametrize("case", ["missing", "empty-dir", "no-match", "out-is-file",
+                                  "no-baseline", "not-a-spec"])
+def test_unusable_inputs_exit_two_naming_them(tmp_path, case):
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    out, args = tmp_path / "out", None
+    if case == "missing":
+        args, named = [str(tmp_path / "nope.json")], "nope.json: no such file"
+    elif case == "empty-dir":
+        (tmp_path / "empty").mkdir()
+        args, named = [str(tmp_path / "empty")], "holds no *.json"
+    elif case == "no-match":
+        args, named = [str(tmp_path / "*.yaml.json")], "pattern matches no"
+    elif case == "out-is-file":
+        out.write_text("x")
+        args, named = [str(specs)], "is not a directory"
+    elif case == "no-baseline":
+        args, named = [str(specs), "--baseline", str(tmp_path / "old")], "summary.json: no such file"
+    else:
+        (tmp_path / "notes.txt").write_text("{}")
+        args, named = [str(tmp_path / "notes.txt")], "not a spec file"
+    proc = batch(*args, "--out", str(out))
+    assert proc.returncode == 2, proc.stderr
+    assert named in proc.stderr and "Traceback" not in proc.stderr
+    assert not (out / "summary.json").exists()
+
+
+def test_glob_patterns_and_jsonl_inputs(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 2)
+    lines = [json.dumps({**example(), "name": f"line-{i}"}) for i in range(2)]
+    (tmp_path / "more.jsonl").write_text(lines[0] + "\n\n" + lines[1] + "\n")
+    out = tmp_path / "out"
+    proc = batch(str(specs / "*.json"), str(tmp_path / "more.jsonl"), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    rows = rows_by_id(out)
+    assert set(rows) == {"axis-000", "axis-001", "line-0", "line-1"}
+    assert rows["line-1"]["input"].endswith("more.jsonl:3") and rows["line-1"]["line"] == 3
+
+
+# -- baseline -----------------------------------------------------------------------------
+
+def test_baseline_fails_a_spec_whose_objective_got_worse(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 2)
+    before = tmp_path / "before"
+    assert batch(str(specs), "--out", str(before)).returncode == 0
+    worse = json.loads((specs / "axis-001.json").read_text())
+    # the optimum gain of the example exceeds 20: capping it raises the objective
+    worse["tunables"]["position_gain"]["max"] = 20.0
+    (specs / "axis-001.json").write_text(json.dumps(worse))
+    after = tmp_path / "after"
+    proc = batch(str(specs), "--out", str(after), "--baseline", str(before), "--junit",
+               str(tmp_path / "j.xml"))
+    rows = rows_by_id(after)
+    assert rows["axis-001"]["status"] == "optimal"
+    assert rows["axis-001"]["baseline"]["verdict"] == "worse", rows["axis-001"]
+    assert not rows["axis-001"]["ok"] and rows["axis-000"]["ok"]
+    assert rows["axis-000"]["baseline"]["verdict"] == "same"
+    assert proc.returncode == 1
+    assert "worse than the baseline" in proc.stderr
+    again = batch(str(specs), "--out", str(tmp_path / "again"), "--baseline", str(after))
+    assert again.returncode == 0, again.stderr  # the same results: nothing got worse
+
+
+# -- failures inside the executor ---------------------------------------------------------
+
+def _tasks(directory: Path, marks: dict[str, bytes]) -> list[Path]:
+    paths = write_specs(directory, 4)
+    for name, mark in marks.items():
+        spec = example()
+        spec["name"] = name
+        spec["description"] = mark.decode()
+        (directory / f"{name}.json").write_text(json.dumps(spec))
+    return paths
+
+
+def test_a_worker_that_dies_is_charged_to_its_spec_alone(tmp_path):
+    _tasks(tmp_path / "specs", {"axis-crash": batch_jobs.CRASH_MARK})
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(2, job=batch_jobs.crashing))
+    rows = {row["id"]: row for row in outcome.document["rows"]}
+    assert rows["axis-crash"]["status"] == "worker_died"
+    assert "SIGKILL" in rows["axis-crash"]["message"]
+    assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
+
+
+def test_a_spec_over_the_time_limit_is_stopped_and_the_rest_complete(tmp_path):
+    _tasks(tmp_path / "specs", {"axis-hang": batch_jobs.SLEEP_MARK})
+    started = time.monotonic()
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(2, timeout=3.0, job=batch_jobs.sleeping))
+    rows = {row["id"]: row for row in outcome.document["rows"]}
+    assert rows["axis-hang"]["status"] == "timeout"
+    assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
+    assert time.monotonic() - started < 50  # not the 60 s the job sleeps
+
+
+# -- SIGKILL and identical executors ------------------------------------------------------
+
+def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 12)
+    reference = tmp_path / "reference"
+    assert batch(str(specs), "--out", str(reference), "-j", "1").returncode == 0
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
+                                "--out", str(out), "-j", "1"], cwd=REPO,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 3:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    written = list(out.glob("axis-*.json"))
+    assert 3 <= len(written) < 12, "the kill should land mid-run"
+    for path in written:  # every file there is whole
+        json.loads(path.read_text())
+    rerun = batch(str(specs), "--out", str(out), "-j", "1")
+    assert rerun.returncode == 0, rerun.stderr
+    assert results(out) == results(reference)
+    rows = rows_by_id(out)
+    assert sum(row["resumed"] for row in rows.values()) >= len(written)
+    assert without_times([{k: v for k, v in r.items() if k != "resumed"} for r in rows.values()]) == \
+        without_times([{k: v for k, v in r.items() if k != "resumed"}
+                       for r in rows_by_id(reference).values()])
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 6)
+    outs = {}
+    for label, args in {"one": ["-j", "1"], "all": [], "dask": ["--executor", "dask", "-j", "2"]}.items():
+        outs[label] = tmp_path / label
+        proc = batch(str(specs), "--out", str(outs[label]), *args)
+        assert proc.returncode == 0, (label, proc.stderr)
+    assert len(results(outs["one"])) == 6
+    assert results(outs["one"]) == results(outs["all"]) == results(outs["dask"])
+    rows = {label: without_times(summary(out)["rows"]) for label, out in outs.items()}
+    assert rows["one"] == rows["all"] == rows["dask"]
+    assert summary(outs["dask"])["executor"] == "dask"
+
+
+def test_a_second_batch_on_the_same_directory_is_refused(tmp_path):
+    import fcntl
+
+    from feedtune.batch.runner import LOCK_NAME
+
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    out = tmp_path / "out"
+    out.mkdir()
+    with open(out / LOCK_NAME, "a+") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        proc = batch(str(specs), "--out", str(out))
+    assert proc.returncode == 2 and "another feedtune batch" in proc.stderr
+
+
+def test_solve_reports_an_invalid_spec_by_pointer_and_never_raises():
+    outcome = solve(b'{"name": "x", "plant": {"type": "software_servo"}}')
+    assert outcome.status == "invalid"
+    assert any(pointer.startswith("/plant") or pointer == "/objective"
+               for pointer, _ in outcome.errors)
