@@ -378,3 +378,55 @@ def test_solve_reports_an_invalid_spec_by_pointer_and_never_raises():
     assert outcome.status == "invalid"
     assert any(pointer.startswith("/plant") or pointer == "/objective"
                for pointer, _ in outcome.errors)
+
+
+def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path):
+    specs = tmp_path / "specs"
+    write_specs(specs, 10)
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
+                                "--out", str(out), "-j", "1"], cwd=REPO,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 2:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "rerun the same command" in err and "Traceback" not in err
+    rows = rows_by_id(out)
+    done = [r for r in rows.values() if r["status"] != "not_run"]
+    assert 2 <= len(done) < 10 and all(r["result"] for r in done)
+    assert all(not r["ok"] for r in rows.values() if r["status"] == "not_run")
+    assert batch(str(specs), "--out", str(out), "-j", "1").returncode == 0
+    assert len(results(out)) == 10
+
+
+def test_an_existing_dask_scheduler_by_address(tmp_path):
+    from distributed import LocalCluster
+
+    specs = tmp_path / "specs"
+    write_specs(specs, 3)
+    local = tmp_path / "local"
+    assert batch(str(specs), "--out", str(local), "-j", "1").returncode == 0
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        proc = batch(str(specs), "--out", str(tmp_path / "remote"), "--scheduler",
+                     cluster.scheduler_address)
+    assert proc.returncode == 0, proc.stderr
+    assert summary(tmp_path / "remote")["scheduler"] == cluster.scheduler_address
+    assert results(tmp_path / "remote") == results(local)
+
+
+def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
+    import dask
+
+    from feedtune.batch.dask_cluster import DaskExecutor
+
+    _tasks(tmp_path / "specs", {"axis-crash": batch_jobs.CRASH_MARK})
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                            DaskExecutor(workers=2, job=batch_jobs.crashing))
+    rows = {row["id"]: row for row in outcome.document["rows"]}
+    assert rows["axis-crash"]["status"] == "worker_died"
+    assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
