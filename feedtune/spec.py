@@ -8,6 +8,7 @@ objective (weighted metric terms) and constraints (metric bounds), and solver se
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 from typing import Annotated, Any, Literal, Union
@@ -133,17 +134,46 @@ class Spec(SpecModel):
 
 # -- strict JSON -------------------------------------------------------------------------
 
-def _reject_constant(token: str):
-    raise ValueError(f"{token} is not valid JSON (use a finite number)")
+class _NonFinite:
+    """Where the JSON text held NaN, Infinity or -Infinity (found after parsing, by pointer)."""
+
+    def __init__(self, token: str):
+        self.token = token
 
 
-def _no_duplicates(pairs):
-    seen = {}
-    for key, value in pairs:
-        if key in seen:
-            raise ValueError(f"duplicate key {key!r}")
-        seen[key] = value
-    return seen
+class _Object(dict):
+    """A JSON object; ``duplicates`` lists the keys it held more than once (last one kept)."""
+
+    duplicates: tuple = ()
+
+
+def _object(pairs) -> _Object:
+    value = _Object(pairs)
+    if len(value) < len(pairs):
+        seen, repeated = set(), []
+        for key, _ in pairs:
+            if key in seen and key not in repeated:
+                repeated.append(key)
+            seen.add(key)
+        value.duplicates = tuple(repeated)
+    return value
+
+
+def _strictness_errors(value: Any, pointer: str = "") -> list[tuple[str, str]]:
+    """(pointer, message) for every NaN/Infinity and duplicate key in a parsed document."""
+    errors = []
+    if isinstance(value, _NonFinite):
+        errors.append((pointer, f"{value.token} is not valid JSON (use a finite number)"))
+    elif isinstance(value, dict):
+        for key in getattr(value, "duplicates", ()):
+            errors.append((f"{pointer}/{_escape(key)}",
+                           f"duplicate key {key!r} (JSON objects name each key once)"))
+        for key, item in value.items():
+            errors.extend(_strictness_errors(item, f"{pointer}/{_escape(key)}"))
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            errors.extend(_strictness_errors(item, f"{pointer}/{i}"))
+    return errors
 
 
 def _depth(value: Any, limit: int, level: int = 0) -> int:
@@ -170,15 +200,19 @@ def load_json(data: bytes | str) -> Any:
     if not data.strip():
         raise SpecError([("", "spec is empty")])
     try:
-        value = json.loads(data, parse_constant=_reject_constant, object_pairs_hook=_no_duplicates)
+        value = json.loads(data, parse_constant=_NonFinite, object_pairs_hook=_object)
     except json.JSONDecodeError as exc:
-        raise SpecError([("", f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}")]) from None
+        raise SpecError([("", f"invalid JSON at line {exc.lineno} column {exc.colno}: "
+                              f"{exc.msg.removesuffix(' at')}")]) from None
     except RecursionError:
         raise SpecError([("", f"JSON nested deeper than {MAX_JSON_DEPTH} levels")]) from None
-    except ValueError as exc:
+    except ValueError as exc:  # e.g. an integer of more digits than Python converts
         raise SpecError([("", f"invalid JSON: {exc}")]) from None
     if _depth(value, MAX_JSON_DEPTH) > MAX_JSON_DEPTH:
         raise SpecError([("", f"JSON nested deeper than {MAX_JSON_DEPTH} levels")])
+    errors = _strictness_errors(value)
+    if errors:
+        raise SpecError(errors)
     return value
 
 
@@ -230,18 +264,26 @@ def _errors_by_pointer(errors: list[tuple[str, str]]) -> list[tuple[str, str]]:
 
 def _ipopt_option_errors(options: dict) -> list[tuple[str, str]]:
     """Unknown IPOPT options and values of the wrong type, found by IPOPT itself."""
-    import casadi as ca
-
     errors = []
-    x = ca.MX.sym("x")
     for name, value in options.items():
-        try:
-            ca.nlpsol("option_check", "ipopt", {"x": x, "f": x**2},
-                      {"ipopt": {name: value, "print_level": 0, "sb": "yes"}, "print_time": False})
-        except RuntimeError as exc:
-            reason = str(exc).strip().splitlines()[-1].split(": ", 1)[-1]
+        reason = _ipopt_option_error(name, value)
+        if reason is not None:
             errors.append((f"/solver/ipopt_options/{_escape(name)}", f"IPOPT rejects it: {reason}"))
     return errors
+
+
+@functools.lru_cache(maxsize=256, typed=True)  # typed: IPOPT tells 1, 1.0 and "1" apart
+def _ipopt_option_error(name: str, value: str | int | float) -> str | None:
+    """IPOPT's reason for rejecting ``name = value``, or None; one nlpsol per pair and process."""
+    import casadi as ca
+
+    x = ca.MX.sym("x")
+    try:
+        ca.nlpsol("option_check", "ipopt", {"x": x, "f": x**2},
+                  {"ipopt": {name: value, "print_level": 0, "sb": "yes"}, "print_time": False})
+    except RuntimeError as exc:
+        return str(exc).strip().splitlines()[-1].split(": ", 1)[-1]
+    return None
 
 
 def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
@@ -300,9 +342,11 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     if not isinstance(raw, dict):
         raise SpecError([("", f"a spec is a JSON object, not {type(raw).__name__}")])
     try:
-        spec = Spec.model_validate(raw)
+        # strict: a string is not a number, nor true a count (JSON has the types to say so)
+        spec = Spec.model_validate(raw, strict=True)
     except ValidationError as exc:
-        raise SpecError(_errors_by_pointer([(_pointer(e["loc"], raw), e["msg"])
+        raise SpecError(_errors_by_pointer([(_pointer(e["loc"], raw),
+                                             e["msg"].removeprefix("Value error, "))
                                             for e in exc.errors()])) from None
     errors = _semantic_errors(spec)
     if errors:
