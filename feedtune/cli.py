@@ -15,6 +15,7 @@ import itertools
 import json
 import os
 import re
+import signal
 import sys
 import traceback
 import typing
@@ -572,8 +573,8 @@ def examples(name: str | None, output: str | None) -> None:
 
 _BATCH_EPILOG = ("Exit status: 0 every spec solved and met its constraints (and, with "
                  "--baseline, is not worse); 1 some spec did not; 2 the inputs, the output "
-                 "directory or the baseline cannot be used; 130 interrupted (results so far "
-                 "are kept; rerun to finish).")
+                 "directory or the baseline cannot be used; 130 interrupted by Ctrl-C or "
+                 "SIGTERM (results so far are kept; rerun to finish).")
 
 
 @main.command(epilog=_BATCH_EPILOG)
@@ -668,6 +669,10 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
             finally:
                 progress[0].close()
 
+    def _terminate(signum, frame):  # CI cancels with SIGTERM: stop as cleanly as Ctrl-C
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         with _stdout_to_stderr():
             outcome = run_batch(list(inputs), Path(out), _Counted(runner),

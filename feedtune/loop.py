@@ -41,6 +41,9 @@ class HorizonError(ValueError):
 class Drive:
     """Physical data of the axis that some metrics need, beyond the loop dynamics.
 
+    Each number may also be a CasADi expression (a plant's number lifted into an NLP
+    parameter, see ``feedtune.plants.base``); metrics only compute with them.
+
     Attributes
     ----------
     time_constant : float or None
@@ -103,10 +106,11 @@ class Integrator:
 class IntegratorLag:
     """Velocity drive 1/(1 + sτ) integrating to position; states [position, velocity].
 
-    Koren eqs 3–4 with the drive constant K_m folded into the loop gain.
+    Koren eqs 3–4 with the drive constant K_m folded into the loop gain. ``time_constant``
+    τ [s] is a number or an expression (a plant's number lifted into an NLP parameter).
     """
 
-    time_constant: float
+    time_constant: object
     order = 2
 
     def discretise(self, period):
@@ -405,7 +409,7 @@ class SampledLoop(_LoopBase):
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:
         """max |pole| when the loop holds numbers only, else None (symbolic)."""
-        if ca.symvar(ca.veccat(ca.MX(self.gain), ca.MX(self.period))):
+        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
             return None
         return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
 
@@ -445,7 +449,7 @@ class SampledLoop(_LoopBase):
         if radius is not None and radius >= 1:
             return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         n = self.order
-        tau = self.plant.time_constant
+        tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
         state = ca.SX.sym("state", n + 4)  # [x, v, buffer..., iae, ise, itae, t]
         phi_s = ca.SX.sym("phi", n, n)
         gamma_s = ca.SX.sym("gamma", n)
@@ -462,10 +466,11 @@ class SampledLoop(_LoopBase):
         nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s,
                          state[n] + pieces.iae, state[n + 1] + pieces.ise,
                          state[n + 2] + pieces.itae, state[n + 3] + period_s)
-        step = ca.Function("sample_step", [state, phi_s, gamma_s, kx_s, kr_s, period_s], [nxt])
+        step = ca.Function("sample_step", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
+                           [nxt])
         phi, gamma_cl, kx, kr = self._matrices
         final = step.fold(self.horizon_samples)(ca.DM.zeros(n + 4), phi, gamma_cl, kx, kr,
-                                                 self.period)
+                                                 self.period, self.plant.time_constant)
         tail = self._tail(final[:n], final[n + 3])
         return ErrorIntegrals(final[n] + ca.fabs(tail.iae), final[n + 1] + tail.ise,
                               final[n + 2] + ca.fabs(tail.itae))

@@ -197,6 +197,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     probe_loop = plant.loop({name: hi for name, (lo, hi) in box.items()}, box)
     report_sets = _report_sets(spec, probe_loop)
     reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
+    plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}
     s = spec.solver
     settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
                         time_limit=s.time_limit, expand=s.expand, ipopt_options=s.ipopt_options)
@@ -204,10 +205,13 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
         for refinement in range(MAX_HORIZON_REFINEMENTS + 1):
             scale = HORIZON_GROWTH**refinement
 
-            def make_loop(values, scale=scale):
+            def make_loop(values, numbers=None, scale=scale):
+                if numbers:  # plant numbers as NLP parameters (see feedtune.plants.base)
+                    return plant.loop(values, box, horizon_scale=scale, numbers=numbers)
                 return plant.loop(values, box, horizon_scale=scale)
 
-            problem = Problem(variables, fixed, make_loop, objective, constraints, reports, settings)
+            problem = Problem(variables, fixed, make_loop, objective, constraints, reports,
+                              settings, numbers=plant_numbers)
             outcome = problem.solve(progress)
             if outcome.model_gap <= MODEL_GAP_TOL and not outcome.horizon_bound:
                 break

@@ -126,21 +126,32 @@ class SoftwareServo:
                          "per side (Sato eq 1; interpolation linear only)", 1e-3, 1.0)
         return tunables
 
-    def drive(self) -> Drive:
+    def numbers(self) -> dict[str, float]:
+        """The parameters :meth:`loop` also takes as expressions (``numbers``): they enter
+        the loop only through arithmetic. The horizon, the frequency band and every choice
+        still read the spec's own numbers."""
         p = self.params
-        return Drive(time_constant=p.time_constant, blu=p.blu, max_velocity=p.max_velocity,
-                     counter_bits=p.counter_bits)
+        given = {"time_constant": p.time_constant, "blu": p.blu, "max_velocity": p.max_velocity}
+        return {name: value for name, value in given.items() if value is not None}
+
+    def drive(self, numbers: Mapping[str, object] | None = None) -> Drive:
+        p = self.params
+        n = {**self.numbers(), **(numbers or {})}
+        return Drive(time_constant=n.get("time_constant"), blu=n.get("blu"),
+                     max_velocity=n.get("max_velocity"), counter_bits=p.counter_bits)
 
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
-             horizon_scale: float = 1.0):
+             horizon_scale: float = 1.0, numbers: Mapping[str, object] | None = None):
         """The closed loop at ``values`` (expressions or numbers per tunable name).
 
         ``box`` gives each tunable's (min, max) [its unit]; with ``horizon_scale`` it sizes
         the step-response horizon of a sampled loop (20·(2τ + dead time)·horizon_scale),
         which the tuner lengthens when the NLP and the exact evaluation disagree.
+        ``numbers`` replaces some of :meth:`numbers` by expressions (NLP parameters).
         """
         p = self.params
-        tau = p.time_constant
+        tau = {**self.numbers(), **(numbers or {})}.get("time_constant")  # in arithmetic
+        drive = self.drive(numbers)
         gain = values["position_gain"]
         if p.technique == "reference_pulse":
             a = ca.MX.zeros(2, 2)
@@ -149,31 +160,31 @@ class SoftwareServo:
             a[1, 1] = -1 / tau
             b = ca.MX.zeros(2, 1)
             b[1, 0] = gain / tau
-            return ContinuousLoop(a, b, ca.DM([[1, 0]]), gain, self.drive())
+            return ContinuousLoop(a, b, ca.DM([[1, 0]]), gain, drive)
         period = values["sampling_period"]
         interpolator = None
         if p.interpolation == "linear":
             interpolator = Interpolator(values["reference_interval"], period)
         if p.model == "pade":
-            return self._pade_loop(gain, period, box, interpolator)
+            return self._pade_loop(gain, period, box, interpolator, tau, drive)
         period_min, period_max = box["sampling_period"]
         # loops near the optimum settle within tens of (2τ + dead time); slower, overdamped
         # loops are still exact through the closed-form tail of SampledLoop (an ideal drive
         # has no step integrals, so its horizon is unused)
-        settle = 2 * (tau or 0.0) + (p.computation_delay + 1) * period_max
+        settle = 2 * (p.time_constant or 0.0) + (p.computation_delay + 1) * period_max
         plant = IntegratorLag(tau) if tau is not None else Integrator()
-        return SampledLoop(plant, gain, period, delay=p.computation_delay, drive=self.drive(),
+        return SampledLoop(plant, gain, period, delay=p.computation_delay, drive=drive,
                            horizon=SETTLING_TIME_CONSTANTS * settle * horizon_scale,
                            period_min=period_min, interpolator=interpolator)
 
-    def _pade_loop(self, gain, period, box, interpolator) -> TransferLoop:
+    def _pade_loop(self, gain, period, box, interpolator, tau, drive) -> TransferLoop:
         """Sato eqs 4–5: open loop K·(1 − Ls/2)/((1 + Ls/2)·s·(1 + sτ)), L = (d + ½)·T.
 
         Without τ the closed loop is K(2/L − s)/(s² + (2/L − K)s + 2K/L), eq 5.
         """
         p = self.params
         half_dead_time = (p.computation_delay + 0.5) * period / 2  # L/2 [s]
-        lag = [p.time_constant, 1] if p.time_constant is not None else [1]
+        lag = [tau, 1] if tau is not None else [1]
         denominator = linalg.poly_mul(linalg.poly_mul([half_dead_time, 1], lag), [1, 0])
         # corners: K, 2/L and 1/τ over the box, two decades either side
         (k_min, k_max), (t_min, t_max) = box["position_gain"], box["sampling_period"]
@@ -184,7 +195,7 @@ class SoftwareServo:
         return TransferLoop(open_numerator=[-gain * half_dead_time, gain],
                             open_denominator=denominator,
                             frequency_band=(min(corners) / 100, max(corners) * 100),
-                            drive=self.drive(), interpolator=interpolator)
+                            drive=drive, interpolator=interpolator)
 
 
 def koren_step_response(gain: float, period: float, time_constant: float, samples: int):

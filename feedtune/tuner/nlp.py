@@ -14,12 +14,28 @@ refined peak (or dip) is evaluated; while it violates the bound, its frequency i
 one more constraint point (a parameter of the built NLP) and IPOPT runs again from the last solution:
 the exchange method. Putting the refined peak itself in the NLP was tried and stalled
 IPOPT: its value switches between peaks, so its derivatives jump.
+
+Solver reuse: building the IPOPT solver (``nlpsol``, SX expansion) costs more than most
+solves, and batch tuning solves thousands of specs of a few structures in one process.
+Every number of a problem that does not shape its graph is therefore an NLP parameter
+(``p``): fixed tunable values, the plant's numbers it offers (``numbers``, see
+``feedtune.plants.base``), objective weights, constraint bounds inside the graph, and
+every scale found by probing the starts. The graph is always built this way, so a result
+is the same whether its solver is new or reused. The solver and the Functions of a
+problem are cached per process (:func:`solver_cache_info`), keyed by a hash of their
+serialized graphs, the nlpsol options and the expand flag: a number still embedded as a
+constant (a horizon's sample count, a frequency grid, the sign of a weight) makes a
+different key. A problem without free tunables builds no solver and is not cached.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import threading
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
@@ -174,24 +190,127 @@ def starting_points(variables: list[Variable], count: int) -> np.ndarray:
     return np.array(points[:count])
 
 
+#: built problems (nlpsol and Functions) kept per process, least recently used dropped first
+SOLVER_CACHE_SIZE = 16
+
+
+@dataclass
+class _Built:
+    """What a problem structure costs to build: its Functions and its IPOPT solver."""
+
+    functions: dict
+    solver: object  # the nlpsol, or None without free tunables
+    reused: bool = False
+
+
+_cache: OrderedDict[str, _Built] = OrderedDict()
+_cache_counts = {"hits": 0, "misses": 0}
+_cache_lock = threading.Lock()  # the dict and counters only; a build runs unlocked
+
+
+def solver_cache_info() -> dict[str, int]:
+    """Hits, misses, current size and capacity of this process's solver cache."""
+    return {**_cache_counts, "size": len(_cache), "maxsize": SOLVER_CACHE_SIZE}
+
+
+def clear_solver_cache() -> None:
+    """Empty this process's solver cache and reset its counters."""
+    with _cache_lock:
+        _cache.clear()
+        _cache_counts.update(hits=0, misses=0)
+
+
+def structure_key(functions: Mapping[str, ca.Function], options: Mapping, expand: bool) -> str:
+    """SHA-256 of the serialized Functions, the nlpsol options and the expand flag.
+
+    Every number that is not an NLP parameter is a constant inside the serialized graph, so
+    two problems share a key only when their solvers compute the same thing.
+    """
+    digest = hashlib.sha256()
+    for name in sorted(functions):
+        digest.update(name.encode())
+        digest.update(functions[name].serialize().encode())
+    digest.update(json.dumps([options, bool(expand)], sort_keys=True, default=repr).encode())
+    return digest.hexdigest()
+
+
+def _nlpsol(nlp: ca.Function, options: Mapping, expand: bool):
+    """IPOPT on ``nlp``, expanded to SX when asked and possible."""
+    if expand:
+        try:
+            return ca.nlpsol("feedtune", "ipopt", nlp, {**options, "expand": True})
+        except RuntimeError:  # a node without an SX form (e.g. a rootfinder)
+            pass
+    return ca.nlpsol("feedtune", "ipopt", nlp, dict(options))
+
+
+def _cached_build(functions: dict, probe: ca.Function, options: Mapping, expand: bool,
+                  has_nlp: bool) -> _Built:
+    """The Functions and solver of this structure: from the cache when an identical graph
+    was built before in this process, else ``functions`` with a new solver (then cached).
+
+    Without free tunables there is no solver to build and nothing is cached.
+    """
+    if not has_nlp:
+        return _Built(functions, None)
+    key = structure_key({**functions, "probe": probe}, options, expand)
+    with _cache_lock:
+        built = _cache.get(key)
+        if built is not None:
+            _cache.move_to_end(key)
+            _cache_counts["hits"] += 1
+            return _Built(built.functions, built.solver, reused=True)
+        _cache_counts["misses"] += 1
+    built = _Built(functions, _nlpsol(functions["nlp"], options, expand))
+    with _cache_lock:
+        _cache[key] = built
+        while len(_cache) > SOLVER_CACHE_SIZE:
+            _cache.popitem(last=False)
+    return built
+
+
 class Problem:
-    """The NLP, built once; :meth:`solve` runs the multistart."""
+    """The NLP, built once (or taken from the solver cache); :meth:`solve` runs the multistart.
+
+    ``make_loop(values)`` builds the loop from tunable values; with free tunables it is
+    called as ``make_loop(values, lifted)`` when ``numbers`` (name → value, e.g. a plant's
+    time constant) is not empty, ``lifted`` mapping each name to its NLP parameter.
+    """
 
     def __init__(self, variables: list[Variable], fixed: Mapping[str, float],
                  make_loop: Callable, objective: list[Term], constraints: list[Bound],
-                 reports: Mapping[str, Callable], settings: Settings):
+                 reports: Mapping[str, Callable], settings: Settings,
+                 numbers: Mapping[str, float] | None = None):
         started = time.perf_counter()
         self.variables, self.fixed, self.settings = variables, dict(fixed), settings
         self.objective_terms, self.bounds = objective, constraints
+        self.has_nlp = bool(variables)
         z = ca.MX.sym("log_tunables", len(variables))
+        # every number of the problem that shapes no graph is an NLP parameter (see
+        # "Solver reuse" in the module docstring): the symbols, and this spec's values
+        params, param_values = [], []
+
+        def parameter(name, value):
+            symbol = ca.MX.sym(name)
+            params.append(symbol)
+            param_values.append(float(value))
+            return symbol
+
         values = {v.name: ca.exp(z[i]) for i, v in enumerate(variables)}
-        values.update({name: ca.MX(value) for name, value in fixed.items()})
-        loop = make_loop(values)
+        if self.has_nlp:
+            values.update({name: parameter(f"fixed_{name}", value) for name, value in fixed.items()})
+            lifted = {name: parameter(f"number_{name}", value)
+                      for name, value in (numbers or {}).items()}
+            loop = make_loop(values, lifted) if lifted else make_loop(values)
+        else:  # nothing to solve, nothing to reuse: a loop of numbers, as evaluated exactly
+            values.update({name: ca.MX(value) for name, value in fixed.items()})
+            loop = make_loop(values)
         self.discrete = loop.discrete
 
+        weights = [parameter(f"weight{i}", t.weight) for i, t in enumerate(objective)]
         term_values = [t.value(loop) for t in objective]
         bound_values = [b.value(loop) for b in constraints]
-        term_exprs = [(_magnitude(v), t.weight) for v, t in zip(term_values, objective)]
+        term_exprs = [(_magnitude(v), w) for v, w in zip(term_values, weights)]
         bound_exprs = [_magnitude(v) for v in bound_values]
         stability = loop.stability_conditions()
         settling = loop.settling_conditions()  # after the terms: they say what was summed
@@ -201,21 +320,24 @@ class Problem:
         # objective until IPOPT stops anywhere (too small a scale is harmless: IPOPT's
         # gradient-based scaling shrinks large gradients). No stable start: no scaling.
         self.starts = starting_points(variables, settings.multistart)
-        probe = ca.Function("probe", [z], [ca.vertcat(
+        model_params = ca.vertcat(ca.MX(0, 1), *params)
+        probe = ca.Function("probe", [z, model_params], [ca.vertcat(
             raw_objective, *[e for (e, _), _ in term_exprs], *[e for e, _ in bound_exprs],
             *stability, *settling)])
-        table = np.column_stack([np.asarray(probe(z0), dtype=float).ravel() for z0 in self.starts])
+        model_values = np.array(param_values, dtype=float)
+        table = np.column_stack([np.asarray(probe(z0, model_values), dtype=float).ravel()
+                                 for z0 in self.starts])
         first_stability = 1 + len(term_exprs) + len(bound_exprs)
         stable = np.all(table[first_stability:first_stability + len(stability)] > 0, axis=0)
         table = np.abs(table)
         table[~np.isfinite(table) | (table == 0)] = np.inf
         table[:first_stability, ~stable] = np.inf
         smallest = [float(v) if math.isfinite(v) else None for v in table.min(axis=1)]
-        f_ref, numbers = smallest[0], smallest[1:]
-        term_ref = numbers[:len(term_exprs)]
-        bound_ref = numbers[len(term_exprs):len(term_exprs) + len(bound_exprs)]
-        stab_ref = numbers[len(term_exprs) + len(bound_exprs):][:len(stability)]
-        settle_ref = numbers[len(term_exprs) + len(bound_exprs) + len(stability):]
+        f_ref, numbers_ref = smallest[0], smallest[1:]
+        term_ref = numbers_ref[:len(term_exprs)]
+        bound_ref = numbers_ref[len(term_exprs):len(term_exprs) + len(bound_exprs)]
+        stab_ref = numbers_ref[len(term_exprs) + len(bound_exprs):][:len(stability)]
+        settle_ref = numbers_ref[len(term_exprs) + len(bound_exprs) + len(stability):]
 
         def scale(*candidates):
             finite = [abs(c) for c in candidates if c is not None and math.isfinite(c) and c != 0]
@@ -276,11 +398,9 @@ class Problem:
             exchange_rows((0, ca.inf), float(value.relative_grid[0]), row, [-dip, where / b])
             return b
 
-        def supremum_below(value, bound, s):
+        def supremum_below(value, bound, s, positive):
             """value.fn(ω) ≤ bound on the grid and at exchange points (Supremum), written
             (fn − bound)/(fn + bound) ≤ 0 when the bound is positive: bounded in [−1, 1]."""
-            positive = not isinstance(bound, (int, float)) or bound > 0
-
             def row(omega):
                 v = value.fn(omega)
                 return (v - bound) / (v + bound) if positive else (v - bound) / s
@@ -290,18 +410,20 @@ class Problem:
             exchange_rows((-ca.inf, 0), float(value.grid[0]), row,
                           [(value.exact - bound) / (ca.fabs(bound) + 1e-300), value.argmax])
 
-        for index, (value, ((expr, mag), weight), ref) in enumerate(zip(term_values, term_exprs, term_ref)):
+        for index, (value, ((expr, mag), weight), term, ref) in enumerate(
+                zip(term_values, term_exprs, objective, term_ref)):
+            sign = term.weight  # its sign shapes the NLP; its size is the parameter ``weight``
             if isinstance(value, Crossing):
-                f += weight * crossing_variable(value, index, equality=weight > 0)
-            elif isinstance(value, Supremum) and weight > 0:  # epigraph: fn(ω) ≤ s·t, minimise
-                s = scale(ref)
+                f += weight * crossing_variable(value, index, equality=sign > 0)
+            elif isinstance(value, Supremum) and sign > 0:  # epigraph: fn(ω) ≤ s·t, minimise
+                s = parameter(f"term_scale{index}", scale(ref))
                 t = add_variable(f"peak{index}", 0, ca.inf, value.exact / s * 1.01)
-                supremum_below(value, s * t, s)
+                supremum_below(value, s * t, s, positive=True)
                 f += weight * s * t
-            elif mag and weight < 0:  # maximising |e|: no epigraph bounds it from above
+            elif mag and sign < 0:  # maximising |e|: no epigraph bounds it from above
                 f += weight * ca.fabs(expr)
             elif mag:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
-                s = scale(ref)
+                s = parameter(f"term_scale{index}", scale(ref))
                 t = add_variable(f"slack{index}", 0, ca.inf, ca.fabs(expr) / s * 1.01 + 1e-6)
                 f += weight * s * t
                 constrain((expr - s * t) / s, -ca.inf, 0)
@@ -310,14 +432,16 @@ class Problem:
                 f += weight * expr
         for index, (value, (expr, mag), bound, ref) in enumerate(
                 zip(bound_values, bound_exprs, constraints, bound_ref)):
-            s = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(ref)
-            lower = bound.lower / s if bound.lower is not None else -ca.inf
-            upper = bound.upper / s if bound.upper is not None else ca.inf
+            s_value = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(ref)
+            s = parameter(f"bound_scale{index}", s_value)
+            lower = bound.lower / s_value if bound.lower is not None else -ca.inf
+            upper = bound.upper / s_value if bound.upper is not None else ca.inf
             if isinstance(value, Crossing):
                 b = crossing_variable(value, f"_bound{index}", equality=bound.upper is not None)
                 constrain(b / s, lower, upper)
             elif isinstance(value, Supremum) and bound.upper is not None:
-                supremum_below(value, bound.upper, s)
+                supremum_below(value, parameter(f"bound_upper{index}", bound.upper), s,
+                               positive=bound.upper > 0)
                 if bound.lower is not None:
                     constrain(expr / s, lower, ca.inf)
             elif mag and bound.lower is not None and bound.lower > 0:
@@ -326,62 +450,70 @@ class Problem:
                 constrain(expr / s, -upper, upper)
             else:
                 constrain(expr / s, lower, upper)
-        stability_rows = [ca.asinh(c / scale(ref)) for c, ref in zip(stability, stab_ref)]
-        scaled_settling = [c / scale(ref) for c, ref in zip(settling, settle_ref)]
+        stability_rows = [ca.asinh(c / parameter(f"stability_scale{i}", scale(ref)))
+                          for i, (c, ref) in enumerate(zip(stability, stab_ref))]
+        scaled_settling = [c / parameter(f"settling_scale{i}", scale(ref))
+                           for i, (c, ref) in enumerate(zip(settling, settle_ref))]
         for condition in stability_rows + scaled_settling:
             constrain(condition, STABILITY_MARGIN, ca.inf)
-        self.settling = ca.Function("settling", [z], [ca.vertcat(ca.MX(0, 1), *scaled_settling)])
 
         self.n_z = len(variables)
         w = ca.vertcat(z, *extra)
+        p = ca.vertcat(ca.MX(0, 1), *params)
+        self.param_values = np.array(param_values, dtype=float)
         self.lbw = np.concatenate([np.log([v.lower for v in variables]), extra_lower])
         self.ubw = np.concatenate([np.log([v.upper for v in variables]), extra_upper])
         self.lbg, self.ubg = np.array(lbg, dtype=float), np.array(ubg, dtype=float)
-        self.extra_start = ca.Function("extra_start", [z], [ca.vertcat(ca.MX(0, 1), *extra_start)])
-        options = {
+        self.slot_defaults = np.array(slot_defaults, dtype=float)
+        self._options = {
             "ipopt": {"print_level": 0, "sb": "yes", "max_iter": settings.max_iter,
                       "tol": settings.tol, "max_wall_time": settings.time_limit,
                       **settings.ipopt_options},
             "print_time": False,
             "error_on_fail": False,
         }
-        self.has_nlp = bool(variables)
+        expand = settings.expand
+        if expand is None:  # auto: expansion pays for itself on short horizons only
+            expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
         # the objective is divided by its value at each start (a parameter, so one build
         # serves every start); a start that is not stable is first moved to a stable point
         # nearby (restoration, see _stable_start), where that value means something
         objective_scale = ca.MX.sym("objective_scale")
-        slot_vector = ca.vertcat(ca.MX(0, 1), *slots)
-        self._problems = {
-            "feedtune": {"x": w, "p": ca.vertcat(objective_scale, slot_vector),
-                         "f": f / objective_scale, "g": ca.vertcat(*g)},
-        }
-        self.slot_defaults = np.array(slot_defaults, dtype=float)
-        # per exchange group: (violation, where) at a solution of the NLP
-        self._exchange_check = ca.Function("exchange_check", [z, *extra],
-                                           [ca.vertcat(ca.MX(0, 1), *checks)])
-        self._options = options
-        self._expand = settings.expand
-        if self._expand is None:  # auto: expansion pays for itself on short horizons only
-            self._expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
-        self._solvers: dict = {}
-        if self.has_nlp:
-            self._solver("feedtune")
-        self.f_scale = f_scale
         matrices = loop.stability_matrices()
         self.matrix_names = list(matrices)
-        self.check = ca.Function(
-            "check", [z],
-            [raw_objective, ca.vertcat(ca.MX(0, 1), *[ca.fabs(e) if m else e for e, m in bound_exprs]),
-             ca.vertcat(*stability), *matrices.values()])
-        # conditions and matrices alone: what restoration evaluates hundreds of times
-        self.stability_check = ca.Function("stability_check", [z],
-                                           [ca.vertcat(*stability), *matrices.values()])
+        functions = {
+            "nlp": ca.Function("nlp", [w, ca.vertcat(objective_scale, *slots, p)],
+                               [f / objective_scale, ca.vertcat(*g)], ["x", "p"], ["f", "g"]),
+            "settling": ca.Function("settling", [z, p], [ca.vertcat(ca.MX(0, 1), *scaled_settling)]),
+            "extra_start": ca.Function("extra_start", [z, p],
+                                       [ca.vertcat(ca.MX(0, 1), *extra_start)]),
+            # per exchange group: (violation, where) at a solution of the NLP
+            "exchange_check": ca.Function("exchange_check", [z, *extra, p],
+                                          [ca.vertcat(ca.MX(0, 1), *checks)]),
+            "check": ca.Function(
+                "check", [z, p],
+                [raw_objective,
+                 ca.vertcat(ca.MX(0, 1), *[ca.fabs(e) if m else e for e, m in bound_exprs]),
+                 ca.vertcat(*stability), *matrices.values()]),
+            # conditions and matrices alone: what restoration evaluates hundreds of times
+            "stability_check": ca.Function("stability_check", [z, p],
+                                           [ca.vertcat(*stability), *matrices.values()]),
+        }
+        entry = _cached_build(functions, probe, self._options, expand, self.has_nlp)
+        self.settling = entry.functions["settling"]
+        self.extra_start = entry.functions["extra_start"]
+        self._exchange_check = entry.functions["exchange_check"]
+        self.check = entry.functions["check"]
+        self.stability_check = entry.functions["stability_check"]
+        self._nlpsol = entry.solver
+        self.solver_reused = entry.reused
+        self.f_scale = f_scale
         self.make_loop, self.reports = make_loop, dict(reports)
         self.build_time = time.perf_counter() - started
 
     def _evaluate(self, z_value):
         """What the NLP sees at ``z_value``: objective, bound values, conditions, matrices."""
-        objective, bounds, conditions, *matrices = self.check(z_value)
+        objective, bounds, conditions, *matrices = self.check(z_value, self.param_values)
         bounds = [_number(b) for b in np.asarray(bounds).ravel()]
         matrices = {name: np.asarray(m, dtype=float) for name, m in zip(self.matrix_names, matrices)}
         return _number(objective), bounds, np.asarray(conditions).ravel(), matrices
@@ -454,7 +586,7 @@ class Problem:
         objective, bounds, conditions, matrices, reports = self._evaluate_numeric(values)
         feasible, stability = self._feasible(bounds, conditions, matrices)
         model_gap = self._model_gap(self._evaluate(z_opt), objective, bounds)
-        settling = np.asarray(self.settling(z_opt), dtype=float).ravel()
+        settling = np.asarray(self.settling(z_opt, self.param_values), dtype=float).ravel()
         horizon_bound = bool(np.any(settling < SETTLING_ACTIVE))
         evaluation_time = time.perf_counter() - started
         success = status in SOLVED and feasible
@@ -493,13 +625,13 @@ class Problem:
         z0 = self._stable_start(start)
         if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)
             return start, "No_Stable_Start", 0, 0
-        solver = self._solver("feedtune")
+        solver = self._nlpsol
         slots = self.slot_defaults.copy()
         lbg, ubg = self.lbg.copy(), self.ubg.copy()
         used = [0] * len(self._exchange)
         x0, p_scale, iterations = self._x0(z0), self._scale_at(z0), 0
         while True:
-            solution = solver(x0=x0, p=np.concatenate([[p_scale], slots]),
+            solution = solver(x0=x0, p=np.concatenate([[p_scale], slots, self.param_values]),
                               lbx=self.lbw, ubx=self.ubw, lbg=lbg, ubg=ubg)
             stats = solver.stats()
             # IPOPT leaves iter_count unset (garbage) when it stops before iterating
@@ -526,7 +658,7 @@ class Problem:
         needs one has no point left.
         """
         split = [x[:self.n_z], *x[self.n_z:]]
-        checks = np.asarray(self._exchange_check(*split), dtype=float).ravel()
+        checks = np.asarray(self._exchange_check(*split, self.param_values), dtype=float).ravel()
         added = False
         for group, (bounds, indices, rows) in enumerate(self._exchange):
             violation, where = checks[2 * group], checks[2 * group + 1]
@@ -541,21 +673,6 @@ class Problem:
             added = True
         return added
 
-    def _solver(self, name: str):
-        """IPOPT on problem ``name``, expanded to SX when chosen and possible; cached."""
-        if name not in self._solvers:
-            nlp = self._problems[name]
-            solver = None
-            if self._expand:
-                try:
-                    solver = ca.nlpsol(name, "ipopt", nlp, {**self._options, "expand": True})
-                except RuntimeError:  # a node without an SX form (e.g. a rootfinder)
-                    self._expand = False
-            if solver is None:
-                solver = ca.nlpsol(name, "ipopt", nlp, self._options)
-            self._solvers[name] = solver
-        return self._solvers[name]
-
     def _stable_start(self, z0: np.ndarray) -> np.ndarray | None:
         """``z0`` if its loop is stable, else a stable point near it, or None.
 
@@ -567,7 +684,7 @@ class Problem:
         K'_p = 900, −1.85 at 500, +0.98 at 120 on Bhatia's drive).
         """
         def evaluate(z):
-            conditions, *matrices = self.stability_check(z)
+            conditions, *matrices = self.stability_check(z, self.param_values)
             return (np.asarray(conditions, dtype=float).ravel(),
                     [np.asarray(m, dtype=float) for m in matrices])
 
@@ -603,7 +720,7 @@ class Problem:
 
     def _x0(self, z0: np.ndarray) -> np.ndarray:
         """Start of every NLP variable: z0, and the extra variables where z0 puts them."""
-        extra = np.asarray(self.extra_start(z0), dtype=float).ravel()
+        extra = np.asarray(self.extra_start(z0, self.param_values), dtype=float).ravel()
         extra = np.clip(np.nan_to_num(extra, nan=0.0, posinf=1e6, neginf=-1e6),
                         self.lbw[self.n_z:], self.ubw[self.n_z:])
         return np.concatenate([z0, extra])

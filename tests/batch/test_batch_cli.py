@@ -380,7 +380,8 @@ def test_solve_reports_an_invalid_spec_by_pointer_and_never_raises():
                for pointer, _ in outcome.errors)
 
 
-def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path):
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
     specs = tmp_path / "specs"
     write_specs(specs, 10)
     out = tmp_path / "out"
@@ -390,7 +391,7 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path):
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 2:
         time.sleep(0.02)
-    process.send_signal(signal.SIGINT)
+    process.send_signal(stop)
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130, err
     assert "rerun the same command" in err and "Traceback" not in err

@@ -1,0 +1,144 @@
+"""Solvers are built once per problem structure and reused: the numbers that differ between
+specs are NLP parameters, and a result never depends on whether its solver was reused."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from feedtune.plants import plant_for
+from feedtune.problem import tune
+from feedtune.spec import _ipopt_option_errors, parse_spec
+from feedtune.tuner import nlp
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+TIMING = ("solve_time", "build_time", "evaluation_time")
+
+
+def _example(name: str) -> dict:
+    return json.loads((EXAMPLES / name).read_text(encoding="utf-8"))
+
+
+def _without_timing(result) -> dict:
+    data = result.model_dump(mode="json")
+    for key in TIMING:
+        data["solver"].pop(key)
+    for start in data["solver"]["starts"]:
+        start.pop("solve_time")
+    return data
+
+
+def _variant(data: dict, **plant) -> dict:
+    data = copy.deepcopy(data)
+    data["plant"].update(plant)
+    return data
+
+
+def _tune_after(first: dict | None, second: dict):
+    """Tune ``second`` in a cleared cache, after ``first`` when given; its result and the
+    cache counters."""
+    nlp.clear_solver_cache()
+    if first is not None:
+        tune(parse_spec(first))
+    result = tune(parse_spec(second))
+    return result, nlp.solver_cache_info()
+
+
+@pytest.mark.parametrize("example, changes", [
+    # minimum IAE (a step response summed over a horizon): the drive's blu and V_m, the
+    # gain's box and the objective weight differ; the horizon (τ, T) does not
+    ("koren-1979-min-iae-radius.json",
+     {"plant": {"blu": 2e-5, "max_velocity": 0.05}, "gain_max": 150, "weight": 2.5}),
+    # radial error with a damping constraint: τ, blu, V_m, the fixed period and the bound
+    ("koren-1979-sampled-data.json",
+     {"plant": {"time_constant": 0.025, "blu": 1e-5, "max_velocity": 0.05},
+      "period": 0.02, "damping_min": 0.6}),
+])
+def test_reused_solver_gives_the_result_of_a_fresh_one(example, changes):
+    a = _example(example)
+    b = _variant(a, **changes["plant"])
+    b["name"] = a["name"] + "-b"
+    if "gain_max" in changes:
+        b["tunables"]["position_gain"]["max"] = changes["gain_max"]
+    if "weight" in changes:
+        b["objective"][0]["weight"] = changes["weight"]
+    if "period" in changes:
+        b["tunables"]["sampling_period"]["value"] = changes["period"]
+    if "damping_min" in changes:
+        b["constraints"][0]["min"] = changes["damping_min"]
+
+    reused, info = _tune_after(a, b)
+    assert info["hits"] == 1 and info["misses"] == 1, info  # b ran on a's solver
+    fresh, info = _tune_after(None, b)
+    assert info["hits"] == 0 and info["misses"] == 1, info
+    assert reused.success and fresh.success
+    assert _without_timing(reused) == _without_timing(fresh)
+
+
+def test_a_number_that_shapes_the_graph_makes_a_new_solver():
+    """τ sizes the step-response horizon of a minimum-IAE loop (its sample count): a
+    different τ is a different structure, never a parameter of the same solver."""
+    a = _example("koren-1979-min-iae-radius.json")
+    b = _variant(a, time_constant=0.03)
+    _, info = _tune_after(a, b)
+    assert info["hits"] == 0 and info["misses"] == 2, info
+
+
+def test_same_spec_twice_reuses_and_repeats_the_result():
+    a = _example("koren-1979-sampled-data.json")
+    nlp.clear_solver_cache()
+    first = tune(parse_spec(a))
+    second = tune(parse_spec(a))
+    assert nlp.solver_cache_info()["hits"] == 1
+    assert _without_timing(first) == _without_timing(second)
+
+
+def test_cache_is_bounded_least_recently_used_first(monkeypatch):
+    monkeypatch.setattr(nlp, "SOLVER_CACHE_SIZE", 1)
+    a = _example("koren-1979-sampled-data.json")
+    b = copy.deepcopy(a)
+    b["solver"]["tol"] = 1e-8  # an nlpsol option: part of the key
+    nlp.clear_solver_cache()
+    for data in (a, b, a):
+        tune(parse_spec(data))
+    info = nlp.solver_cache_info()
+    assert (info["hits"], info["misses"], info["size"]) == (0, 3, 1), info
+
+
+def test_plant_numbers_as_expressions_give_the_same_loop():
+    """``loop(..., numbers=...)`` with the plant's own numbers equals the plain loop."""
+    import casadi as ca
+
+    data = _example("koren-1979-min-iae-radius.json")
+    plant = plant_for(parse_spec(data).plant)
+    numbers = plant.numbers()
+    assert set(numbers) == {"time_constant", "blu", "max_velocity"}
+    symbols = {name: ca.MX.sym(name) for name in numbers}
+    box = {"position_gain": (1.0, 200.0), "sampling_period": (0.01, 0.01)}
+    gain = ca.MX.sym("gain")
+    values = {"position_gain": gain, "sampling_period": 0.01}
+    plain = plant.loop(values, box)
+    lifted = plant.loop(values, box, numbers=symbols)
+
+    def outputs(loop):
+        return [ca.vec(loop.state_matrix), loop.step_error_integrals.iae,
+                loop.drive.max_pulse_rate]
+
+    expected = ca.Function("plain", [gain], outputs(plain))(30.0)
+    got = ca.Function("lifted", [gain, *symbols.values()], outputs(lifted))(30.0, *numbers.values())
+    for e, g in zip(expected, got):
+        assert np.asarray(g, dtype=float) == pytest.approx(np.asarray(e, dtype=float), rel=1e-14)
+
+
+def test_ipopt_option_check_is_memoised():
+    good = {"mu_strategy": "adaptive"}
+    assert _ipopt_option_errors(good) == []
+    assert _ipopt_option_errors({"no_such_option": 1})
+    from feedtune import spec as spec_module
+    before = spec_module._ipopt_option_error.cache_info().hits
+    assert _ipopt_option_errors(good) == []
+    assert spec_module._ipopt_option_error.cache_info().hits == before + 1
