@@ -11,10 +11,10 @@ and the number of multistarts (2–4), so each costs about 0.03–0.1 s to tune.
 a. single solves: ``parse_spec`` + ``tune`` here, one after another, on the first
    ``--sample`` specs (default 100), after one untimed solve of each kind of problem (so
    imports and IPOPT's first load are not counted) and, when ``feedtune.tuner.nlp`` has
-   it, ``clear_solver_cache()``. The solver cache keys on the serialized CasADi graph, in
-   which every spec number that is not an NLP parameter (τ, BLU, V_m, radius, feed,
-   bounds) is a constant, so these generated specs share no solver: each timed solve,
-   like each batch spec, builds its own (the printed hit rate shows it);
+   it, ``clear_solver_cache()``. The solver cache keys on the serialized CasADi graph;
+   τ, BLU and V_m are NLP parameters, but the circle (radius, feed) and the sampling box
+   shape the graph, so these generated specs share few solvers (the printed hit rate
+   shows how many);
 b. the batch, ``feedtune.batch.runner.run_batch`` with ``LocalExecutor(workers=W)`` for
    each W of ``--workers`` (default: 1 and all cores), each into a fresh directory — the
    whole of it: reading the specs, spawning workers (imports, solver builds), IPC,
