@@ -451,11 +451,10 @@ def tune(spec: str, output: str | None, quiet: bool) -> None:
         traceback.print_exc()
         _fail(f"internal error in feedtune {__version__} ({type(exc).__name__}: {exc}); "
               "please report it with the spec", EXIT_INTERNAL)
-    data = _result_bytes(result)
+    _emit(_result_bytes(result), target)  # first: a closed stderr must not lose the result
     if not quiet:
         for line in _summary(result):
             _err(line)
-    _emit(data, target)
     if target is not None and not quiet:
         _err(f"wrote {target}")
     raise SystemExit(EXIT_OK if result.success else EXIT_NOT_SUCCESS)

@@ -312,6 +312,20 @@ def test_a_spec_over_the_time_limit_is_stopped_and_the_rest_complete(tmp_path):
     assert time.monotonic() - started < 50  # not the 60 s the job sleeps
 
 
+def test_a_spec_over_its_own_ipopt_time_limit_is_a_row_and_the_rest_complete(tmp_path):
+    write_specs(tmp_path / "specs", 2)
+    slow = example("koren-1979-min-iae-radius")  # builds and solves for ≈ 0.7 s
+    slow["name"] = "axis-slow"
+    slow["solver"] = {"multistart": 1, "time_limit": 0.001}
+    (tmp_path / "specs" / "axis-slow.json").write_text(json.dumps(slow))
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out", LocalExecutor(1))
+    rows = {row["id"]: row for row in outcome.document["rows"]}
+    assert rows["axis-slow"]["status"] == "time_limit" and not rows["axis-slow"]["ok"]
+    assert "Maximum_WallTime_Exceeded" in rows["axis-slow"]["message"]
+    assert rows["axis-slow"]["result"] == "axis-slow.json"  # the unsolved result is kept
+    assert [rows[f"axis-00{i}"]["status"] for i in range(2)] == ["optimal"] * 2
+
+
 # -- SIGKILL and identical executors ------------------------------------------------------
 
 def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path):
