@@ -14,7 +14,8 @@ from feedtune.plants import plant_for
 from feedtune.result import (ConstraintResult, MetricValue, SolverResult, StartResult, TunedValue,
                              TuneResult, provenance)
 from feedtune.spec import Spec, SpecError, parse_spec
-from feedtune.tuner import Bound, Problem, Settings, Term, Variable
+from feedtune.tuner import Bound, Settings, Term, Variable
+from feedtune.tuner.search import problem_class
 
 
 #: the NLP's objective and constraints must match their exact evaluation this closely (relative)
@@ -210,8 +211,10 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                     return plant.loop(values, box, horizon_scale=scale, numbers=numbers)
                 return plant.loop(values, box, horizon_scale=scale)
 
-            problem = Problem(variables, fixed, make_loop, objective, constraints, reports,
-                              settings, numbers=plant_numbers)
+            # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
+            problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
+                                                constraints, reports, settings,
+                                                numbers=plant_numbers)
             outcome = problem.solve(progress)
             if outcome.model_gap <= MODEL_GAP_TOL and not outcome.horizon_bound:
                 break

@@ -32,6 +32,15 @@ from feedtune.objectives.settling_time import SettlingTime
 from feedtune.objectives.surface_roughness import SurfaceRoughness
 from feedtune.objectives.surface_roughness_gap import SurfaceRoughnessGap
 from feedtune.objectives.velocity_constant import VelocityConstant
+from feedtune.objectives.motor_acceleration_margin import MotorAccelerationMargin
+from feedtune.objectives.peak_commanded_acceleration import PeakCommandedAcceleration
+from feedtune.objectives.peak_measured_acceleration import PeakMeasuredAcceleration
+from feedtune.objectives.pulse_final_error import PulseFinalError
+from feedtune.objectives.pulse_max_velocity import PulseMaxVelocity
+from feedtune.objectives.pulse_overshoot import PulseOvershoot
+from feedtune.objectives.pulse_rise_time import PulseRiseTime
+from feedtune.objectives.pulse_settling_time import PulseSettlingTime
+from feedtune.objectives.sine_tracking_error import SineTrackingError
 
 METRICS = {
     metric.name: metric
@@ -41,5 +50,6 @@ METRICS = {
                    CrossoverFrequency, VelocityConstant, Sensitivity, SettlingTime, Overshoot,
                    LoadRejection, AverageRadius, RadiusDecrease, SurfaceRoughness,
                    CircleMeanDeviation, CircleRoughness, Circularity, InterpolationRatio,
-                   ReferenceInterval, RadiusDecreaseGap, SurfaceRoughnessGap)
+                   ReferenceInterval, RadiusDecreaseGap, SurfaceRoughnessGap,
+                   MotorAccelerationMargin, PeakCommandedAcceleration, PeakMeasuredAcceleration, PulseFinalError, PulseMaxVelocity, PulseOvershoot, PulseRiseTime, PulseSettlingTime, SineTrackingError)
 }

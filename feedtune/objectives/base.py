@@ -37,8 +37,10 @@ class Metric:
         return self.unit
 
     def supports(self, loop, options=None) -> bool:
-        """Whether this metric is defined on ``loop``."""
-        return True
+        """Whether this metric is defined on ``loop``; by default on every linear loop, never
+        on an exact-only loop (a pulse simulation, :class:`feedtune.pulse_train.PulseLoop`),
+        whose metrics say so themselves."""
+        return not getattr(loop, "exact_only", False)
 
     def optimisable(self, loop, options=None) -> bool:
         """Whether the metric can be an objective term or a constraint on this loop.

@@ -43,6 +43,10 @@ PLANT_EXAMPLES: dict[str, dict] = {
         "bulk_modulus": 689475729.0, "total_volume": 4.91612e-6, "inertia": 0.0135582,
         "leakage_coefficient": 5.0123e-14,
     },
+    # pulse_generator: Tian et al.'s controller scaled down (δ = 1 mrad per pulse, a 0.5 rad
+    # step) so that a simulation at the default box's middle (f = 31.6 kHz) takes a few ms
+    "pulse_generator": {"pulse_equivalent": 1e-3, "amplitude": 0.5,
+                        "motor_characteristic": [[0.0, 2e5], [1e6, 2e5]]},
 }
 
 #: configurations beyond one per Literal value (options that change the loop's shape)
@@ -67,6 +71,8 @@ EXTRA_VARIANTS: dict[str, list[dict]] = {
         # ω_n and ξ computed from β_e, V_t, J_t, K_ce (App. A2) instead of given
         {"hydraulic_natural_frequency": None, "hydraulic_damping": None},
     ],
+    # Tian's eq 1 controller: no acceleration law (and so no acceleration_ratio tunable)
+    "pulse_generator": [{"acceleration_law": False}],
 }
 
 #: values for metric options that have no default (the circle of the circular metrics)
@@ -161,8 +167,23 @@ def plant_configs() -> list[PlantConfig]:
     return configs
 
 
-CONFIGS = plant_configs()
+ALL_CONFIGS = plant_configs()
+
+
+def is_exact_only(config: PlantConfig) -> bool:
+    """An exact (discrete) simulation, not a linear loop: the pulse generator. Its contract
+    is tests/contract/test_exact_loop_contract.py; the linear-loop contracts skip it."""
+    tunables = config.tunables
+    probe = config.plant.loop({n: t.max for n, t in tunables.items()}, config.default_box)
+    return bool(getattr(probe, "exact_only", False))
+
+
+#: linear loops (every contract in test_plant_contract.py / test_metric_contract.py)
+CONFIGS = [c for c in ALL_CONFIGS if not is_exact_only(c)]
 CONFIG_IDS = [c.id for c in CONFIGS]
+#: exact-only loops (test_exact_loop_contract.py)
+EXACT_CONFIGS = [c for c in ALL_CONFIGS if is_exact_only(c)]
+EXACT_CONFIG_IDS = [c.id for c in EXACT_CONFIGS]
 
 
 def _axis(t, points: int) -> np.ndarray:
@@ -310,6 +331,27 @@ def metric_cases() -> list[tuple[PlantConfig, str, object]]:
                 variants = option_variants(cls)
             except KeyError:
                 continue  # test_metric_options_can_be_sampled reports it
+            for options in variants:
+                if cls().supports(loop, options):
+                    cases.append((config, name, options))
+    return cases
+
+
+def exact_nominal(config: PlantConfig) -> dict[str, float]:
+    """The geometric middle of an exact-only plant's default box."""
+    return {name: math.sqrt(t.min * t.max) for name, t in config.tunables.items()}
+
+
+def exact_metric_cases() -> list[tuple[PlantConfig, str, object]]:
+    """(config, metric name, options) for every metric that supports an exact-only loop."""
+    cases = []
+    for config in EXACT_CONFIGS:
+        loop = config.plant.loop(exact_nominal(config), config.default_box)
+        for name, cls in METRICS.items():
+            try:
+                variants = option_variants(cls)
+            except KeyError:
+                continue
             for options in variants:
                 if cls().supports(loop, options):
                     cases.append((config, name, options))

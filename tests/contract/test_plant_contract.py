@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from contract_cases import (CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float, grid,
+from contract_cases import (ALL_CONFIGS, CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float, grid,
                             literal_fields, log_point, nominal, numpy_loop_stable,
                             stability_sample, symbolic_loop)
 from feedtune.loop import Drive
@@ -33,7 +33,7 @@ def test_configurations_cover_every_choice_of_every_plant():
     for key, cls in PLANTS.items():
         if key not in PLANT_EXAMPLES:
             continue  # test_every_plant_has_example_parameters reports it
-        configs = [dict(c.overrides) for c in CONFIGS if c.key == key]
+        configs = [dict(c.overrides) for c in ALL_CONFIGS if c.key == key]
         for field, values in literal_fields(cls.Params).items():
             if field == "type":
                 assert values == (key,), "the discriminator must be the registry key"

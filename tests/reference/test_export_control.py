@@ -167,10 +167,26 @@ def assert_same_poles(found, expected, rtol):
 
 # -- every bundled example ---------------------------------------------------------------------
 
+#: bundled examples whose loop is a pulse simulation (Tian), not a linear system
+PULSE_EXAMPLES = ["tian-vf-pulse"]
+
+
 def test_every_bundled_example_is_covered():
     from conftest import EXAMPLES as DIRECTORY
 
-    assert sorted(p.stem for p in DIRECTORY.glob("*.json")) == EXAMPLES
+    assert sorted(p.stem for p in DIRECTORY.glob("*.json")) == sorted(EXAMPLES + PULSE_EXAMPLES)
+
+
+@pytest.mark.parametrize("name", PULSE_EXAMPLES)
+def test_a_pulse_simulation_has_no_linear_export(name, tmp_path):
+    from conftest import load_example, tune_dict
+
+    spec = load_example(name)
+    spec["solver"] = {"multistart": 1, "max_iter": 2}
+    path = tmp_path / "result.json"
+    path.write_text(tune_dict(spec).model_dump_json())
+    with pytest.raises(TypeError, match="pulse simulation, not a linear system"):
+        feedtune.load_result(path).to_control()
 
 
 @pytest.mark.parametrize("name", EXAMPLES)

@@ -1,0 +1,22 @@
+"""Largest commanded velocity of a pulse generator (Tian et al. §3, Koren eq 1)."""
+
+import numpy as np
+
+from feedtune.objectives.pulse_metric import PulseMetric
+
+
+class PulseMaxVelocity(PulseMetric):
+    """max_i |δ f e_i/value| [unit/s]; at most v_max = δ f (one pulse per period).
+
+    References
+    ----------
+    Tian et al., §3; Koren 1979 eq 1 (f_m = V_m/BLU).
+    """
+
+    name = "pulse_max_velocity"
+    unit = "unit/s"
+    description = "Largest commanded velocity (pulse rate times the pulse equivalent)"
+    reference = "Tian et al. §3; Koren 1979 eq 1"
+
+    def evaluate(self, loop, options):
+        return float(np.abs(loop.response.commanded_velocity).max(initial=0.0))

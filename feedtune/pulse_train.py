@@ -1,0 +1,415 @@
+"""Reference-pulse generation by Tian's V-F transformation: the exact pulse simulation.
+
+A numerical controller samples the position command every period T = 1/f, compares it
+with its own pulse counter (the counter times the pulse equivalent δ is the position, Tian
+§2, Fig 1), and feeds the error e_i through
+
+1. the **error limit**: e_i is clipped to ±``value`` (Tian: "the value of the error limit is
+   supposed to be equal to the value given to the V-F transformer");
+2. the **acceleration law** (optional): |e_i − e_{i−1}| ≤ value/k (Tian eq 2);
+3. the **V-F transformer**: ``sum += e_i``; while sum ≥ value one + pulse is sent and
+   ``sum −= value``; sum ≤ −value: one − pulse and ``sum += value`` (Tian §2, Fig 2).
+
+Since |e_i| ≤ value, at most one pulse leaves per period: the pulse rate is at most f and
+the velocity at most v_max = δ·f (Koren 1979 eq 1, f_m = V_m/BLU). The commanded pulse
+rate is f·e_i/value, so the commanded velocity is v_i = δ f e_i/value, and its change per
+period, times f, is the commanded acceleration; without the law e_i may jump from 0 to
+value in one period, a_max = δ f² (Tian eq 1); with it |a_i| ≤ δ f²/k.
+
+Units. ``value`` and e_i are positions [rad or m], as in Tian: "the compared error between
+expected position and actual position". The controller compares whole pulses: the command
+is rounded to the nearest pulse (δ) each period, the counter is an integer, so a step
+comes to rest exactly (e = 0, no more pulses), and internally everything is in pulses
+(value/δ, the reference and the counter). The simulation is the algorithm itself,
+period by period, in float64: no model, no smoothing. Its metrics are piecewise constant
+in the controller parameters, which is why :mod:`feedtune.tuner.search` tunes it by a
+derivative-free search on this simulation (see docs/tian.md).
+
+Speed. The recursion is sequential (the accumulator and the clip depend on the previous
+period), so it cannot be vectorised over time; it runs as a tight scalar loop, with two
+exact short cuts for a constant command (a step after t = 0): a run of saturated periods
+(e = value, sum ≥ 0: one pulse per period, sum unchanged) is jumped over in one step, and
+the simulation stops once the axis is at rest (counter on target, e = 0: nothing changes
+any more). Tian's 10 rad step at 140 kHz (5 200 periods to rest) takes ≈5 ms.
+
+References
+----------
+J. Tian, Y. Kamiya, H. Seki, M. Hikizu, "A New Method of Generating Pulse Series for
+Numerical Controller" (Kanazawa University): §2 (V-F algorithm, error limit, Figs 1–2),
+§3 eqs 1–2 (acceleration), §4 (simulation: 10 rad step, f = 140 kHz, 430 rad/s,
+140 krad/s², value = 1; Figs 4–5).
+Y. Koren, "Design of Computer Control for Manufacturing Systems", ASME J. Eng. Ind.
+101(3), 1979, Reference-Pulse technique, eqs 1–2 (f_m = V_m/BLU; one pulse per
+iteration at most).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Sequence
+
+import numpy as np
+
+from feedtune.loop import Drive
+
+#: automatic horizon: this many times the time a step needs by the plain estimate
+HORIZON_SAFETY = 3.0
+#: never simulate more periods than this (a 0.5 s horizon at 2 MHz)
+MAX_PERIODS = 1_000_000
+
+
+def _number(x, name: str) -> float:
+    """A real number, or TypeError: the pulse simulation cannot take CasADi symbols."""
+    if isinstance(x, (int, float, np.integer, np.floating)):
+        return float(x)
+    try:
+        import casadi as ca
+
+        if isinstance(x, (ca.DM,)) and x.numel() == 1:
+            return float(x)
+    except ImportError:  # pragma: no cover
+        pass
+    raise TypeError(f"{name}: the pulse simulation is exact and discrete; it needs a number, "
+                    f"not {type(x).__name__} (tune it with feedtune.tuner.search)")
+
+
+@dataclass(frozen=True)
+class PulseInput:
+    """The position command: ``step`` (``amplitude`` [unit] at t = 0), ``ramp``
+    (``velocity`` [unit/s] from t = 0) or ``sine`` (``amplitude`` [unit], ``angular_frequency``
+    [rad/s], r = A sin ωt)."""
+
+    kind: str
+    amplitude: float = 1.0
+    velocity: float = 0.0
+    angular_frequency: float = 0.0
+
+    def position(self, t: np.ndarray) -> np.ndarray:
+        """r(t) [unit]."""
+        if self.kind == "step":
+            return np.full_like(t, self.amplitude, dtype=float)
+        if self.kind == "ramp":
+            return self.velocity * t
+        if self.kind == "sine":
+            return self.amplitude * np.sin(self.angular_frequency * t)
+        raise ValueError(f"unknown input kind {self.kind!r}")
+
+
+@dataclass(frozen=True)
+class PulseResponse:
+    """Everything one simulation produced; period i runs over [i T, (i+1) T).
+
+    Attributes
+    ----------
+    frequency : float
+        Sampling frequency f [Hz] = maximum pulse rate [pulses/s].
+    pulse_equivalent : float
+        δ [unit/pulse].
+    error_limit : float
+        ``value`` [unit].
+    reference : (N,) int array
+        Command in whole pulses, sampled at the start of each period.
+    pulses : (N,) int8 array
+        +1, −1 or 0: the pulse sent in each period (the pulse train).
+    error : (N,) float array
+        e_i [pulses] after the error limit and the acceleration law (what the V-F
+        transformer accumulates).
+    at_rest : bool
+        The simulation stopped because nothing could change any more (step input, counter
+        on target, e = 0): the tail to the horizon is the final state.
+    horizon : float
+        Simulated (or implied, when at rest) time [s].
+    """
+
+    frequency: float
+    pulse_equivalent: float
+    error_limit: float
+    reference: np.ndarray
+    pulses: np.ndarray
+    error: np.ndarray
+    at_rest: bool
+    horizon: float
+
+    @cached_property
+    def counter(self) -> np.ndarray:
+        """n_i [pulses]: the pulse counter after period i."""
+        return np.cumsum(self.pulses, dtype=np.int64)
+
+    @property
+    def time(self) -> np.ndarray:
+        """End of each period [s] (when the counter reads ``counter[i]``)."""
+        return (np.arange(len(self.pulses)) + 1.0) / self.frequency
+
+    @property
+    def position(self) -> np.ndarray:
+        """Actual position δ·n_i [unit]."""
+        return self.counter * self.pulse_equivalent
+
+    @cached_property
+    def commanded_velocity(self) -> np.ndarray:
+        """v_i = δ f e_i/value [unit/s]: the pulse rate the V-F transformer is asked for."""
+        return self.error / self._value_pulses * self.pulse_equivalent * self.frequency
+
+    @property
+    def _value_pulses(self) -> float:
+        return self.error_limit / self.pulse_equivalent
+
+    @cached_property
+    def commanded_acceleration(self) -> np.ndarray:
+        """a_i = (v_i − v_{i−1}) f [unit/s²], from rest (v_{−1} = 0)."""
+        v = self.commanded_velocity
+        return np.diff(v, prepend=0.0) * self.frequency
+
+    @property
+    def commanded_rate(self) -> np.ndarray:
+        """|v_i|/δ [pulses/s]: the commanded pulse rate."""
+        return np.abs(self.commanded_velocity) / self.pulse_equivalent
+
+    def window(self, seconds: float) -> int:
+        """A window of ``seconds`` in whole periods (at least one)."""
+        return max(1, int(round(seconds * self.frequency)))
+
+    def measured_velocity(self, periods: int) -> np.ndarray:
+        """Pulses counted over the last ``periods`` periods, δ·Δn/(W T) [unit/s] (what a
+        frequency counter on the pulse train reads; zero before the start)."""
+        n = np.concatenate([np.zeros(periods, dtype=np.int64), self.counter])
+        return (n[periods:] - n[:-periods]) * self.pulse_equivalent * self.frequency / periods
+
+    def measured_acceleration(self, periods: int) -> np.ndarray:
+        """Change of :meth:`measured_velocity` over one window, per second [unit/s²]."""
+        v = np.concatenate([np.zeros(periods), self.measured_velocity(periods)])
+        return (v[periods:] - v[:-periods]) * self.frequency / periods
+
+
+def _simulate(reference: np.ndarray, value: float, step_limit: float | None,
+              constant_after: int | None) -> tuple[np.ndarray, np.ndarray, bool]:
+    """The V-F transformation period by period (all quantities in pulses).
+
+    ``constant_after``: from this period on the command no longer changes (a step), which
+    enables the exact short cuts of the module docstring.
+    """
+    count = len(reference)
+    pulses = np.zeros(count, dtype=np.int8)
+    errors = np.zeros(count)
+    ref = reference.tolist()
+    limit = step_limit if step_limit is not None else math.inf
+    n = 0
+    acc = 0.0
+    previous = 0.0
+    i = 0
+    at_rest = False
+    while i < count:
+        r = ref[i]
+        raw = r - n
+        e = value if raw > value else (-value if raw < -value else float(raw))
+        if step_limit is not None:
+            delta = e - previous
+            if delta > limit:
+                e = previous + limit
+            elif delta < -limit:
+                e = previous - limit
+        if constant_after is not None and i >= constant_after:
+            if raw == 0 and e == 0.0:
+                at_rest = True
+                break
+            # a saturated run: e stays ±value and every period sends a pulse
+            if e == value and previous == value and acc >= 0.0 and raw > value + 1:
+                run = min(int(math.floor(raw - value)), count - i)
+                pulses[i:i + run] = 1
+                errors[i:i + run] = value
+                n += run
+                i += run
+                continue
+            if e == -value and previous == -value and acc <= 0.0 and raw < -value - 1:
+                run = min(int(math.floor(-raw - value)), count - i)
+                pulses[i:i + run] = -1
+                errors[i:i + run] = -value
+                n -= run
+                i += run
+                continue
+        acc += e
+        if acc >= value:
+            acc -= value
+            n += 1
+            pulses[i] = 1
+        elif acc <= -value:
+            acc += value
+            n -= 1
+            pulses[i] = -1
+        errors[i] = e
+        previous = e
+        i += 1
+    if at_rest:
+        pulses, errors = pulses[:i], errors[:i]
+    return pulses, errors, at_rest
+
+
+def simulate(pulse_equivalent: float, frequency: float, error_limit: float,
+             acceleration_ratio: float | None, command: PulseInput, horizon: float) -> PulseResponse:
+    """Simulate the controller over ``horizon`` seconds.
+
+    Parameters
+    ----------
+    pulse_equivalent : float
+        δ [unit/pulse].
+    frequency : float
+        Sampling frequency f [Hz].
+    error_limit : float
+        ``value`` [unit] (error limit and V-F threshold, Tian §2).
+    acceleration_ratio : float or None
+        k [1] of the acceleration law |e_i − e_{i−1}| ≤ value/k (Tian eq 2); None: no law.
+    command : PulseInput
+    horizon : float
+        [s]; a step stops earlier once at rest.
+    """
+    count = int(math.ceil(horizon * frequency - 1e-9))
+    if count > MAX_PERIODS:
+        raise ValueError(f"{count} periods to simulate (horizon {horizon:g} s at {frequency:g} Hz); "
+                         f"at most {MAX_PERIODS}")
+    count = max(count, 1)
+    t = np.arange(count) / frequency
+    reference = np.rint(command.position(t) / pulse_equivalent).astype(np.int64)
+    value = error_limit / pulse_equivalent
+    step_limit = None if acceleration_ratio is None else value / acceleration_ratio
+    pulses, errors, at_rest = _simulate(reference, value, step_limit,
+                                        0 if command.kind == "step" else None)
+    return PulseResponse(frequency=frequency, pulse_equivalent=pulse_equivalent,
+                         error_limit=error_limit, reference=reference[:len(pulses)],
+                         pulses=pulses, error=errors, at_rest=at_rest, horizon=horizon)
+
+
+def automatic_horizon(pulse_equivalent: float, frequency: float, error_limit: float,
+                      acceleration_ratio: float | None, command: PulseInput,
+                      cycles: float = 2.0) -> float:
+    """A horizon [s] long enough for a step to come to rest: HORIZON_SAFETY × (travel at
+    v_max + ramp up and down at δf²/k + 20 time constants value/v_max of the linear zone);
+    a ramp: the same for its first ``amplitude``-free transient, 20 time constants plus
+    the time to reach v_max; a sine: ``cycles`` periods of the sine."""
+    v_max = pulse_equivalent * frequency
+    ramp = 0.0 if acceleration_ratio is None else 2.0 * acceleration_ratio / frequency
+    linear = 20.0 * error_limit / v_max
+    if command.kind == "sine":
+        return cycles * 2.0 * math.pi / command.angular_frequency
+    travel = abs(command.amplitude) / v_max if command.kind == "step" else 0.0
+    return HORIZON_SAFETY * (travel + ramp + linear) + 10.0 / frequency
+
+
+@dataclass(frozen=True)
+class MotorCharacteristic:
+    """A motor's torque–frequency characteristic as (pulse rate [pulses/s], maximum
+    acceleration [unit/s²]) rows, linear in between; above the last rate the motor cannot
+    follow (Tian §3: "each motor has a specific torque-frequency characteristic")."""
+
+    rates: tuple[float, ...]
+    accelerations: tuple[float, ...]
+
+    @classmethod
+    def from_table(cls, table: Sequence[Sequence[float]]) -> "MotorCharacteristic":
+        rows = sorted((float(r), float(a)) for r, a in table)
+        return cls(tuple(r for r, _ in rows), tuple(a for _, a in rows))
+
+    @property
+    def max_rate(self) -> float:
+        return self.rates[-1]
+
+    def acceleration(self, rate: np.ndarray) -> np.ndarray:
+        """Maximum acceleration [unit/s²] at pulse rate ``rate`` [pulses/s]."""
+        return np.interp(rate, self.rates, self.accelerations)
+
+    def margin(self, response: PulseResponse) -> float:
+        """min over periods of 1 − |a_i|/a_motor(rate), and 1 − (max rate)/(motor's max rate)
+        [1]: ≥ 0 iff the commanded acceleration stays within the characteristic at the
+        pulse rate of each period (the higher of the rates before and after it) and the
+        pulse rate within the table."""
+        rate = response.commanded_rate
+        rate = np.maximum(rate, np.concatenate([[0.0], rate[:-1]]))
+        capacity = self.acceleration(rate)
+        accel = np.abs(response.commanded_acceleration)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(accel > 0, accel / capacity, 0.0)
+        top = float(rate.max()) if len(rate) else 0.0
+        return float(min(1.0 - float(ratio.max(initial=0.0)), 1.0 - top / self.max_rate))
+
+
+@dataclass(frozen=True, eq=False)
+class PulseLoop:
+    """A reference-pulse controller (Tian's V-F transformation) as a loop feedtune tunes.
+
+    Not a linear loop: metrics read :attr:`response`, the exact simulation, computed once
+    on first use. Built from CasADi symbols it can still be inspected, but its response
+    raises TypeError: ``exact_only`` tells the tuner to search on the simulation instead
+    of building an NLP (:func:`feedtune.tuner.search.problem_class`).
+
+    The linear-loop attributes the other metrics look at (``interpolator``, ``order``,
+    ``drive``) are present and empty, so every linear-loop metric declines this loop.
+    """
+
+    pulse_equivalent: object
+    frequency: object
+    error_limit: object
+    acceleration_ratio: object | None
+    command: PulseInput
+    duration: float | None = None
+    motor: MotorCharacteristic | None = None
+    position_unit: str = "rad"
+    cycles: float = 2.0
+    horizon_scale: float = 1.0
+
+    exact_only = True  # the tuner must search on the simulation, not build an NLP
+    interpolator = None
+    order = 0
+    discrete = True
+    drive: Drive = field(default_factory=Drive)
+
+    @property
+    def input_kind(self) -> str:
+        return self.command.kind
+
+    @cached_property
+    def numbers(self) -> dict[str, float | None]:
+        """δ, f, value, k as floats (TypeError for symbols)."""
+        k = self.acceleration_ratio
+        return {"pulse_equivalent": _number(self.pulse_equivalent, "pulse_equivalent"),
+                "frequency": _number(self.frequency, "sampling_frequency"),
+                "error_limit": _number(self.error_limit, "error_limit"),
+                "acceleration_ratio": None if k is None else _number(k, "acceleration_ratio")}
+
+    @cached_property
+    def horizon(self) -> float:
+        """Simulated time [s]: ``duration``, or :func:`automatic_horizon` × ``horizon_scale``."""
+        if self.duration is not None:
+            return self.duration
+        return self.horizon_scale * automatic_horizon(**self.numbers, command=self.command,
+                                                      cycles=self.cycles)
+
+    @cached_property
+    def response(self) -> PulseResponse:
+        """The exact pulse simulation (cached)."""
+        return simulate(**self.numbers, command=self.command, horizon=self.horizon)
+
+    @property
+    def controller_acceleration(self) -> float:
+        """δ f² [unit/s²] (Tian eq 1), over k with the law (eq 2)."""
+        x = self.numbers
+        a = x["pulse_equivalent"] * x["frequency"] ** 2
+        return a if x["acceleration_ratio"] is None else a / x["acceleration_ratio"]
+
+    def settled(self) -> bool:
+        """A step came to rest; a ramp or sine still tracks at the end: over the last
+        half of the horizon the error never reached the error limit (not saturated)."""
+        response = self.response
+        if self.command.kind == "step":
+            return response.at_rest
+        value = response.error_limit / response.pulse_equivalent
+        tail = response.reference - response.counter
+        half = len(tail) // 2
+        return bool(np.all(np.abs(tail[half:]) < value))
+
+    def stability(self) -> dict:
+        """The result's stability block for a pulse loop (no poles: a discrete, nonlinear
+        controller): ``stable`` is :meth:`settled`."""
+        return {"stable": self.settled(), "domain": "pulse",
+                "periods_simulated": int(len(self.response.pulses)),
+                "horizon": float(self.horizon)}
