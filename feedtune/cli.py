@@ -213,7 +213,9 @@ def _summary(result) -> list[str]:
         text += f", spectral abscissa {_g(stability['spectral_abscissa'])} [1/s] (s-plane poles)"
     lines.append(f"stability: {text}")
     s = result.solver
-    lines.append(f"solver: IPOPT {s.return_status}, {s.iterations} iterations, "
+    method = "IPOPT" if s.method == "ipopt" else s.method.replace("_", " ")
+    unit = "iterations" if s.method == "ipopt" else "generations"
+    lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
                  f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
     return lines
 

@@ -257,7 +257,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                          value=value, satisfied=ok)
         for c, (_, value, ok) in zip(spec.constraints, outcome.constraints)]
     solver = SolverResult(
-        return_status=outcome.return_status, message=outcome.message,
+        method=outcome.method, return_status=outcome.return_status, message=outcome.message,
         iterations=outcome.iterations, solve_time=outcome.solve_time,
         build_time=outcome.build_time, evaluation_time=outcome.evaluation_time,
         model_gap=outcome.model_gap if math.isfinite(outcome.model_gap) else None,

@@ -60,7 +60,11 @@ class StartResult(ResultModel):
 
 
 class SolverResult(ResultModel):
-    return_status: str = Field(description="IPOPT's own return status of the chosen start")
+    method: Literal["ipopt", "differential_evolution"] = Field(
+        "ipopt", description="ipopt: the NLP with exact derivatives; differential_evolution: "
+                             "the search on an exact simulation (pulse generators)")
+    return_status: str = Field(description="The solver's own return status of the chosen start "
+                                           "(IPOPT's names, also for the search)")
     message: str
     iterations: int = Field(description="IPOPT iterations of the chosen start")
     solve_time: float = Field(description="Wall time of all starts [s]")

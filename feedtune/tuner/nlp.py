@@ -149,6 +149,7 @@ class Outcome:
     model_gap: float
     horizon_bound: bool  # the optimum lies on the loop's settling conditions: lengthen it
     starts: list[StartOutcome]
+    method: str = "ipopt"  # the solver that produced it
 
 
 def _number(x) -> float | None:

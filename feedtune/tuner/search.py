@@ -196,4 +196,4 @@ class SearchProblem:
             stability=stability, iterations=starts[index].iterations,
             solve_time=sum(s.solve_time for s in starts), build_time=0.0,
             evaluation_time=time.perf_counter() - started, model_gap=0.0,
-            horizon_bound=False, starts=starts)
+            horizon_bound=False, starts=starts, method="differential_evolution")
