@@ -16,7 +16,8 @@ class PeakCommandedAcceleration(PulseMetric):
     """
 
     name = "peak_commanded_acceleration"
-    unit = "unit/s²"
+    unit = "m/s² (rad/s² on a rotary axis)"
+    unit_template = "{x}/s²"  # {x}: the axis' position unit
     description = "Largest change of the commanded velocity per period, per second"
     reference = "Tian et al. eqs 1–2"
 

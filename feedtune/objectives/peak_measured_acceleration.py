@@ -15,7 +15,8 @@ class PeakMeasuredAcceleration(PulseMetric):
     """
 
     name = "peak_measured_acceleration"
-    unit = "unit/s²"
+    unit = "m/s² (rad/s² on a rotary axis)"
+    unit_template = "{x}/s²"  # {x}: the axis' position unit
     description = "Largest acceleration measured by counting pulses over a window"
     reference = "Tian et al. §4, Fig 4"
     Options = WindowOptions

@@ -15,7 +15,8 @@ class PulseFinalError(PulseMetric):
     """
 
     name = "pulse_final_error"
-    unit = "unit"
+    unit = "m (rad on a rotary axis)"
+    unit_template = "{x}"  # {x}: the axis' position unit
     description = "Command minus actual position at the end of the simulation, absolute"
     reference = "Tian et al. §4"
     inputs = ("step", "ramp")

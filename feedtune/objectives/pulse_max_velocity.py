@@ -14,7 +14,8 @@ class PulseMaxVelocity(PulseMetric):
     """
 
     name = "pulse_max_velocity"
-    unit = "unit/s"
+    unit = "m/s (rad/s on a rotary axis)"
+    unit_template = "{x}/s"  # {x}: the axis' position unit
     description = "Largest commanded velocity (pulse rate times the pulse equivalent)"
     reference = "Tian et al. §3; Koren 1979 eq 1"
 

@@ -31,7 +31,8 @@ class PulseMetric(Metric):
     inputs: tuple[str, ...] = ("step", "ramp", "sine")
 
     def unit_of(self, options, position_unit: str = "m") -> str:
-        return self.unit.replace("unit", position_unit)
+        template = getattr(self, "unit_template", None)
+        return template.format(x=position_unit) if template else self.unit
 
     def supports(self, loop, options=None) -> bool:
         return is_pulse_loop(loop) and loop.input_kind in self.inputs

@@ -17,7 +17,8 @@ class SineTrackingError(PulseMetric):
     """
 
     name = "sine_tracking_error"
-    unit = "unit"
+    unit = "m (rad on a rotary axis)"
+    unit_template = "{x}"  # {x}: the axis' position unit
     description = "Largest command minus position over the last period of a sine command"
     reference = "Tian et al. §4, Fig 5"
     inputs = ("sine",)
