@@ -460,6 +460,10 @@ def tune(spec: str, output: str | None, quiet: bool) -> None:
             _err(line)
     if target is not None and not quiet:
         _err(f"wrote {target}")
+    from feedtune.validate import warning_lines
+
+    for line in warning_lines(result.validation):  # also with --quiet: they are warnings
+        _err(line)
     raise SystemExit(EXIT_OK if result.success else EXIT_NOT_SUCCESS)
 
 

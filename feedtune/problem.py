@@ -262,11 +262,25 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
         build_time=outcome.build_time, evaluation_time=outcome.evaluation_time,
         model_gap=outcome.model_gap if math.isfinite(outcome.model_gap) else None,
         starts=[StartResult(**vars(start)) for start in outcome.starts])
-    return TuneResult(
+    result = TuneResult(
         name=spec.name, success=outcome.success, status=outcome.status, message=outcome.message,
         objective=outcome.objective, tuned=tuned, metrics=metrics, constraints=constraint_results,
         stability=outcome.stability, solver=solver, provenance=provenance(spec.sha256()),
         spec=spec.model_dump(mode="json"))
+    return result.model_copy(update={"validation": _validation(result)})
+
+
+def _validation(result: TuneResult) -> dict:
+    """The validation block (feedtune.validate); a validator failure is a block, never raised."""
+    try:
+        from feedtune.validate import validate_result
+
+        block = validate_result(result)
+        TuneResult.model_validate({**result.model_dump(mode="json"), "validation": block})
+        return block
+    except Exception as exc:  # noqa: BLE001 — validation never breaks a tuning
+        return {"covered": False, "ok": None, "entries": [], "reason": "validator error",
+                "error": f"{type(exc).__name__}: {exc}"}
 
 
 def _error_result(spec: Spec, message: str) -> TuneResult:

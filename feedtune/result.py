@@ -99,6 +99,10 @@ class TuneResult(ResultModel):
     solver: SolverResult
     provenance: Provenance
     spec: dict[str, Any] = Field(description="The canonical spec that was solved")
+    validation: dict[str, Any] | None = Field(
+        None, description="Independent numpy/scipy re-simulation of the tuned design "
+                          "(feedtune.validate): each metric as reported and as re-measured, "
+                          "the relative gap [1] and its tolerance [1]; null in older results")
 
 
 @functools.cache

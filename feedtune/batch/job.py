@@ -43,6 +43,8 @@ def summary_fields(result) -> dict:
         "objective": result.objective,
         "tuned": {name: tuned.value for name, tuned in result.tuned.items()},
         "message": result.message,
+        # None: not validated (a plant the validator does not cover, an older result)
+        "validation_ok": (result.validation or {}).get("ok"),
     }
 
 

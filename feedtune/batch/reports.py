@@ -15,9 +15,12 @@ BASELINE_RTOL = 1e-6
 
 
 def row_ok(row: dict) -> bool:
-    """Solved, stable and feasible (``success``), every constraint met, not worse than the baseline."""
+    """Solved, stable and feasible (``success``), every constraint met, the independent
+    re-simulation within its tolerances (``validation_ok`` not False), not worse than the
+    baseline."""
     return (row["status"] in SOLVED and bool(row.get("success"))
             and row.get("constraints_satisfied") is not False
+            and row.get("validation_ok") is not False
             and (row.get("baseline") or {}).get("verdict") != "worse")
 
 
@@ -29,6 +32,9 @@ def why_failed(row: dict) -> str:
                 f"{_g(baseline['objective'])} (relative tolerance {baseline['rtol']:g})")
     if row["status"] in SOLVED and row.get("constraints_satisfied") is False:
         return f"a constraint is violated: {row['message']}"
+    if row["status"] in SOLVED and row.get("success") and row.get("validation_ok") is False:
+        return ("the independent re-simulation (feedtune.validate) differs from the reported "
+                "metrics beyond tolerance; see the result's validation block")
     return f"{row['status']}: {row['message']}"
 
 

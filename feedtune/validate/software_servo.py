@@ -1,0 +1,344 @@
+"""An independent numpy/scipy model of the ``software_servo`` plant (no CasADi, no feedtune.loop).
+
+Written from the papers, not from :mod:`feedtune.loop`:
+
+* ``reference_pulse`` (Koren 1979 eqs 3–7): open loop K/(s(1 + sτ)), closed loop
+  ẍ + ẋ/τ + (K/τ)x = (K/τ)r, states [x, ẋ];
+* ``sampled_data`` (Koren 1979 Fig 4, eqs 12–19; Sato eq 1): the drive 1/(s(1 + sτ)), or
+  1/s without τ (Sato's ideal drive), behind a zero-order hold; every T the error
+  e(n) = r − x(nT) times K is the command c(n), applied ``delay`` whole samples later.
+  The plant is discretised exactly with :func:`scipy.linalg.expm` of the augmented matrix
+  [[A, B], [0, 0]]·T (Van Loan), not with the closed-form Φ, Γ of the tuner.
+
+What it measures, all on floats:
+
+* :meth:`ServoModel.poles`: closed-loop poles (s-plane or z-plane);
+* :meth:`ServoModel.equivalent_pair`: (ζ, ω_n) of the closed-loop pole pair, through
+  s = ln(z)/T for a sampled loop (Koren eq 19);
+* :meth:`ServoModel.error_integrals`: IAE, ISE, ITAE of the error after a unit position
+  step by dense simulation: the exact state at every sub-step of every sample, the
+  error between sub-steps integrated by the trapezoid rule, split at sign changes;
+* :meth:`ServoModel.ramp_following_error`: steady error after a unit ramp, at the samples
+  (the velocity constant is its inverse);
+* :meth:`ServoModel.sensitivity`: S = 1/(1 + L) on any frequency grid from the open loop
+  L(jω) or L(e^{jωT}) = K·z^{−d}·G_ZOH(z) (a formulation the tuner does not use);
+* :meth:`ServoModel.radial_error`: r·| |H| − 1 | of a circle at ω = feed/r, H = L/(1 + L),
+  without the cancellation of |H| − 1;
+* :func:`circle_steady_radius`: the two-axis circle test in the time domain (sinusoidal
+  references, simulated until the transient is gone), used by the tests to check the
+  frequency response.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import expm
+
+#: the simulated step response runs until the free response has decayed to this fraction
+SETTLED = 1e-13
+#: sub-steps per sample (sampled) or per block (continuous) of the dense simulation
+SUBSTEPS = 256
+#: at most this many samples/blocks are simulated (a nearly undamped loop is refused)
+MAX_BLOCKS = 200_000
+
+
+class NotCovered(ValueError):
+    """The plant or option is outside what this validator models."""
+
+
+@dataclass(frozen=True)
+class ServoModel:
+    """A software servo with numbers: gain K [1/s], τ [s] or None, T [s] or None."""
+
+    gain: float
+    time_constant: float | None
+    period: float | None = None  # None: the continuous reference-pulse loop
+    delay: int = 0
+
+    @classmethod
+    def from_result(cls, plant: dict, tuned: dict) -> "ServoModel":
+        """The model of a result's plant spec and tuned values (floats)."""
+        if plant.get("type") != "software_servo":
+            raise NotCovered(f"plant type {plant.get('type')!r} is not modelled by the validator")
+        if plant.get("model", "exact") != "exact":
+            raise NotCovered("model 'pade' is Sato's continuous approximation; the validator "
+                             "models the exact sampled loop only")
+        gain = float(tuned["position_gain"])
+        if plant["technique"] == "reference_pulse":
+            return cls(gain, float(plant["time_constant"]))
+        tau = plant.get("time_constant")
+        return cls(gain, None if tau is None else float(tau), float(tuned["sampling_period"]),
+                   int(plant.get("computation_delay", 0)))
+
+    @property
+    def sampled(self) -> bool:
+        return self.period is not None
+
+    # -- the continuous drive ----------------------------------------------------------
+
+    def drive_matrices(self):
+        """(A, B, C) of the drive, velocity command → position: 1/s or 1/(s(1 + sτ))."""
+        if self.time_constant is None:
+            return np.zeros((1, 1)), np.ones((1, 1)), np.ones((1, 1))
+        tau = self.time_constant
+        return (np.array([[0.0, 1.0], [0.0, -1.0 / tau]]), np.array([[0.0], [1.0 / tau]]),
+                np.array([[1.0, 0.0]]))
+
+    def zoh(self, step: float):
+        """Exact ZOH discretisation over ``step`` [s]: (Φ, Γ) from expm([[A, B], [0, 0]]·step)."""
+        a, b, _ = self.drive_matrices()
+        m = a.shape[0]
+        big = np.zeros((m + 1, m + 1))
+        big[:m, :m], big[:m, m:] = a, b
+        e = expm(big * step)
+        return e[:m, :m], e[:m, m:]
+
+    # -- closed loop -------------------------------------------------------------------
+
+    def closed_loop(self):
+        """(F, G) with state' = F state + G r (continuous) or state(n+1) = F state(n) + G r.
+
+        Sampled state: [drive states, c(n−1), ..., c(n−d)]; the command held over sample n
+        is c(n − d), c(n) = K(r − x(nT)).
+        """
+        k = self.gain
+        a, b, c = self.drive_matrices()
+        m = a.shape[0]
+        if not self.sampled:
+            return a - k * b @ c, k * b
+        phi, gamma = self.zoh(self.period)
+        d = self.delay
+        n = m + d
+        f = np.zeros((n, n))
+        g = np.zeros((n, 1))
+        f[:m, :m] = phi
+        if d == 0:
+            f[:m, :m] -= k * gamma @ c
+            g[:m] = k * gamma
+        else:
+            f[:m, n - 1:n] = gamma  # the oldest command c(n − d) is applied now
+            f[m, :m] = -k * c[0]  # c(n) = K(r − x)
+            g[m, 0] = k
+            for i in range(1, d):
+                f[m + i, m + i - 1] = 1.0
+        return f, g
+
+    def poles(self) -> np.ndarray:
+        """Closed-loop poles [1/s] (continuous) or [1] (z-plane)."""
+        return np.linalg.eigvals(self.closed_loop()[0])
+
+    def stable(self) -> bool:
+        p = self.poles()
+        return bool(np.max(np.abs(p)) < 1) if self.sampled else bool(np.max(p.real) < 0)
+
+    def equivalent_pair(self) -> tuple[float, float]:
+        """(ζ, ω_n [rad/s]) of a second-order loop: s-plane poles s1, s2 (s = ln(z)/T when
+        sampled, Koren eqs 17–19), ω_n = √(s1 s2), ζ = −(s1 + s2)/(2ω_n). A negative real
+        z-pole rings at the Nyquist frequency: s = ln|z| ± jπ/T of the most negative one."""
+        p = self.poles()
+        if p.size != 2:
+            raise NotCovered(f"ζ and ω_n need a second-order loop (order {p.size})")
+        if self.sampled:
+            if np.all(np.abs(p.imag) < 1e-14 * np.abs(p)) and np.min(p.real) < 0:
+                z = float(np.min(p.real))
+                s = np.array([complex(math.log(abs(z)), math.pi),
+                              complex(math.log(abs(z)), -math.pi)]) / self.period
+            else:
+                s = np.log(p.astype(complex)) / self.period
+        else:
+            s = p.astype(complex)
+        wn = math.sqrt(abs((s[0] * s[1]).real))
+        return float(-(s[0] + s[1]).real / (2 * wn)), wn
+
+    # -- time responses ----------------------------------------------------------------
+
+    def _block(self) -> float:
+        """Length of one simulation block [s]: T, or a tenth of the fastest time scale."""
+        if self.sampled:
+            return self.period
+        return 0.1 / float(np.max(np.abs(self.poles())))
+
+    def _blocks_to_settle(self, f_block: np.ndarray) -> int:
+        radius = float(np.max(np.abs(np.linalg.eigvals(f_block))))
+        if radius >= 1:
+            raise ValueError("unstable loop: the step response does not settle")
+        blocks = math.ceil(math.log(SETTLED) / math.log(radius)) + 10
+        if blocks > MAX_BLOCKS:
+            raise ValueError(f"the step response needs {blocks} blocks (limit {MAX_BLOCKS})")
+        return blocks
+
+    def step_error(self, substeps: int = SUBSTEPS):
+        """(t, e): the error 1 − x(t) after a unit step on a dense grid, every block cut into
+        ``substeps``; exact at every grid point (expm of the augmented matrix)."""
+        h = self._block()
+        a, b, c = self.drive_matrices()
+        m = a.shape[0]
+        if not self.sampled:
+            # continuous closed loop: x(t) from expm(F·jh/substeps) applied to the block state
+            f, g = self.closed_loop()
+            big = np.zeros((m + 1, m + 1))
+            big[:m, :m], big[:m, m:] = f, g
+            steps = _powers(expm(big * h / substeps), substeps)
+            blocks = self._blocks_to_settle(expm(f * h))
+            state = np.zeros(m + 1)
+            state[m] = 1.0  # the reference, constant
+            starts = np.empty((blocks, m + 1))
+            full = expm(big * h)
+            for i in range(blocks):
+                starts[i] = state
+                state = full @ state
+            rows = np.stack([s[0, :] for s in steps])  # position row of each sub-step
+        else:
+            f, g = self.closed_loop()
+            blocks = self._blocks_to_settle(f)
+            n = f.shape[0]
+            # the command held over sample i: K(1 − x) without delay, else the buffer's last
+            if self.delay == 0:
+                kx = np.concatenate([-self.gain * c[0], np.zeros(n - m)])
+                kr = self.gain
+            else:
+                kx = np.zeros(n)
+                kx[n - 1] = 1.0
+                kr = 0.0
+            big = np.zeros((m + 1, m + 1))
+            big[:m, :m], big[:m, m:] = a, b
+            steps = _powers(expm(big * h / substeps), substeps)
+            states = np.empty((blocks, n))
+            state = np.zeros(n)
+            for i in range(blocks):
+                states[i] = state
+                state = f @ state + g[:, 0]
+            held = states @ kx + kr
+            starts = np.column_stack([states[:, :m], held])  # [drive states, u] per sample
+            rows = np.stack([s[0, :] for s in steps])
+        positions = starts @ rows.T  # (blocks, substeps)
+        t = (np.arange(blocks)[:, None] * h + np.arange(substeps)[None, :] * h / substeps)
+        e = 1.0 - positions
+        return t.ravel(), e.ravel(), h / substeps
+
+    def error_integrals(self, substeps: int | None = None) -> dict[str, float]:
+        """IAE [m·s], ISE [m²·s], ITAE [m·s²] after a unit step, trapezoid on the dense grid,
+        |e| split exactly at linear-interpolated sign changes. ``substeps`` per block: by
+        default ≥ SUBSTEPS and ≥ 100 per drive time constant (at most 4096)."""
+        if substeps is None:
+            substeps = SUBSTEPS
+            if self.sampled and self.time_constant is not None:
+                substeps = min(4096, max(SUBSTEPS, math.ceil(100 * self.period / self.time_constant)))
+        t, e, dt = self.step_error(substeps)
+        e0, e1, t0 = e[:-1], e[1:], t[:-1]
+        ise = float(np.sum((e0**2 + e1**2 + e0 * e1) / 3) * dt)  # exact for linear pieces
+        same = e0 * e1 >= 0
+        abs_same = np.where(same, (np.abs(e0) + np.abs(e1)) / 2 * dt, 0.0)
+        denom = np.where(same, 1.0, np.abs(e0) + np.abs(e1))
+        abs_cross = np.where(same, 0.0, (e0**2 + e1**2) / (2 * denom) * dt)
+        iae = float(np.sum(abs_same + abs_cross))
+        # ∫t|e| over a linear piece: trapezoid of t|e|, crossing pieces by their two triangles
+        te0, te1 = t0 * np.abs(e0), (t0 + dt) * np.abs(e1)
+        frac = np.where(same, 0.0, np.abs(e0) / denom)  # where the zero lies in the piece
+        cross_itae = (np.abs(e0) * frac * dt * (t0 + frac * dt / 3)
+                      + np.abs(e1) * (1 - frac) * dt * (t0 + frac * dt + 2 * (1 - frac) * dt / 3)) / 2
+        itae = float(np.sum(np.where(same, (te0 + te1) / 2 * dt, cross_itae)))
+        return {"iae": iae, "ise": ise, "itae": itae}
+
+    def ramp_following_error(self) -> float:
+        """Steady error after a unit ramp r = t [m] at the samples (continuous: any time)."""
+        # steady state of a type-1 loop under a ramp: the drive moves at 1 m/s, the error is
+        # constant at the samples; the command is K·e and must equal the velocity 1
+        f, g = self.closed_loop()
+        if not self.sampled:
+            # continuous, states [x, ẋ]: x = t − e, ẋ = 1, ẍ = 0; the second row of
+            # F[x, ẋ] + G t = 0 with F[1, 0] = −G[1] (the loop is fed by r − x) gives e
+            return float(-f[1, 1] / g[1, 0])
+        # sampled, r(k) = kT: the steady solution state(k) = p0 + k·p1 of
+        # state(k+1) = F state(k) + G kT needs p1 = F p1 + G T and p0 + p1 = F p0
+        n = f.shape[0]
+        p1 = np.linalg.solve(np.eye(n) - f, g[:, 0] * self.period)
+        p0 = np.linalg.solve(np.eye(n) - f, -p1)
+        # position at sample k: p0[0] + k p1[0] with p1[0] = T; error = kT − position
+        return float(-p0[0])
+
+    # -- frequency response ------------------------------------------------------------
+
+    def open_loop(self, omega) -> np.ndarray:
+        """L(jω) = K/(jω(1 + jωτ)), or L(e^{jωT}) = K z^{−d} C(zI − Φ)^{−1}Γ."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        if not self.sampled:
+            s = 1j * omega
+            return self.gain / (s * (1 + s * self.time_constant))
+        phi, gamma = self.zoh(self.period)
+        _, _, c = self.drive_matrices()
+        m = phi.shape[0]
+        z = np.exp(1j * omega * self.period)
+        out = np.empty(z.shape, dtype=complex)
+        for i, zi in enumerate(z):
+            out[i] = (c @ np.linalg.solve(zi * np.eye(m) - phi, gamma))[0, 0]
+        return self.gain * z ** (-self.delay) * out
+
+    def sensitivity(self, omega) -> np.ndarray:
+        """S = 1/(1 + L) = error/reference."""
+        return 1.0 / (1.0 + self.open_loop(omega))
+
+    def complementary(self, omega) -> np.ndarray:
+        """H = L/(1 + L) = position/reference (at the samples when sampled)."""
+        lo = self.open_loop(omega)
+        return lo / (1.0 + lo)
+
+    def radial_error(self, radius: float, feed: float) -> float:
+        """r·| |H(jω)| − 1 |, ω = feed/r: |H| − 1 = (|L|² − |1+L|²)/(|1+L|(|L| + |1+L|)),
+        whose numerator −1 − 2 Re L does not cancel."""
+        lo = self.open_loop(feed / radius)[0]
+        one = abs(1 + lo)
+        return float(radius * abs((-1 - 2 * lo.real) / (one * (abs(lo) + one))))
+
+    def radius_decrease(self, radius: float, feed: float, reference_interval: float) -> float:
+        """Sato eq 7, |Δr| = |r − r̄·|H(jω)||, r̄ = r√(sin θ/θ), θ = ω·T_ref (eq 3: the circle
+        with the area of the inscribed polygon, a vertex every reference interval), written
+        (r − r̄) + r̄·(1 − |H|) with 1 − |H| free of cancellation as in :meth:`radial_error`."""
+        omega = feed / radius
+        average = average_polygon_radius(radius, omega, reference_interval)
+        lo = self.open_loop(omega)[0]
+        one = abs(1 + lo)
+        deficit = (1 + 2 * lo.real) / (one * (abs(lo) + one))  # 1 − |H|
+        return float(abs(radius - average + average * deficit))
+
+
+def average_polygon_radius(radius: float, omega: float, reference_interval: float) -> float:
+    """r̄ [m]: N = 2π/θ triangles of area r² sin(θ/2)cos(θ/2) = r² sin θ/2 have the area
+    of a circle of radius r√(sin θ/θ) (Sato eqs 1–3), θ = ω·T_ref [rad]."""
+    theta = omega * reference_interval
+    return radius * math.sqrt(math.sin(theta) / theta)
+
+
+def _powers(matrix: np.ndarray, count: int) -> list[np.ndarray]:
+    """[I, M, M², ..., M^(count−1)]."""
+    out = [np.eye(matrix.shape[0])]
+    for _ in range(count - 1):
+        out.append(out[-1] @ matrix)
+    return out
+
+
+def circle_steady_radius(model: ServoModel, radius: float, feed: float,
+                         periods: int = 60) -> float:
+    """Two-axis circle test in time: x_ref = r cos ωt, y_ref = r sin ωt through the sampled
+    loop (the reference read at the samples, Koren's circle of sinusoids); the mean radius
+    at the samples over the last period, after ``periods`` revolutions."""
+    if not model.sampled:
+        raise NotCovered("the time-domain circle test is for sampled loops")
+    f, g = model.closed_loop()
+    omega = feed / radius
+    t_rev = 2 * math.pi / omega
+    samples = int(periods * t_rev / model.period)
+    x = np.zeros(f.shape[0])
+    y = np.zeros(f.shape[0])
+    radii = []
+    last = samples - int(t_rev / model.period) - 1
+    for k in range(samples):
+        tk = k * model.period
+        if k >= last:
+            radii.append(math.hypot(x[0], y[0]))
+        x = f @ x + g[:, 0] * radius * math.cos(omega * tk)
+        y = f @ y + g[:, 0] * radius * math.sin(omega * tk)
+    return float(np.mean(radii))

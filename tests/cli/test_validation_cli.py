@@ -1,0 +1,59 @@
+"""``feedtune tune`` writes a validation block (feedtune.validate) and warns on stderr when
+the independent re-simulation disagrees with a reported metric; Koren's examples agree."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("name", ["koren-1979-sampled-data", "koren-1979-reference-pulse"])
+def test_koren_examples_validate_within_tolerance(name, tmp_path):
+    out = tmp_path / "result.json"
+    proc = subprocess.run([sys.executable, "-m", "feedtune", "tune",
+                           str(REPO / "examples" / f"{name}.json"), "-o", str(out)],
+                          capture_output=True, timeout=120, cwd=REPO,
+                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert b"warning: validation" not in proc.stderr
+    block = json.loads(out.read_text())["validation"]
+    assert block["covered"] and block["ok"] is True
+    measured = {e["metric"] for e in block["entries"]}
+    assert {"iae", "ise", "itae", "radial_error", "damping_ratio", "natural_frequency",
+            "velocity_constant", "poles", "stable"} <= measured
+    assert all(e["gap"] is None or e["gap"] <= e["tolerance"] for e in block["entries"])
+
+
+def test_a_gap_beyond_tolerance_warns_on_stderr(tmp_path, monkeypatch, capsys):
+    """The validator patched to disagree: tune still writes its result, and warns."""
+    from click.testing import CliRunner
+
+    import feedtune.validate.block as block_module
+    from feedtune.cli import main
+
+    original = block_module._measure
+
+    def tampered(model, result):
+        entries = original(model, result)
+        entries[0] = block_module._entry(entries[0]["metric"], entries[0]["options"],
+                                         entries[0]["reported"], entries[0]["validated"] * 1.5)
+        return entries
+
+    monkeypatch.setattr(block_module, "_measure", tampered)
+    out = tmp_path / "result.json"
+    result = CliRunner().invoke(main, ["tune", "-q", str(REPO / "examples" /
+                                                          "koren-1979-reference-pulse.json"),
+                                       "-o", str(out)])
+    assert result.exit_code == 0
+    stderr = result.stderr if hasattr(result, "stderr") else result.output
+    assert "warning: validation: iae(time=absolute,input=step) reported" in stderr
+    assert "> tolerance 0.0001" in stderr
+    block = json.loads(out.read_text())["validation"]
+    assert block["ok"] is False
