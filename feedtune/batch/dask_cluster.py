@@ -4,7 +4,9 @@ With an address it connects to a running scheduler; without one it starts a loca
 (one single-threaded worker process per core). Each spec is one task calling
 :func:`feedtune.batch.job.solve`, the function the local executor runs, so the results
 are the same bytes. A task whose worker dies is retried by Dask on another worker; after
-Dask's ``allowed-failures`` deaths it is charged ``worker_died``. Workers keep their solver
+Dask's ``allowed-failures`` deaths Dask gives up on it, and on every task that was queued
+on the same worker. Those suspects run again at the end, one at a time, so only a spec
+that kills its worker when alone is charged ``worker_died``. Workers keep their solver
 cache between tasks, as local workers do. At most ``WINDOW`` tasks per worker are in
 flight, so a batch of a million specs does not sit in the scheduler's memory at once.
 """
@@ -64,17 +66,34 @@ class DaskExecutor:
             for _ in range(width):
                 if not submit_next():
                     break
+            suspects = []  # tasks on a worker that died: the culprit, or only beside it
             for future in futures:
                 index = submitted.pop(future.key)
                 try:
                     outcome = future.result()
-                except KilledWorker as exc:
-                    outcome = Outcome(WORKER_DIED, f"every Dask worker that ran this spec died ({exc})")
+                except KilledWorker:
+                    suspects.append(index)
+                    outcome = None
                 except Exception as exc:  # noqa: BLE001 — e.g. the spec did not pickle
+                    outcome = Outcome("error", f"Dask task failed: {type(exc).__name__}: {exc}")
+                if outcome is not None:
+                    on_outcome(index, outcome)
+                future.release()
+                submit_next()
+            by_index = {task[0]: task for task in tasks}
+            for index in suspects:  # again, alone on the cluster: only the culprit dies again
+                _, data, existing = by_index[index]
+                future = client.submit(self.job, data, existing, pure=False,
+                                       key=f"feedtune-spec-{index}-alone")
+                try:
+                    outcome = future.result()
+                except KilledWorker as exc:
+                    outcome = Outcome(WORKER_DIED, "the Dask worker running this spec died, "
+                                                   f"also when it ran alone ({exc})")
+                except Exception as exc:  # noqa: BLE001
                     outcome = Outcome("error", f"Dask task failed: {type(exc).__name__}: {exc}")
                 on_outcome(index, outcome)
                 future.release()
-                submit_next()
         finally:
             client.close()
             if cluster is not None:
