@@ -30,7 +30,6 @@ reads a result and a plant's Loop, and nothing in feedtune imports it but the pa
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -43,7 +42,7 @@ from pydantic import ValidationError
 from feedtune.loop import ContinuousLoop, SampledLoop, TransferLoop
 from feedtune.plants import plant_for
 from feedtune.result import TuneResult
-from feedtune.spec import Spec, SpecError, parse_spec
+from feedtune.spec import Spec, SpecError, load_json, parse_spec
 
 #: the open loop rebuilt from a state-space closed loop must give the loop's own velocity
 #: constant to this relative tolerance, or the loop is not the unity-feedback loop assumed
@@ -275,20 +274,15 @@ def load_result(path: str | Path) -> LoadedResult:
     """
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        raw = path.read_bytes()
     except FileNotFoundError:
         raise FileNotFoundError(f"{path}: no such result file") from None
     except IsADirectoryError:
         raise ResultError(f"{path}: is a directory, not a result file") from None
-    except UnicodeDecodeError as exc:
-        raise ResultError(f"{path}: not UTF-8 text (byte {exc.start})") from None
-    try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        raise ResultError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: "
-                          f"{exc.msg}") from None
-    except ValueError as exc:
-        raise ResultError(f"{path}: invalid JSON: {exc}") from None
+    try:  # the specs' strict reader: UTF-8, no NaN, no duplicate keys, size-limited
+        data = load_json(raw)
+    except SpecError as exc:
+        raise ResultError(f"{path}: {exc}") from None
     if not isinstance(data, dict):
         raise ResultError(f"{path}: a result is a JSON object, not {type(data).__name__}")
     if "tuned" not in data and "plant" in data:
@@ -303,6 +297,3 @@ def load_result(path: str | Path) -> LoadedResult:
         raise ResultError(f"{path}: not a feedtune result: {problems}{more}") from None
     return LoadedResult(result, path)
 
-
-def _reject_constant(name: str):
-    raise ValueError(f"{name} is not JSON")

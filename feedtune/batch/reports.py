@@ -8,8 +8,8 @@ import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-#: statuses of a solved spec (feedtune.tuner.nlp.SOLVED)
-SOLVED = ("optimal", "acceptable")
+from feedtune.tuner.nlp import SOLVED
+
 #: objective worse than the baseline's by more than this, relative, fails the spec
 BASELINE_RTOL = 1e-6
 

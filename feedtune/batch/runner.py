@@ -23,7 +23,7 @@ from typing import Callable
 from feedtune import __version__
 from feedtune.batch.inputs import InputError, Item, load_items
 from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
-from feedtune.batch.reports import compare, row_ok, summary_document
+from feedtune.batch.reports import BASELINE_RTOL, compare, row_ok, summary_document
 from feedtune.files import remove_stale_temporaries, write_atomic
 
 SUMMARY_SECONDS = 10.0
@@ -87,7 +87,7 @@ def _base_row(item: Item) -> dict:
 
 
 def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None = None,
-              baseline_rtol: float = 1e-6, on_row: Callable[[dict], None] | None = None,
+              baseline_rtol: float = BASELINE_RTOL, on_row: Callable[[dict], None] | None = None,
               header: dict | None = None) -> BatchOutcome:
     """Solve every spec named by ``inputs`` into ``out``.
 

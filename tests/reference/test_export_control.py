@@ -383,7 +383,7 @@ def test_missing_file_names_the_path(tmp_path):
 
 @pytest.mark.parametrize("text, message", [
     ("{not json", "invalid JSON at line 1"),
-    ('{"a": NaN}', "NaN is not JSON"),
+    ('{"a": NaN}', "NaN is not valid JSON"),
     ("[1, 2]", "a result is a JSON object, not list"),
     ('{"name": "x", "success": true}', "not a feedtune result: /status: Field required"),
     (json.dumps(load_example("koren-1979-sampled-data")), "this is a spec, not a result"),
