@@ -37,13 +37,15 @@ def test_a_gap_beyond_tolerance_warns_on_stderr(tmp_path, monkeypatch, capsys):
 
     import feedtune.validate.block as block_module
     from feedtune.cli import main
+    from feedtune.validate.entries import entry
 
     original = block_module._measure
 
     def tampered(model, result):
         entries = original(model, result)
-        entries[0] = block_module._entry(entries[0]["metric"], entries[0]["options"],
-                                         entries[0]["reported"], entries[0]["validated"] * 1.5)
+        first = entries[0]
+        entries[0] = entry(first["metric"], first["options"], first["reported"],
+                           first["validated"] * 1.5, first["tolerance"])
         return entries
 
     monkeypatch.setattr(block_module, "_measure", tampered)
