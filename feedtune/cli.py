@@ -429,7 +429,10 @@ def _report_start(start, total: int) -> None:
 @click.option("-o", "--output", metavar="RESULT",
               help="Write the result JSON here (atomically) instead of stdout; '-' is stdout.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary to stderr.")
-def tune(spec: str, output: str | None, quiet: bool) -> None:
+@click.option("--report", "report_dir", metavar="DIR",
+              help="Also write the report (report.html and PNG figures, as `feedtune report`) "
+                   "into DIR, created if missing.")
+def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> None:
     """Solve the tuning problem in SPEC (a JSON file, or '-' for stdin).
 
     The result (tuned values with their units, every metric, constraints, stability,
@@ -439,6 +442,7 @@ def tune(spec: str, output: str | None, quiet: bool) -> None:
     from feedtune.spec import SpecError
 
     target = _check_output(output)
+    report_path = _check_report_dir(report_dir)
     try:
         with _stdout_to_stderr():
             parsed = _parse(spec)
@@ -464,7 +468,64 @@ def tune(spec: str, output: str | None, quiet: bool) -> None:
 
     for line in warning_lines(result.validation):  # also with --quiet: they are warnings
         _err(line)
+    if report_path is not None:
+        _write_report(result.model_dump(mode="json"), report_path, quiet)
     raise SystemExit(EXIT_OK if result.success else EXIT_NOT_SUCCESS)
+
+
+def _check_report_dir(report_dir: str | None, option: str = "--report") -> Path | None:
+    """The report directory, checked before any work: a directory or a new one's path."""
+    if report_dir is None:
+        return None
+    path = Path(report_dir)
+    if path.exists() and not path.is_dir():
+        raise click.BadParameter(f"{report_dir}: exists and is not a directory",
+                                 param_hint=f"'{option}'")
+    if not path.exists() and not path.parent.is_dir():
+        raise click.BadParameter(f"{report_dir}: its parent directory does not exist",
+                                 param_hint=f"'{option}'")
+    return path
+
+
+def _write_report(result: dict, out: Path, quiet: bool) -> None:
+    from feedtune.report import build_figures, write_report
+
+    figures = build_figures(result)
+    written = write_report(result, out, figures)
+    if not quiet:
+        drawn = len(written) - 1
+        left_out = [f"{stem} ({why})" for stem, _, png, why in figures if png is None]
+        _err(f"wrote {written[0]} ({drawn} figure{'s' if drawn != 1 else ''})"
+             + ("; not drawn: " + "; ".join(left_out) if left_out else ""))
+
+
+@main.command(epilog="Exit status: 0 report written; 2 the result cannot be read or the "
+                     "directory cannot be used.")
+@click.argument("result_file", metavar="RESULT")
+@click.option("--out", "out", metavar="DIR", required=True,
+              help="Directory for report.html (self-contained: figures embedded) and the "
+                   "PNG figures; created if missing, earlier figures replaced.")
+@click.option("-q", "--quiet", is_flag=True, help="Do not print what was written.")
+def report(result_file: str, out: str, quiet: bool) -> None:
+    """Plots and an HTML page of RESULT (a result JSON of `feedtune tune` or `batch`).
+
+    Step and ramp responses (and the load-torque step where the plant has one) with the
+    time metrics [s, and the axis' position unit], Bode diagrams of the open and closed
+    loop with M_peak, bandwidth [rad/s] and margins, the circle test's radial deviation [m]
+    magnified, the closed-loop poles (z-plane when sampled), and tables of tuned values,
+    metrics, constraints and the validation gaps. Curves come from the independent
+    validator model of the plant; a figure a plant cannot offer is left out with the
+    reason on the page.
+    """
+    from feedtune.export import ResultError, load_result
+
+    path = _check_report_dir(out, "--out")
+    try:
+        loaded = load_result(result_file)
+    except (FileNotFoundError, ResultError) as exc:
+        _fail(str(exc))
+    _write_report(loaded.result.model_dump(mode="json"), path, quiet)
+    raise SystemExit(EXIT_OK)
 
 
 @main.command(epilog=_EPILOG)

@@ -1,0 +1,304 @@
+"""The report's figures, one function each, drawn from a validator model and the result.
+
+Each function takes the model (:mod:`feedtune.validate.model`) and the result dict and
+returns a matplotlib Figure, or raises :class:`~feedtune.validate.model.NotCovered` with
+the reason it cannot be drawn. Curves come from the model (numpy/scipy, independent of
+the tuner); the values marked on them are the result's reported metrics, so a reader sees
+whether the tuner's numbers sit where the re-simulated curves say they should.
+Matplotlib's Agg canvas, no pyplot state.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from feedtune.validate.model import NotCovered
+
+#: figure size [in] and resolution [dpi] of every PNG
+SIZE, DPI = (7.5, 5.0), 100
+#: a displayed response ends when it stays within this fraction of its largest excursion
+DISPLAY_SETTLED = 2e-3
+#: Bode plots span this factor beyond the slowest and fastest closed-loop pole
+BODE_MARGIN = 30.0
+#: Bode grid density [points per decade]
+BODE_POINTS = 400
+#: the magnified circle deviation spans this fraction of the plotted radius
+CIRCLE_SPAN = 0.35
+#: the zoomed circle deviation shows this many interpolator sides, or degrees without one
+ZOOM_SIDES, ZOOM_DEGREES = 4, 30
+
+
+def metric(result: dict, name: str, **options):
+    """The reported value of metric ``name`` whose options include ``options``, or None."""
+    for m in (result.get("metrics") or {}).values():
+        if m.get("metric") == name and m.get("value") is not None and all(
+                (m.get("options") or {}).get(k) == v for k, v in options.items()):
+            return m["value"]
+    return None
+
+
+def _figure(rows: int = 1, cols: int = 1, height: float | None = None):
+    figure = Figure(figsize=(SIZE[0], height or SIZE[1]), dpi=DPI)
+    axes = figure.subplots(rows, cols, squeeze=False)
+    return figure, axes
+
+
+def _display_end(t: np.ndarray, y: np.ndarray) -> int:
+    """Index after which y stays within DISPLAY_SETTLED of its final value (plus 30 %)."""
+    dev = np.abs(y - y[-1])
+    big = np.nonzero(dev > DISPLAY_SETTLED * max(float(np.max(dev)), 1e-300))[0]
+    if big.size == 0:
+        return len(t)
+    end_time = 1.3 * t[big[-1]]
+    return int(np.searchsorted(t, end_time)) + 1
+
+
+def _note(ax, lines: list[str]) -> None:
+    if lines:
+        ax.text(0.98, 0.04, "\n".join(lines), transform=ax.transAxes, ha="right", va="bottom",
+                fontsize=8, bbox={"boxstyle": "round", "fc": "white", "alpha": 0.85})
+
+
+def _g(value: float) -> str:
+    return f"{value:.4g}"
+
+
+def responses_figure(model, result: dict) -> Figure:
+    """Step, ramp and load-torque responses with the result's time-domain metrics."""
+    responses = model.responses()
+    kinds = [k for k in ("step", "ramp", "load") if k in responses]
+    if not kinds:
+        raise NotCovered("the model has no time response")
+    figure, axes = _figure(len(kinds), 1, height=2.6 * len(kinds) + 0.6)
+    for ax, kind in zip(axes[:, 0], kinds):
+        r = responses[kind]
+        unit = r.unit
+        if kind == "step":
+            end = _display_end(r.time, r.position)
+            ax.plot(r.time[:end], r.reference[:end], "--", color="0.5", label="reference")
+            ax.plot(r.time[:end], r.position[:end], label="position")
+            ax.set_ylabel(f"position [{unit}]")
+            ax.set_title("unit step", fontsize=10)
+            lines = []
+            for name, label, u in (("iae", "IAE", f"{unit}·s"), ("ise", "ISE", f"{unit}²·s"),
+                                   ("itae", "ITAE", f"{unit}·s²")):
+                value = metric(result, name, input="step", time="absolute")
+                if value is not None:
+                    lines.append(f"{label} {_g(value)} {u}")
+            overshoot = metric(result, "overshoot")
+            if overshoot is not None:
+                lines.append(f"overshoot {100 * overshoot:.3g} %")
+                ax.axhline(1 + overshoot, color="C3", lw=0.8, ls=":")
+            settling = metric(result, "settling_time", input="step")
+            if settling is not None:
+                ax.axvline(settling, color="C2", lw=0.8, ls=":")
+                lines.append(f"settling time {_g(settling)} s")
+            for name, label, u in (("damping_ratio", "ζ", ""), ("natural_frequency", "ω_n", " rad/s")):
+                value = metric(result, name)
+                if value is not None:
+                    lines.append(f"{label} {_g(value)}{u}")
+            _note(ax, lines)
+            ax.legend(loc="upper right", fontsize=8)
+        elif kind == "ramp":
+            end = _display_end(r.time, r.error)
+            ax.plot(r.time[:end], r.error[:end], label="following error")
+            ax.set_ylabel(f"error [{unit}]")
+            ax.set_title("unit ramp (1 " + unit + "/s): following error", fontsize=10)
+            lines = []
+            cv = metric(result, "velocity_constant")
+            if cv is not None:
+                ax.axhline(1 / cv, color="C3", lw=0.8, ls=":", label="1/C_v")
+                lines.append(f"C_v {_g(cv)} 1/s → steady error {_g(1 / cv)} {unit}")
+            value = metric(result, "iae", input="ramp")
+            if value is not None:
+                lines.append(f"IAE {_g(value)} {unit}·s")
+            _note(ax, lines)
+            ax.legend(loc="upper right", fontsize=8)
+        else:
+            end = _display_end(r.time, r.position)
+            ax.plot(r.time[:end], r.position[:end], label="position")
+            ax.set_ylabel(f"position [{unit}]")
+            ax.set_title("unit load-torque step, reference still", fontsize=10)
+            lines = []
+            peak = metric(result, "load_rejection", measure="peak")
+            if peak is not None:
+                ax.axhline(-peak, color="C3", lw=0.8, ls=":")
+                ax.axhline(peak, color="C3", lw=0.8, ls=":")
+                lines.append(f"peak error {_g(peak)} {unit}")
+            iae = metric(result, "load_rejection", measure="iae")
+            if iae is not None:
+                lines.append(f"IAE {_g(iae)} {unit}·s")
+            _note(ax, lines)
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    figure.tight_layout()
+    return figure
+
+
+def bode_range(model) -> tuple[float, float]:
+    """(low, high) [rad/s]: BODE_MARGIN beyond the slowest and fastest nonzero pole; a
+    sampled loop ends at the Nyquist frequency π/T."""
+    poles = np.asarray(model.poles(), dtype=complex)
+    if model.sampled:
+        poles = poles[np.abs(poles) > 1e-12]
+        poles = np.log(poles) / model.period
+    speeds = np.abs(poles)
+    speeds = speeds[speeds > 1e-9 * max(float(np.max(speeds, initial=0.0)), 1e-300)]
+    if speeds.size == 0:
+        raise NotCovered("no nonzero pole to set the frequency range")
+    low, high = float(np.min(speeds)) / BODE_MARGIN, float(np.max(speeds)) * BODE_MARGIN
+    if model.sampled:
+        high = math.pi / model.period * (1 - 1e-6)
+        low = min(low, high / 1e3)
+    return low, high
+
+
+def bode_figure(model, result: dict) -> Figure:
+    """|L|, |H| [dB] and their phases [deg]; M_peak, bandwidth, crossover and margins."""
+    low, high = bode_range(model)
+    omega = np.logspace(math.log10(low), math.log10(high),
+                        int(BODE_POINTS * math.log10(high / low)) + 1)
+    open_loop, closed = model.frequency_response(omega)
+    figure, axes = _figure(2, 1, height=6.0)
+    mag, phase = axes[0, 0], axes[1, 0]
+    for h, label in ((open_loop, "open loop L"), (closed, "closed loop H")):
+        mag.semilogx(omega, 20 * np.log10(np.abs(h)), label=label)
+        phase.semilogx(omega, np.degrees(np.unwrap(np.angle(h))), label=label)
+    lines = []
+    m_peak = metric(result, "m_peak")
+    if m_peak is not None:
+        mag.axhline(20 * math.log10(m_peak), color="C3", lw=0.8, ls=":")
+        lines.append(f"M_peak {_g(m_peak)} ({20 * math.log10(m_peak):.2f} dB)")
+    bandwidth = metric(result, "bandwidth")
+    if bandwidth is not None:
+        mag.axvline(bandwidth, color="C2", lw=0.8, ls=":")
+        mag.axhline(-3.0103, color="0.6", lw=0.6, ls=":")
+        lines.append(f"bandwidth {_g(bandwidth)} rad/s")
+    crossover = metric(result, "crossover_frequency")
+    if crossover is not None:
+        for ax in (mag, phase):
+            ax.axvline(crossover, color="C4", lw=0.8, ls=":")
+        lines.append(f"crossover {_g(crossover)} rad/s")
+    pm = metric(result, "phase_margin")
+    if pm is not None:
+        phase.axhline(-180 + pm, color="C4", lw=0.8, ls=":")
+        lines.append(f"phase margin {_g(pm)}°")
+    gm = metric(result, "gain_margin")
+    if gm is not None:
+        mag.axhline(-20 * math.log10(gm), color="C5", lw=0.8, ls=":")
+        lines.append(f"gain margin {_g(gm)} ({20 * math.log10(gm):.2f} dB)")
+    phase.axhline(-180, color="0.6", lw=0.6)
+    if model.sampled:
+        for ax in (mag, phase):
+            ax.axvline(math.pi / model.period, color="k", lw=0.8)
+        lines.append(f"Nyquist π/T = {_g(math.pi / model.period)} rad/s")
+    _note(mag, lines)
+    mag.set_ylabel("magnitude [dB]")
+    phase.set_ylabel("phase [deg]")
+    phase.set_xlabel("frequency ω [rad/s]")
+    mag.legend(loc="lower left", fontsize=8)
+    for ax in (mag, phase):
+        ax.grid(True, which="both", alpha=0.3)
+    mag.set_title("Bode diagram" + (" (sampled loop, z = e^{jωT})" if model.sampled else ""),
+                  fontsize=10)
+    figure.tight_layout()
+    return figure
+
+
+def circle_options(result: dict) -> tuple[float, float]:
+    """(radius [m], feed [m/s]) of the first circle metric in the result."""
+    for m in (result.get("metrics") or {}).values():
+        options = m.get("options") or {}
+        if "radius" in options and "feed" in options:
+            return float(options["radius"]), float(options["feed"])
+    raise NotCovered("no circle metric (radius and feed) in the result")
+
+
+def circle_figure(model, result: dict) -> Figure:
+    """Polar plot of the steady circle's radial deviation, magnified about the mean radius,
+    and the deviation [m] against the angle over the first few sides (or degrees)."""
+    radius, feed = circle_options(result)
+    trace = model.circle_test(radius, feed)
+    deviation = np.asarray(trace.deviation)
+    angle = np.unwrap(np.asarray(trace.angle))
+    mean = float(np.mean(deviation))
+    ripple = float(np.ptp(deviation))
+    magnification = CIRCLE_SPAN * radius / ripple if ripple > 0 else 1.0
+    figure = Figure(figsize=(6.5, 9.0), dpi=DPI)
+    grid = figure.add_gridspec(3, 1, height_ratios=[3.2, 1.3, 0.9])
+    ax = figure.add_subplot(grid[0], projection="polar")
+    theta = np.linspace(0, 2 * math.pi, 721)
+    ax.plot(theta, np.full_like(theta, radius), "--", color="0.5", label="mean radius")
+    ax.plot(angle, radius + magnification * (deviation - mean), lw=0.8, label="path")
+    ax.set_rlim(0, radius * (1 + 1.5 * CIRCLE_SPAN))
+    ax.set_yticklabels([])
+    ax.legend(loc="lower left", fontsize=7, bbox_to_anchor=(-0.12, -0.08))
+    ax.set_title("circle test: radial deviation", fontsize=10)
+    zoom = figure.add_subplot(grid[1])
+    interval = getattr(model, "reference_interval", None)
+    span = ZOOM_SIDES * interval * feed / radius if interval else math.radians(ZOOM_DEGREES)
+    shown = angle - angle[0] <= span
+    zoom.plot(np.degrees(angle[shown] - angle[0]), deviation[shown])
+    zoom.axhline(mean, color="0.5", ls="--", lw=0.8)
+    zoom.set_xlabel("angle from the start of the revolution [deg]")
+    zoom.set_ylabel("|y| − r [m]")
+    zoom.grid(True, alpha=0.3)
+    zoom.set_title((f"first {ZOOM_SIDES} sides of the interpolated polygon" if interval
+                    else f"first {ZOOM_DEGREES}°"), fontsize=9)
+    lines = [f"r = {_g(radius)} m, feed {_g(feed)} m/s; polar: deviation from the mean "
+             f"radius ×{magnification:.3g}",
+             f"mean radius r {'+' if mean >= 0 else '−'} {_g(abs(mean))} m, circularity "
+             f"(max − min) {_g(ripple)} m (re-simulated)"]
+    for name, label in (("circle_roughness", "roughness"),
+                        ("surface_roughness", "surface roughness (Sato eq 10)"),
+                        ("radial_error", "radial error (Koren eq 28)"),
+                        ("radius_decrease", "decrease in radius (Sato eq 7)")):
+        value = metric(result, name)
+        if value is not None:
+            lines.append(f"{label} {_g(value)} m (reported)")
+    text = figure.add_subplot(grid[2])
+    text.axis("off")
+    text.text(0.0, 1.0, "\n".join(lines), fontsize=8, va="top", transform=text.transAxes)
+    figure.tight_layout()
+    return figure
+
+
+def poles_figure(model, result: dict) -> Figure:
+    """Closed-loop poles: the s-plane, or the z-plane with the unit circle."""
+    poles = np.asarray(model.poles(), dtype=complex)
+    figure, axes = _figure(1, 1, height=5.5)
+    ax = axes[0, 0]
+    if model.sampled:
+        theta = np.linspace(0, 2 * math.pi, 361)
+        ax.plot(np.cos(theta), np.sin(theta), color="0.5", lw=0.8, label="|z| = 1")
+        ax.set_aspect("equal")
+        ax.set_xlabel("Re z")
+        ax.set_ylabel("Im z")
+        radius = float(np.max(np.abs(poles)))
+        title = f"closed-loop poles, z-plane (spectral radius {radius:.4g})"
+    else:
+        ax.axvline(0, color="0.5", lw=0.8)
+        ax.set_xlabel("Re s [1/s]")
+        ax.set_ylabel("Im s [rad/s]")
+        title = f"closed-loop poles, s-plane (spectral abscissa {float(np.max(poles.real)):.4g} 1/s)"
+        if np.ptp(np.abs(poles)) > 0 and np.max(np.abs(poles)) / max(np.min(np.abs(poles)), 1e-300) > 1e3:
+            ax.set_xscale("symlog", linthresh=max(float(np.min(np.abs(poles[poles != 0]),
+                                                               initial=1.0)), 1e-9))
+    ax.plot(poles.real, poles.imag, "x", ms=9, mew=2, color="C3", label="poles")
+    ax.legend(loc="upper left", fontsize=8)
+    ax.grid(True, alpha=0.3)
+    ax.set_title(title, fontsize=10)
+    figure.tight_layout()
+    return figure
+
+
+#: (file stem, title, function) of every figure, in page order
+FIGURES = (
+    ("responses", "Time responses", responses_figure),
+    ("bode", "Frequency response", bode_figure),
+    ("circle", "Circle test", circle_figure),
+    ("poles", "Closed-loop poles", poles_figure),
+)

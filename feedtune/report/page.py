@@ -1,0 +1,119 @@
+"""The report's HTML page: one self-contained file (figures as base64 data URIs, inline CSS)."""
+
+from __future__ import annotations
+
+import base64
+from html import escape
+
+CSS = """body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;
+padding:0.2em 0.6em;text-align:left;font-size:90%}th{background:#f3f3f3}
+td.num{text-align:right;font-family:monospace}.bad{color:#b00;font-weight:bold}
+.ok{color:#070}.note{color:#666;font-style:italic}img{max-width:100%}"""
+
+
+def _num(value) -> str:
+    if value is None:
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, list):  # poles: [[re, im], ...]
+        return ", ".join(f"{re:.4g}{im:+.4g}j" for re, im in value)
+    return str(value)
+
+
+def _label(name: str, options: dict | None) -> str:
+    if not options:
+        return name
+    return f"{name}({', '.join(f'{k}={v}' for k, v in options.items())})"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    """Cells are HTML already (escaped by the caller)."""
+    out = ["<table><tr>" + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr>"]
+    out += ["<tr>" + "".join(rows_cell for rows_cell in row) + "</tr>" for row in rows]
+    return "\n".join(out) + "</table>"
+
+
+def _td(text: str, cls: str = "") -> str:
+    return f'<td class="{cls}">{escape(text)}</td>' if cls else f"<td>{escape(text)}</td>"
+
+
+def tuned_table(result: dict) -> str:
+    rows = []
+    for name, t in (result.get("tuned") or {}).items():
+        bound = "fixed" if t.get("fixed") else (f"at {t['at_bound']} bound"
+                                                if t.get("at_bound") else "")
+        rows.append([_td(name), _td(_num(t.get("value")), "num"), _td(t.get("unit", "")),
+                     _td(f"[{_num(t.get('min'))}, {_num(t.get('max'))}]"), _td(bound)])
+    return _table(["tunable", "value", "unit", "bounds", ""], rows)
+
+
+def metrics_table(result: dict) -> str:
+    rows = [[_td(_label(m["metric"], m.get("options"))), _td(_num(m.get("value")), "num"),
+             _td(m.get("unit") or "")] for m in (result.get("metrics") or {}).values()]
+    return _table(["metric", "value", "unit"], rows)
+
+
+def constraints_table(result: dict) -> str:
+    rows = []
+    for c in result.get("constraints") or []:
+        ok = c.get("satisfied")
+        rows.append([_td(_label(c["metric"], c.get("options"))), _td(_num(c.get("value")), "num"),
+                     _td(_num(c.get("min")), "num"), _td(_num(c.get("max")), "num"),
+                     _td("OK" if ok else "violated", "ok" if ok else "bad")])
+    return _table(["constraint", "value", "min", "max", ""], rows)
+
+
+def validation_table(block: dict | None) -> str:
+    if not block:
+        return '<p class="note">This result has no validation block.</p>'
+    if not block.get("covered"):
+        reason = block.get("reason") or "not covered"
+        error = f" ({block['error']})" if block.get("error") else ""
+        return f'<p class="note">Not validated: {escape(reason + error)}.</p>'
+    rows = []
+    for e in block.get("entries") or []:
+        ok = e.get("ok")
+        rows.append([_td(_label(e["metric"], e.get("options"))), _td(_num(e.get("reported")), "num"),
+                     _td(_num(e.get("validated")), "num"),
+                     _td("" if e.get("gap") is None else f"{e['gap']:.2g}", "num"),
+                     _td("" if e.get("tolerance") is None else f"{e['tolerance']:g}", "num"),
+                     _td("OK" if ok else "beyond tolerance", "ok" if ok else "bad")])
+    summary = ("every gap within its tolerance" if block.get("ok")
+               else "some gaps beyond tolerance" if block.get("ok") is False else "nothing compared")
+    return (f"<p>{escape(block.get('validator', ''))}: {escape(summary)}.</p>"
+            + _table(["metric", "reported", "re-measured", "gap", "tolerance", ""], rows))
+
+
+def render(result: dict, figures: list[tuple[str, str, bytes | None, str | None]]) -> str:
+    """The page. ``figures``: (stem, title, PNG bytes or None, note when omitted)."""
+    name = result.get("name") or "result"
+    status = result.get("status", "")
+    success = result.get("success")
+    parts = [f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>feedtune report: "
+             f"{escape(name)}</title><style>{CSS}</style></head><body>",
+             f"<h1>{escape(name)}</h1>",
+             f"<p>Status: <b class=\"{'ok' if success else 'bad'}\">{escape(str(status))}</b>"
+             f" — {escape(result.get('message') or '')}; objective "
+             f"{escape(_num(result.get('objective')))}.</p>"]
+    plant = ((result.get("spec") or {}).get("plant") or {}).get("type")
+    if plant:
+        parts.append(f"<p>Plant: <code>{escape(plant)}</code>.</p>")
+    parts.append("<h2>Tuned values</h2>" + tuned_table(result))
+    for stem, title, png, note in figures:
+        parts.append(f"<h2>{escape(title)}</h2>")
+        if png is None:
+            parts.append(f'<p class="note">Not drawn: {escape(note or "")}.</p>')
+        else:
+            data = base64.b64encode(png).decode("ascii")
+            parts.append(f'<img alt="{escape(title)}" src="data:image/png;base64,{data}">'
+                         f'<p class="note">{escape(stem)}.png</p>')
+    parts.append("<h2>Metrics</h2>" + metrics_table(result))
+    if result.get("constraints"):
+        parts.append("<h2>Constraints</h2>" + constraints_table(result))
+    parts.append("<h2>Independent validation</h2>" + validation_table(result.get("validation")))
+    parts.append("</body></html>")
+    return "\n".join(parts)
