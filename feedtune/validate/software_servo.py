@@ -24,9 +24,10 @@ What it measures, all on floats:
   L(jω) or L(e^{jωT}) = K·z^{−d}·G_ZOH(z) (a formulation the tuner does not use);
 * :meth:`ServoModel.radial_error`: r·| |H| − 1 | of a circle at ω = feed/r, H = L/(1 + L),
   without the cancellation of |H| − 1;
-* :func:`circle_steady_radius`: the two-axis circle test in the time domain (sinusoidal
-  references, simulated until the transient is gone), used by the tests to check the
-  frequency response.
+* :meth:`ServoModel.circle_test`: the two-axis circle test in the time domain (the circle
+  or Sato's interpolated polygon as reference, simulated until the transient is gone),
+  which re-measures the circle metrics and is checked against the frequency response;
+* :meth:`ServoModel.responses`: step and ramp responses for the report.
 """
 
 from __future__ import annotations
@@ -501,27 +502,3 @@ def _powers(matrix: np.ndarray, count: int) -> list[np.ndarray]:
     for _ in range(count - 1):
         out.append(out[-1] @ matrix)
     return out
-
-
-def circle_steady_radius(model: ServoModel, radius: float, feed: float,
-                         periods: int = 60) -> float:
-    """Two-axis circle test in time: x_ref = r cos ωt, y_ref = r sin ωt through the sampled
-    loop (the reference read at the samples, Koren's circle of sinusoids); the mean radius
-    at the samples over the last period, after ``periods`` revolutions."""
-    if not model.sampled:
-        raise NotCovered("the time-domain circle test is for sampled loops")
-    f, g = model.closed_loop()
-    omega = feed / radius
-    t_rev = 2 * math.pi / omega
-    samples = int(periods * t_rev / model.period)
-    x = np.zeros(f.shape[0])
-    y = np.zeros(f.shape[0])
-    radii = []
-    last = samples - int(t_rev / model.period) - 1
-    for k in range(samples):
-        tk = k * model.period
-        if k >= last:
-            radii.append(math.hypot(x[0], y[0]))
-        x = f @ x + g[:, 0] * radius * math.cos(omega * tk)
-        y = f @ y + g[:, 0] * radius * math.sin(omega * tk)
-    return float(np.mean(radii))
