@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from feedtune.validate.model import Model, NotCovered
+from feedtune.validate.hydraulic_rotary import HydraulicRotaryModel
 from feedtune.validate.software_servo import ServoModel
+from feedtune.validate.ward_leonard import WardLeonardModel
 
 MODELS = {
     "software_servo": ServoModel,
+    "hydraulic_rotary": HydraulicRotaryModel,
+    "ward_leonard": WardLeonardModel,
 }
 
 

@@ -40,6 +40,7 @@ from scipy.linalg import expm
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from feedtune.validate.entries import entry
+from feedtune.validate.integrals import error_integrals
 from feedtune.validate.model import CircleTrace, NotCovered, Response
 
 #: relative tolerance of each metric's gap, and why:
@@ -256,21 +257,8 @@ class ServoModel:
             substeps = SUBSTEPS
             if self.sampled and self.time_constant is not None:
                 substeps = min(4096, max(SUBSTEPS, math.ceil(100 * self.period / self.time_constant)))
-        t, e, dt = self.step_error(substeps)
-        e0, e1, t0 = e[:-1], e[1:], t[:-1]
-        ise = float(np.sum((e0**2 + e1**2 + e0 * e1) / 3) * dt)  # exact for linear pieces
-        same = e0 * e1 >= 0
-        abs_same = np.where(same, (np.abs(e0) + np.abs(e1)) / 2 * dt, 0.0)
-        denom = np.where(same, 1.0, np.abs(e0) + np.abs(e1))
-        abs_cross = np.where(same, 0.0, (e0**2 + e1**2) / (2 * denom) * dt)
-        iae = float(np.sum(abs_same + abs_cross))
-        # ∫t|e| over a linear piece: trapezoid of t|e|, crossing pieces by their two triangles
-        te0, te1 = t0 * np.abs(e0), (t0 + dt) * np.abs(e1)
-        frac = np.where(same, 0.0, np.abs(e0) / denom)  # where the zero lies in the piece
-        cross_itae = (np.abs(e0) * frac * dt * (t0 + frac * dt / 3)
-                      + np.abs(e1) * (1 - frac) * dt * (t0 + frac * dt + 2 * (1 - frac) * dt / 3)) / 2
-        itae = float(np.sum(np.where(same, (te0 + te1) / 2 * dt, cross_itae)))
-        return {"iae": iae, "ise": ise, "itae": itae}
+        t, e, _ = self.step_error(substeps)
+        return error_integrals(t, e)
 
     def ramp_following_error(self) -> float:
         """Steady error after a unit ramp r = t [m] at the samples (continuous: any time)."""
