@@ -220,6 +220,9 @@ def circle_options(result: dict) -> tuple[float, float]:
 def circle_figure(model, result: dict) -> Figure:
     """Polar plot of the steady circle's radial deviation, magnified about the mean radius,
     and the deviation [m] against the angle over the first few sides (or degrees)."""
+    if model.position_unit != "m":
+        raise NotCovered(f"a rotary axis (position in {model.position_unit}): no two-axis "
+                         "circle test")
     radius, feed = circle_options(result)
     trace = model.circle_test(radius, feed)
     deviation = np.asarray(trace.deviation)
