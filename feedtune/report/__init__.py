@@ -31,7 +31,8 @@ def build_figures(result: dict) -> list[tuple[str, str, bytes | None, str | None
         why = "nothing was tuned"
     else:
         try:
-            model = model_for((result.get("spec") or {}).get("plant") or {}, tuned)
+            model = model_for((result.get("spec") or {}).get("plant") or {}, tuned,
+                              result.get("stability"))
         except NotCovered as exc:
             why = str(exc)
     figures = []

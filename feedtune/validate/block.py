@@ -51,7 +51,7 @@ def validate_result(result) -> dict:
         else:
             plant = (data.get("spec") or {}).get("plant") or {}
             tuned = {name: t["value"] for name, t in data["tuned"].items()}
-            model = model_for(plant, tuned)
+            model = model_for(plant, tuned, data.get("stability"))
             block["entries"] = _measure(model, data)
             block["covered"] = True
             block["ok"] = all(e["ok"] for e in block["entries"]) if block["entries"] else None

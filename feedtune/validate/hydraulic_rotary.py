@@ -66,5 +66,5 @@ class HydraulicRotaryModel(CascadeModel):
     """Validator model of ``hydraulic_rotary`` (Bhatia Fig 33)."""
 
     @classmethod
-    def from_result(cls, plant: dict, tuned: dict) -> "HydraulicRotaryModel":
+    def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None) -> "HydraulicRotaryModel":
         return cls.from_parts(drive_block(plant), plant, tuned, has_load_path(plant))

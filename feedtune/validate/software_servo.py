@@ -87,7 +87,7 @@ class ServoModel:
     reference_interval: float | None = None
 
     @classmethod
-    def from_result(cls, plant: dict, tuned: dict) -> "ServoModel":
+    def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None) -> "ServoModel":
         """The model of a result's plant spec and tuned values (floats)."""
         if plant.get("type") != "software_servo":
             raise NotCovered(f"plant type {plant.get('type')!r} is not modelled by the validator")

@@ -39,5 +39,5 @@ class WardLeonardModel(CascadeModel):
     """Validator model of ``ward_leonard`` (Bhatia Figs 13, 43, 18)."""
 
     @classmethod
-    def from_result(cls, plant: dict, tuned: dict) -> "WardLeonardModel":
+    def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None) -> "WardLeonardModel":
         return cls.from_parts(drive_block(plant), plant, tuned, has_load=True)
