@@ -195,17 +195,30 @@ def test_importing_the_package_loads_nothing_forbidden(package, forbidden):
     assert not _violations(out, forbidden)
 
 
-VALIDATE_MODULES = _modules_under("feedtune.validate")
+VALIDATE_MODULES = _modules_under("feedtune.validate") + _modules_under("feedtune.report")
+#: what the tuner computes with: the validator and the report must not lean on any of it
+TUNER_SIDE = ("casadi", "feedtune.loop", "feedtune.linalg", "feedtune.plants",
+              "feedtune.objectives", "feedtune.pulse_train", "feedtune.timeresponse",
+              "feedtune.frequency", "feedtune.signals", "feedtune.problem", "feedtune.tuner")
 
 
 @pytest.mark.parametrize("module", VALIDATE_MODULES)
-def test_validator_is_independent_of_casadi(module):
+def test_validator_and_report_are_independent_of_the_tuner(module):
     """DESIGN.md: validate/ checks a design with numpy/scipy only, so that a loop is never
-    called stable on CasADi's word alone; neither it nor any feedtune module it uses imports
-    casadi (or the CasADi-built loop and linalg)."""
+    called stable on CasADi's word alone; neither it, nor the report drawn from it, nor any
+    feedtune module they use imports casadi or the tuner's own models and metrics."""
     for name in {module} | transitive_imports(module):
         imported = direct_imports(MODULE_PATHS[name])
-        assert not _violations(imported, ("casadi", "feedtune.loop", "feedtune.linalg")), name
+        assert not _violations(imported, TUNER_SIDE), name
+
+
+def test_every_plant_has_a_validator_model():
+    """One model per plant type, ``validate/<key>.py``: a new plant is validated or this fails."""
+    from feedtune.validate.models import MODELS
+
+    assert set(MODELS) == set(PLANTS)
+    for key, cls in MODELS.items():
+        assert cls.__module__ == f"feedtune.validate.{key}"
 
 
 # -- registries and naming ---------------------------------------------------------------------
