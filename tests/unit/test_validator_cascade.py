@@ -23,6 +23,8 @@ import control
 import numpy as np
 import pytest
 
+from test_ward_leonard import compensator as control_compensator
+
 from feedtune.validate import validate_result
 from feedtune.validate.cascade import Block, CascadeModel, compensator, siso
 from feedtune.validate.hydraulic_rotary import HydraulicRotaryModel
@@ -105,14 +107,8 @@ def test_hydraulic_static_load_error():
 def _control_loops(plant: dict, tuned: dict, velocity_per_volt) -> tuple:
     """L and H by python-control's own block algebra (series, feedback) of the same blocks."""
     def comp(prefix):
-        kind = plant[f"{prefix}_compensator"]
-        if kind == "none":
-            return control.tf([1], [1])
-        t1, t2 = tuned[f"{prefix}_compensator.tau1"], tuned[f"{prefix}_compensator.tau2"]
-        if kind == "lag":
-            return control.tf([t1, 1], [t2, 1])
-        t12 = tuned[f"{prefix}_compensator.tau12"]
-        return control.tf([t1 * t2, t1 + t2, 1], [t1 * t2, t1 + t2 + t12, 1])
+        name = f"{prefix}_compensator"
+        return control_compensator(plant[name], name, tuned)
 
     inner = control.feedback(tuned["velocity_gain"] * comp("velocity") * velocity_per_volt)
     open_loop = tuned["position_gain"] * comp("position") * inner * control.tf([1], [1, 0])
