@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import expm
+from scipy.optimize import brentq
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from feedtune.validate.entries import entry
@@ -53,6 +54,8 @@ TOLERANCES = {
     "radial_error": 1e-6,
     # closed forms (Sato eqs 3, 7) on both sides
     "radius_decrease": 1e-6, "average_radius": 1e-9,
+    # a root of the radial error on both sides (tuner: bisection + Newton; here brentq)
+    "min_radius": 1e-6,
     # circle test: the tuner's closed-form periodic steady state against this time
     # simulation; the mean is a trapezoid of a periodic signal on both sides (measured gap
     # 6e-7 on sato-finish)
@@ -85,6 +88,9 @@ class ServoModel:
     position_unit: str = "m"
     #: Sato's linear interpolator: a vertex on the path every T [s]; None: no interpolator
     reference_interval: float | None = None
+    #: Koren's BLU [m] and maximum velocity V_m [m/s] (min_radius), when the spec gives them
+    blu: float | None = None
+    max_velocity: float | None = None
 
     @classmethod
     def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None) -> "ServoModel":
@@ -95,13 +101,14 @@ class ServoModel:
             raise NotCovered("model 'pade' is Sato's continuous approximation; the validator "
                              "models the exact sampled loop only")
         gain = float(tuned["position_gain"])
+        koren = {"blu": plant.get("blu"), "max_velocity": plant.get("max_velocity")}
         if plant["technique"] == "reference_pulse":
-            return cls(gain, float(plant["time_constant"]))
+            return cls(gain, float(plant["time_constant"]), **koren)
         tau = plant.get("time_constant")
         interval = (float(tuned["reference_interval"])
                     if plant.get("interpolation", "none") == "linear" else None)
         return cls(gain, None if tau is None else float(tau), float(tuned["sampling_period"]),
-                   int(plant.get("computation_delay", 0)), reference_interval=interval)
+                   int(plant.get("computation_delay", 0)), reference_interval=interval, **koren)
 
     @property
     def sampled(self) -> bool:
@@ -449,6 +456,8 @@ class ServoModel:
                          self.radius_decrease(options["radius"], options["feed"], interval))
                 entries.append(entry(name, options, reported, value, tolerance,
                                      floor=RADIAL_FLOOR * options["radius"]))
+            elif name == "min_radius" and self.blu is not None and self.max_velocity is not None:
+                entries.append(entry(name, options, reported, self.min_radius(), tolerance))
             elif (name in ("circle_mean_deviation", "circularity", "circle_roughness")
                   and self.reference_interval is not None):
                 key = (options["radius"], options["feed"])
@@ -457,6 +466,26 @@ class ServoModel:
                 entries.append(entry(name, options, reported, circles[key][name], tolerance,
                                      floor=RADIAL_FLOOR * options["radius"]))
         return entries
+
+    def min_radius(self) -> float:
+        """r_min [m]: the largest r in [V_m/C_v, 10⁴·V_m/C_v] where the radial error at V_m
+        falls to BLU/2 (Koren eqs 30–32 on the loop's own |H|), bracketed on a log grid of
+        400 points per decade and refined by brentq."""
+        v, half = self.max_velocity, self.blu / 2
+        low = v * self.ramp_following_error()  # V_m/C_v
+        grid = np.geomspace(low, 1e4 * low, 1601)
+
+        def excess(radius):
+            return self.radial_error(radius, v) / half - 1
+
+        lo = self.open_loop(v / grid)
+        one = np.abs(1 + lo)
+        values = grid * np.abs((1 + 2 * lo.real) / (one * (np.abs(lo) + one))) / half - 1
+        above = np.nonzero(values > 0)[0]
+        if above.size == 0 or above[-1] == grid.size - 1:
+            raise NotCovered("no radius in the bracket meets the BLU/2 criterion")
+        i = above[-1]
+        return float(brentq(excess, grid[i], grid[i + 1], xtol=1e-15 * grid[i]))
 
     def circle_statistics(self, radius: float, feed: float) -> dict[str, float]:
         """circle_mean_deviation (time mean of |y| − r), circularity (max − min) and

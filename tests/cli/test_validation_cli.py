@@ -27,7 +27,7 @@ def test_koren_examples_validate_within_tolerance(name, tmp_path):
     assert block["covered"] and block["ok"] is True
     measured = {e["metric"] for e in block["entries"]}
     assert {"iae", "ise", "itae", "radial_error", "damping_ratio", "natural_frequency",
-            "velocity_constant", "poles", "stable"} <= measured
+            "velocity_constant", "min_radius", "poles", "stable"} <= measured
     assert all(e["gap"] is None or e["gap"] <= e["tolerance"] for e in block["entries"])
 
 

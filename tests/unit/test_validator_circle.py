@@ -70,3 +70,13 @@ def test_sato_circle_metrics_agree_with_the_tuner():
     model = ServoModel.from_result(result["spec"]["plant"], tuned)
     assert model.reference_interval == pytest.approx(tuned["reference_interval"])
     assert np.max(model.circle_test(0.05, 0.05).deviation) < 0
+
+
+@pytest.mark.parametrize("gain, period", [(18.0, None), (18.0, 0.015625), (25.0, 0.002)])
+def test_min_radius_is_the_largest_root_of_the_blu_criterion(gain, period):
+    """Koren eqs 30–32: at r_min the radial error at V_m is BLU/2; above it, less."""
+    blu, v = 1e-5, 0.04
+    model = ServoModel(gain, TAU, period, blu=blu, max_velocity=v)
+    r = model.min_radius()
+    assert model.radial_error(r, v) == pytest.approx(blu / 2, rel=1e-9)
+    assert all(model.radial_error(r * f, v) < blu / 2 for f in (1.01, 2.0, 10.0, 100.0))
