@@ -40,6 +40,8 @@ from scipy.linalg import expm
 from scipy.optimize import brentq
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
+from feedtune.validate.continuous import TOLERANCES as CONTINUOUS_TOLERANCES
+from feedtune.validate.continuous import ContinuousModel, siso
 from feedtune.validate.entries import entry
 from feedtune.validate.integrals import error_integrals
 from feedtune.validate.model import CircleTrace, NotCovered, Response
@@ -97,9 +99,6 @@ class ServoModel:
         """The model of a result's plant spec and tuned values (floats)."""
         if plant.get("type") != "software_servo":
             raise NotCovered(f"plant type {plant.get('type')!r} is not modelled by the validator")
-        if plant.get("model", "exact") != "exact":
-            raise NotCovered("model 'pade' is Sato's continuous approximation; the validator "
-                             "models the exact sampled loop only")
         gain = float(tuned["position_gain"])
         koren = {"blu": plant.get("blu"), "max_velocity": plant.get("max_velocity")}
         if plant["technique"] == "reference_pulse":
@@ -107,6 +106,10 @@ class ServoModel:
         tau = plant.get("time_constant")
         interval = (float(tuned["reference_interval"])
                     if plant.get("interpolation", "none") == "linear" else None)
+        if plant.get("model", "exact") == "pade":
+            return PadeServoModel(gain, None if tau is None else float(tau),
+                                  float(tuned["sampling_period"]),
+                                  int(plant.get("computation_delay", 0)), interval)
         return cls(gain, None if tau is None else float(tau), float(tuned["sampling_period"]),
                    int(plant.get("computation_delay", 0)), reference_interval=interval, **koren)
 
@@ -499,6 +502,54 @@ class ServoModel:
         stats["circle_roughness"] = float(np.max(maximum_filter1d(d, size, mode="wrap")
                                                  - minimum_filter1d(d, size, mode="wrap")))
         return stats
+
+
+class PadeServoModel(ContinuousModel):
+    """Sato's continuous stand-in for the sampled loop (eqs 4–5): the dead time
+    L = (d + ½)·T as its (1,1) Padé approximant, open loop K(1 − Ls/2)/((1 + Ls/2)s(1 + sτ)),
+    1/s without τ; a state-space block (controllable canonical form) closed by unity
+    feedback. The model's own numbers are re-measured (the tuner's arithmetic on it); what
+    the sampled loop really does is the ``exact`` model's (docs/sato.md)."""
+
+    position_unit = "m"
+    TOLERANCES = {**CONTINUOUS_TOLERANCES, **TOLERANCES}
+
+    def __init__(self, gain: float, time_constant: float | None, period: float, delay: int,
+                 reference_interval: float | None):
+        half = (delay + 0.5) * period / 2
+        den = np.polymul(np.polymul([half, 1.0], [time_constant or 0.0, 1.0]), [1.0, 0.0])
+        block = siso([-gain * half, gain], den)
+        closed_a = block.a - block.b @ block.c
+        closed_b = np.column_stack([block.b[:, 0], np.zeros(block.order)])
+        super().__init__((closed_a, closed_b, block.c[0]), (block.a, block.b, block.c[0]),
+                         has_load=False)
+        self.gain, self.reference_interval = gain, reference_interval
+
+    def circle_test(self, radius, feed):
+        raise NotCovered("the Padé model is a continuous stand-in for the sampled loop: no "
+                         "circle test (tune with model 'exact' for it)")
+
+    def measure(self, result: dict) -> list[dict]:
+        """The continuous loop's entries, ζ and ω_n of a second-order loop, and Sato's
+        average radius and decrease in radius (eqs 3, 7) with this loop's |H|."""
+        entries = super().measure(result)
+        poles = self.poles()
+        for m in result.get("metrics", {}).values():
+            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
+            if reported is None:
+                continue
+            if name in ("damping_ratio", "natural_frequency") and poles.size == 2:
+                wn = math.sqrt(abs((poles[0] * poles[1]).real))
+                value = wn if name == "natural_frequency" else -float(poles.sum().real) / (2 * wn)
+                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
+            elif name in ("radius_decrease", "average_radius") and self.reference_interval:
+                radius, omega = options["radius"], options["feed"] / options["radius"]
+                average = average_polygon_radius(radius, omega, self.reference_interval)
+                h = abs(self.frequency_response(omega)[1][0])
+                value = average if name == "average_radius" else abs(radius - average * h)
+                entries.append(entry(name, options, reported, value, self.TOLERANCES[name],
+                                     floor=RADIAL_FLOOR * radius))
+        return entries
 
 
 def average_polygon_radius(radius: float, omega: float, reference_interval: float) -> float:

@@ -1,0 +1,347 @@
+"""A continuous closed loop of numbers for the validator: ẋ = A x + B [θ_i, T_L], θ = C x,
+with its open loop L (the position feedback broken) as a second state-space system.
+
+Frequency responses are C(jωI − A)⁻¹B on a dense grid, refined by Brent's method; time
+responses are the exact state on a graded grid (scipy.linalg.expm of the augmented matrix,
+so the input is exact too), extremes and band exits refined by Brent's method on the
+exact state. Used by Bhatia's cascades (:mod:`feedtune.validate.cascade`) and Sato's Padé
+model of the software servo.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import brentq, minimize_scalar
+
+from feedtune.validate.entries import entry
+from feedtune.validate.integrals import error_integrals
+from feedtune.validate.model import NotCovered, Response
+
+#: the response is simulated until the slowest mode has decayed to this fraction
+SETTLED = 1e-12
+#: grid step [s]: at most FINE/|p| of the fastest mode still above ALIVE (relative), growing
+#: by at most GROWTH per step
+FINE, GROWTH, ALIVE = 0.01, 1.02, 1e-10
+#: frequency grid [points per decade] over FREQUENCY_SPAN beyond the slowest/fastest pole
+POINTS_PER_DECADE, FREQUENCY_SPAN = 200, 1e3
+
+#: relative tolerance of each metric's gap, and why:
+TOLERANCES = {
+    # Brent on exact expressions on both sides (tuner: Newton on the exact response)
+    "m_peak": 1e-6, "bandwidth": 1e-6, "crossover_frequency": 1e-6, "phase_margin": 1e-6,
+    "gain_margin": 1e-6,
+    # closed forms: a linear solve on each side
+    "velocity_constant": 1e-9,
+    # trapezoid on the graded grid, step ≤ 0.01/|p|: relative error ~(0.01)²/12 ≈ 1e-5
+    "iae": 1e-4, "ise": 1e-4, "itae": 1e-4, "load_rejection(iae)": 1e-4,
+    # extremes and band exits refined by Brent's method on the exact state
+    "overshoot": 1e-6, "settling_time": 1e-6, "load_rejection(peak)": 1e-6,
+}
+
+
+@dataclass(frozen=True)
+
+class Block:
+    """ẋ = A x + B w, y = C x + D w."""
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+
+    @property
+    def order(self) -> int:
+        return self.a.shape[0]
+
+
+def siso(numerator: list, denominator: list) -> Block:
+    """A proper n(s)/d(s) (highest power first) in controllable canonical form."""
+    num = np.trim_zeros(np.atleast_1d(np.asarray(numerator, dtype=float)), "f")
+    den = np.trim_zeros(np.atleast_1d(np.asarray(denominator, dtype=float)), "f")
+    num, den = num / den[0], den / den[0]
+    n = len(den) - 1
+    if len(num) > n + 1:
+        raise ValueError("improper transfer function")
+    num = np.concatenate([np.zeros(n + 1 - len(num)), num])
+    d = num[0]
+    rest = num[1:] - d * den[1:]  # strictly proper remainder, coefficients of s^(n−1)…s^0
+    a = np.zeros((n, n))
+    if n:
+        a[0, :] = -den[1:]
+        a[1:, :-1] = np.eye(n - 1)
+    b = np.zeros((n, 1))
+    if n:
+        b[0, 0] = 1.0
+    return Block(a, b, rest.reshape(1, n), np.array([[d]]))
+
+
+
+class ContinuousModel:
+    """Closed loop (a, b, c): inputs [θ_i, T_L] (b has two columns), output θ; open loop
+    (open_a, open_b, open_c): input e_p, output θ."""
+
+    sampled = False
+    period = None
+    position_unit = "rad"
+    TOLERANCES = TOLERANCES
+
+    def __init__(self, closed: tuple, open_loop: tuple, has_load: bool):
+        self.a, self.b, self.c = closed
+        self.open_a, self.open_b, self.open_c = open_loop
+        self.has_load = has_load
+
+    def poles(self) -> np.ndarray:
+        return np.linalg.eigvals(self.a)
+
+    def stable(self) -> bool:
+        p = self.poles()
+        return bool(np.all(p.real < 0))
+
+    def _response(self, a, b, c, d, omega) -> np.ndarray:
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        n = a.shape[0]
+        m = 1j * omega[:, None, None] * np.eye(n) - a
+        return np.linalg.solve(m, np.broadcast_to(b, (omega.size, n, 1)))[:, :, 0] @ c + d
+
+    def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
+        """(L, H): L = θ/e_p with the position feedback opened, H = θ/θ_i."""
+        return self._open(omega), self._response(self.a, self.b[:, :1], self.c, 0.0, omega)
+
+    def velocity_constant(self) -> float:
+        """C_v = 1/e_ss [1/s]: e_ss = −C p0 of the ramp's steady solution x = p0 + p1 t,
+        p1 = −A⁻¹B, p0 = A⁻¹p1 (Bhatia Ch. IV A (c))."""
+        p1 = -np.linalg.solve(self.a, self.b[:, 0])
+        p0 = np.linalg.solve(self.a, p1)
+        return float(-1.0 / (self.c @ p0))
+
+    def _grid(self) -> np.ndarray:
+        speeds = np.abs(np.concatenate([self.poles(), np.linalg.eigvals(self.open_a)]))
+        speeds = speeds[speeds > 0]
+        low, high = np.min(speeds) / FREQUENCY_SPAN, np.max(speeds) * FREQUENCY_SPAN
+        count = int(POINTS_PER_DECADE * math.log10(high / low)) + 1
+        return np.logspace(math.log10(low), math.log10(high), count)
+
+    def _gain(self, omega) -> np.ndarray:
+        """|H(jω)/H(0)|."""
+        h = self._response(self.a, self.b[:, :1], self.c, 0.0, omega)
+        h0 = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
+        return np.abs(h / h0)
+
+    def _open(self, omega) -> np.ndarray:
+        return self._response(self.open_a, self.open_b, self.open_c, 0.0, omega)
+
+    def m_peak(self) -> float:
+        """sup_ω |H(jω)/H(0)| [1] (at least 1, the limit ω → 0): every local maximum of the
+        grid refined by Brent."""
+        grid = self._grid()
+        g = self._gain(grid)
+        best = max(1.0, float(np.max(g)))  # |H/H(0)| → 1 as ω → 0
+        for i in np.nonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:]))[0] + 1:
+            res = minimize_scalar(lambda u: -self._gain(math.exp(u))[0],
+                                  bounds=(math.log(grid[i - 1]), math.log(grid[i + 1])),
+                                  method="bounded", options={"xatol": 1e-12})
+            best = max(best, -float(res.fun))
+        return best
+
+    def _first_crossing(self, fn, level: float) -> float:
+        """Lowest ω of the grid where fn − level changes sign, refined by brentq."""
+        grid = self._grid()
+        values = fn(grid) - level
+        changes = np.nonzero(np.sign(values[:-1]) != np.sign(values[1:]))[0]
+        if changes.size == 0:
+            raise NotCovered("no crossing in the frequency range")
+        i = changes[0]
+        return float(math.exp(brentq(lambda u: fn(math.exp(u))[0] - level,
+                                     math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-14)))
+
+    def bandwidth(self) -> float:
+        """Lowest ω [rad/s] with |H/H(0)| = 1/√2."""
+        return self._first_crossing(lambda w: self._gain(w) ** 2, 0.5)
+
+    def crossover(self) -> float:
+        """Lowest ω [rad/s] with |L| = 1."""
+        return self._first_crossing(lambda w: np.log(np.abs(self._open(w))), 0.0)
+
+    def phase_margin(self) -> float:
+        """180° + arg L(jω_c) [deg], arg taken in (−360°, 0°]."""
+        lo = self._open(self.crossover())[0]
+        return math.degrees(math.atan2(-lo.imag, -lo.real))
+
+    def gain_margin(self) -> float:
+        """1/|L| [1] at the lowest ω where L crosses the negative real axis (the unwrapped
+        phase crosses −180°), located where Im L/|L| changes sign, refined by brentq."""
+        grid = self._grid()
+        phase = np.unwrap(np.angle(self._open(grid)))
+        turns = np.nonzero(np.sign(phase[:-1] + math.pi) != np.sign(phase[1:] + math.pi))[0]
+        if turns.size == 0:
+            raise NotCovered("the open-loop phase never reaches −180°")
+        i = turns[0]
+
+        def imag(u):
+            lo = self._open(math.exp(u))[0]
+            return lo.imag / abs(lo)
+
+        omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-14))
+        return float(1.0 / abs(self._open(omega)[0]))
+
+    # -- time responses ----------------------------------------------------------------
+
+    def _augmented(self, kind: str):
+        """(M, z0, out): the state [x, inputs] with z' = M z, z(0) = z0, θ = out @ z."""
+        n = self.a.shape[0]
+        if kind == "ramp":  # θ_i = t: states [x, θ_i, 1]
+            m = np.zeros((n + 2, n + 2))
+            m[:n, :n], m[:n, n], m[n, n + 1] = self.a, self.b[:, 0], 1.0
+            z0 = np.zeros(n + 2)
+            z0[n + 1] = 1.0
+            return m, z0, np.concatenate([self.c, [0.0, 0.0]])
+        column = self.b[:, 0] if kind == "step" else self.b[:, 1]
+        m = np.zeros((n + 1, n + 1))
+        m[:n, :n], m[:n, n] = self.a, column
+        z0 = np.zeros(n + 1)
+        z0[n] = 1.0
+        return m, z0, np.concatenate([self.c, [0.0]])
+
+    def _grid_steps(self) -> np.ndarray:
+        """Graded time steps [s] until the slowest mode has decayed to SETTLED: each step
+        at most FINE/|p| of the fastest mode still alive (e^{Re p·t} > ALIVE), growing by at
+        most GROWTH per step, so stiff modes are resolved while they last and no longer."""
+        p = self.poles()
+        if np.max(p.real) >= 0:
+            raise ValueError("unstable loop: the responses do not settle")
+        speeds, decay = np.abs(p), -p.real
+        end = math.log(1 / SETTLED) / float(np.min(decay))
+        order = np.argsort(-speeds)  # fastest first
+        # a mode is alive until e^{−decay·t} = ALIVE
+        dies = math.log(1 / ALIVE) / decay[order]
+        steps, t, h = [], 0.0, FINE / float(speeds[order[0]])
+        k = 0
+        while t < end:
+            while k < len(order) - 1 and dies[k] <= t:
+                k += 1
+            h = min(h * GROWTH, FINE / float(speeds[order[k]]))
+            steps.append(h)
+            t += h
+        return np.asarray(steps)
+
+    def _simulate(self, kind: str):
+        """(t, θ, exact) on the graded grid; exact(t) evaluates θ anywhere."""
+        m, z0, out = self._augmented(kind)
+        steps = self._grid_steps()
+        t = np.concatenate([[0.0], np.cumsum(steps)])
+        theta = np.empty(t.size)
+        z = z0.copy()
+        theta[0] = out @ z
+        cache: dict[float, np.ndarray] = {}
+        for i, h in enumerate(steps, start=1):
+            step = cache.get(h)
+            if step is None:
+                step = cache[h] = expm(m * h)
+            z = step @ z
+            theta[i] = out @ z
+        return t, theta, lambda tt: float(out @ expm(m * tt) @ z0)
+
+    def responses(self) -> dict[str, Response]:
+        out = {}
+        for kind in ("step", "ramp") + (("load",) if self.has_load else ()):
+            t, theta, _ = self._simulate(kind)
+            reference = {"step": np.ones_like(t), "ramp": t, "load": np.zeros_like(t)}[kind]
+            unit = "rad/(N·m)" if kind == "load" else self.position_unit
+            out[kind] = Response(kind, t, reference, theta, unit)
+        return out
+
+    def circle_test(self, radius, feed):
+        raise NotCovered("no two-axis circle test for this loop")
+
+    # -- time-domain metrics -----------------------------------------------------------
+
+    def _error(self, kind: str):
+        """(t, e − e_ss, exact(t) of e − e_ss, e_ss) with e = θ_i − θ (step, ramp) or
+        e = −θ per unit load torque."""
+        t, theta, exact = self._simulate(kind)
+        if kind == "step":
+            return t, 1.0 - theta, (lambda tt: 1.0 - exact(tt)), 0.0
+        if kind == "ramp":
+            steady = 1.0 / self.velocity_constant()
+            return t, t - theta - steady, (lambda tt: tt - exact(tt) - steady), steady
+        steady = float(self.c @ np.linalg.solve(self.a, self.b[:, 1]))  # −θ(∞) = C A⁻¹ B_L
+        return t, -theta - steady, (lambda tt: -exact(tt) - steady), steady
+
+    @staticmethod
+    def _extreme(t, values, exact, sign: float) -> float:
+        """max of sign·value over the grid, refined by Brent around the best grid point."""
+        i = int(np.argmax(sign * values))
+        best = float(sign * values[i])
+        if 0 < i < t.size - 1:
+            res = minimize_scalar(lambda tt: -sign * exact(tt), bounds=(t[i - 1], t[i + 1]),
+                                  method="bounded", options={"xatol": 1e-14 * t[i + 1]})
+            best = max(best, -float(res.fun))
+        return best
+
+    @staticmethod
+    def _last_exit(t, values, exact, band: float) -> float:
+        outside = np.nonzero(np.abs(values) > band)[0]
+        if outside.size == 0:
+            return 0.0
+        i = outside[-1]
+        if i == t.size - 1:
+            raise ValueError("the response has not settled at the end of the grid")
+        side = math.copysign(band, values[i])
+        return float(brentq(lambda tt: exact(tt) - side, t[i], t[i + 1], xtol=1e-15))
+
+    def closed_forms(self) -> dict:
+        """Metric name → method of the metrics computed in closed form or by root finding."""
+        return {"m_peak": self.m_peak, "bandwidth": self.bandwidth,
+                "crossover_frequency": self.crossover, "phase_margin": self.phase_margin,
+                "gain_margin": self.gain_margin, "velocity_constant": self.velocity_constant}
+
+    def measure(self, result: dict) -> list[dict]:
+        """Entries for every frequency- and time-domain metric the result reports."""
+        entries, cache = [], {}
+
+        def error(kind):
+            if kind not in cache:
+                cache[kind] = self._error(kind)
+            return cache[kind]
+
+        closed_forms = self.closed_forms()
+        for m in result.get("metrics", {}).values():
+            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
+            if reported is None or (isinstance(reported, float) and math.isinf(reported)):
+                continue
+            if name in closed_forms:
+                try:
+                    value = closed_forms[name]()
+                except NotCovered:
+                    continue
+                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
+            elif name in ("iae", "ise", "itae") and options.get("time", "absolute") == "absolute":
+                t, e, _, _ = error(options.get("input", "step"))
+                entries.append(entry(name, options, reported, error_integrals(t, e)[name],
+                                     self.TOLERANCES[name]))
+            elif name == "overshoot":
+                t, e, exact, _ = error("step")
+                value = max(0.0, self._extreme(t, -e, lambda tt: -exact(tt), 1.0))
+                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
+            elif name == "settling_time":
+                kind = options.get("input", "step")
+                t, e, exact, steady = error(kind)
+                size = 1.0 if kind == "step" else abs(steady)
+                value = self._last_exit(t, e, exact, options.get("band", 0.02) * size)
+                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
+            elif name == "load_rejection" and self.has_load:
+                t, e, exact, steady = error("load")
+                if options.get("measure", "peak") == "iae":
+                    value = error_integrals(t, e)["iae"]
+                else:  # |e| = |e − e_ss + e_ss|, the static error included
+                    value = max(self._extreme(t, e + steady, lambda tt: exact(tt) + steady, s)
+                                for s in (1.0, -1.0))
+                    value = max(value, abs(steady))
+                key = f"load_rejection({options.get('measure', 'peak')})"
+                entries.append(entry(name, options, reported, value, self.TOLERANCES[key]))
+        return entries
+
