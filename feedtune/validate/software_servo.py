@@ -63,7 +63,9 @@ TOLERANCES = {
     # 6e-7 on sato-finish)
     "circle_mean_deviation": 1e-5,
     # peak and valley on grid points: the tuner's 16 points per sample have a relative
-    # error up to (π/(16q))²/2 of the ripple, 1.9 % at q = 1 (measured 1.8e-5 at q = 5)
+    # error up to (π/(16q))²/2 of the ripple, 1.9 % at q = 1 (measured 1.8e-5 at q = 5);
+    # a q that is not whole the tuner takes as its nearest fraction a/b, b ≤ 16, while this
+    # simulates the true T (measured 5e-4 on sato-throughput, q = 13.15)
     "circularity": 2e-2, "circle_roughness": 2e-2,
 }
 #: radial errors below this fraction of the radius count as zero (|H| = 1 to rounding)
