@@ -81,7 +81,8 @@ def responses_figure(model, result: dict) -> Figure:
             ax.plot(r.time[:end], r.reference[:end], "--", color="0.5", label="reference")
             ax.plot(r.time[:end], r.position[:end], label="position")
             ax.set_ylabel(f"position [{unit}]")
-            ax.set_title("unit step", fontsize=10)
+            size = float(r.reference[-1])
+            ax.set_title("unit step" if size == 1 else f"step of {_g(size)} {unit}", fontsize=10)
             lines = []
             for name, label, u in (("iae", "IAE", f"{unit}·s"), ("ise", "ISE", f"{unit}²·s"),
                                    ("itae", "ITAE", f"{unit}·s²")):
@@ -96,7 +97,12 @@ def responses_figure(model, result: dict) -> Figure:
             if settling is not None:
                 ax.axvline(settling, color="C2", lw=0.8, ls=":")
                 lines.append(f"settling time {_g(settling)} s")
-            for name, label, u in (("damping_ratio", "ζ", ""), ("natural_frequency", "ω_n", " rad/s")):
+            for name, label, u in (("pulse_rise_time", "rise time 10–90 %", " s"),
+                                   ("pulse_settling_time", "settling time", " s"),
+                                   ("pulse_max_velocity", "max velocity", f" {unit}/s"),
+                                   ("peak_commanded_acceleration", "peak commanded acceleration",
+                                    f" {unit}/s²"),
+                                   ("damping_ratio", "ζ", ""), ("natural_frequency", "ω_n", " rad/s")):
                 value = metric(result, name)
                 if value is not None:
                     lines.append(f"{label} {_g(value)}{u}")
