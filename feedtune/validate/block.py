@@ -35,7 +35,8 @@ def validate_result(result) -> dict:
     """The validation block of ``result`` (a TuneResult or its dict); never raises.
 
     No wall time in it: a result is the same bytes whoever solves it (batch executors,
-    stdin/file); the re-simulation takes 2–15 ms on Koren's and Sato's examples.
+    stdin/file); the re-simulation takes 3–50 ms on Koren's, Sato's and Tian's examples and
+    0.2–0.4 s on Bhatia's (whose tuning takes 20 s).
 
     ``{"validator", "covered", "reason", "ok", "entries": [{"metric", "options",
     "reported", "validated", "gap", "tolerance", "ok"}, ...]}``; ``ok`` is None when
