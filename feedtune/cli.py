@@ -186,11 +186,13 @@ def _summary(result) -> list[str]:
         note = f"  ({', '.join(notes)})" if notes else ""
         lines.append(f"  {name:<{width}}  {_g(tuned.value)} {_unit(tuned.unit)}{note}")
     lines.append(f"objective: {_g(result.objective)}")
+    lines += _optimum_lines(result.optimum)
     if result.metrics:
         lines.append("metrics:")
         width = max(len(k) for k in result.metrics)
         for key, metric in result.metrics.items():
             lines.append(f"  {key:<{width}}  {_g(metric.value)} {_unit(metric.unit)}")
+    stable = (result.stability or {}).get("stable")
     if result.constraints:
         lines.append("constraints:")
         for c in result.constraints:
@@ -201,11 +203,11 @@ def _summary(result) -> list[str]:
                 bounds.append(f"max {_g(c.max)}")
             metric = METRICS.get(c.metric)
             unit = f" {_unit(metric.unit)}" if metric is not None else ""
-            verdict = "OK" if c.satisfied else "VIOLATED"
+            verdict = ("OK" if c.satisfied else
+                       "NOT MET (loop unstable)" if c.value is None and not stable else "VIOLATED")
             lines.append(f"  {_options_label(c.metric, c.options)} = {_g(c.value)}{unit}"
                          f"  ({', '.join(bounds)})  {verdict}")
     stability = result.stability or {}
-    stable = stability.get("stable")
     text = "stable" if stable else ("UNSTABLE" if stable is not None else "unknown")
     if "spectral_radius" in stability:
         text += f", spectral radius {_g(stability['spectral_radius'])} [1] (z-plane poles)"
@@ -217,6 +219,23 @@ def _summary(result) -> list[str]:
     unit = "iterations" if s.method == "ipopt" else "generations"
     lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
                  f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
+    return lines
+
+
+def _optimum_lines(optimum) -> list[str]:
+    """The summary's word on uniqueness: said only when the optimum is not unique."""
+    if optimum is None or optimum.unique is not False:
+        return []
+    lines = ["optimum: NOT UNIQUE"]
+    if optimum.flat:
+        lines.append(f"  the objective is flat along a direction of {', '.join(optimum.flat)} "
+                     "(reduced Hessian at the optimum)")
+    if optimum.spread:
+        starts = ", ".join(str(i) for i in optimum.starts)
+        lines.append(f"  starts {starts} reach the same objective at different tunables:")
+    for name, spread in optimum.spread.items():
+        lines.append(f"    {name}  {_g(spread.min)} … {_g(spread.max)} {_unit(spread.unit)}")
+    lines.append(f"  to pick one: {optimum.advice}")
     return lines
 
 
@@ -419,9 +438,20 @@ def main() -> None:
 
 def _report_start(start, total: int) -> None:
     """One stderr line per multistart start, so long tunings show progress."""
+    _err(f"start {start.index + 1}/{total}: {_start_text(start)}")
+
+
+def _start_text(start) -> str:
+    """What one start did, in words: a start without a stable point was never solved."""
+    if start.return_status == "No_Stable_Start":
+        return (f"no stable start (restoration found no stable loop near this point; not "
+                f"solved), {start.solve_time:.3f} s")
+    if start.return_status == "No_Free_Tunables":
+        return "nothing to solve (every tunable fixed); evaluated"
     objective = "-" if start.objective is None else _g(start.objective)
-    _err(f"start {start.index + 1}/{total}: {start.status}, objective {objective}, "
-         f"{start.iterations} iterations, {start.solve_time:.3f} s")
+    feasible = "" if start.feasible else " but violates a constraint or stability"
+    return (f"{start.status}{feasible}, objective {objective}, {start.iterations} iterations, "
+            f"{start.solve_time:.3f} s")
 
 
 @main.command(epilog=_EPILOG)
@@ -468,6 +498,8 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> 
 
     for line in warning_lines(result.validation):  # also with --quiet: they are warnings
         _err(line)
+    for line in result.warnings:
+        _err(f"warning: implausible: {line}")
     if report_path is not None:
         _write_report(result.model_dump(mode="json"), report_path, quiet)
     raise SystemExit(EXIT_OK if result.success else EXIT_NOT_SUCCESS)

@@ -11,8 +11,9 @@ import casadi as ca
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
-from feedtune.result import (ConstraintResult, MetricValue, SolverResult, StartResult, TunedValue,
-                             TuneResult, provenance)
+from feedtune.plausibility import plausibility_warnings
+from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult, SpreadValue,
+                             StartResult, TunedValue, TuneResult, provenance)
 from feedtune.spec import Spec, SpecError, parse_spec
 from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import problem_class
@@ -23,6 +24,9 @@ MODEL_GAP_TOL = 1e-6
 #: otherwise the step-response horizon grows by this factor and the problem is solved again
 HORIZON_GROWTH = 4.0
 MAX_HORIZON_REFINEMENTS = 2
+#: starts at the same optimum are at different points when a tunable differs by more than
+#: this (relative): IPOPT's tol 1e-9 puts a unique optimum's starts far closer than that
+DISTINCT_POINT_TOL = 1e-3
 
 
 def build_plant(spec: Spec):
@@ -216,6 +220,8 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                                                 constraints, reports, settings,
                                                 numbers=plant_numbers)
             outcome = problem.solve(progress)
+            if not outcome.stability.get("stable"):
+                break  # a longer horizon cannot make an unstable loop's step response settle
             if outcome.model_gap <= MODEL_GAP_TOL and not outcome.horizon_bound:
                 break
             if notify is not None and refinement < MAX_HORIZON_REFINEMENTS:
@@ -247,14 +253,16 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
         tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=name in fixed,
                                  min=lower, max=upper, at_bound=at_bound)
     position_unit = getattr(plant, "position_unit", "m")
-    stable = bool(outcome.stability.get("stable"))  # an unstable loop's metrics mean nothing
+    # an unstable loop has no steady state, response or margin: its objective, metrics and
+    # constraint values mean nothing, so none is reported and no constraint is met
+    stable = bool(outcome.stability.get("stable"))
     metrics = {key: MetricValue(metric=metric.name, value=outcome.reports[key] if stable else None,
                                 unit=metric.unit_of(options, position_unit),
                                 options=options.model_dump())
                for key, (metric, options) in report_sets.items()}
     constraint_results = [
         ConstraintResult(metric=c.metric, options=_options_dict(c), min=c.min, max=c.max,
-                         value=value, satisfied=ok)
+                         value=value if stable else None, satisfied=ok and stable)
         for c, (_, value, ok) in zip(spec.constraints, outcome.constraints)]
     solver = SolverResult(
         method=outcome.method, return_status=outcome.return_status, message=outcome.message,
@@ -262,12 +270,42 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
         build_time=outcome.build_time, evaluation_time=outcome.evaluation_time,
         model_gap=outcome.model_gap if math.isfinite(outcome.model_gap) else None,
         starts=[StartResult(**vars(start)) for start in outcome.starts])
+    optimum = (optimum_check(outcome.equal_optima, outcome.flat_tunables, tunables)
+               if outcome.success else None)
     result = TuneResult(
         name=spec.name, success=outcome.success, status=outcome.status, message=outcome.message,
-        objective=outcome.objective, tuned=tuned, metrics=metrics, constraints=constraint_results,
-        stability=outcome.stability, solver=solver, provenance=provenance(spec.sha256()),
-        spec=spec.model_dump(mode="json"))
+        objective=outcome.objective if stable else None, tuned=tuned, metrics=metrics,
+        constraints=constraint_results, stability=outcome.stability, solver=solver,
+        provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"),
+        optimum=optimum, warnings=plausibility_warnings(spec, metrics))
     return result.model_copy(update={"validation": _validation(result)})
+
+
+def optimum_check(equal_optima: list[tuple[int, dict[str, float]]], flat: list[str] | None,
+                  tunables) -> OptimumCheck:
+    """Is the tuned point the only one with its objective? (see OptimumCheck)
+
+    Two tests: ``flat``, the tunables along a flat direction of the NLP at the optimum
+    (reduced Hessian, see feedtune.tuner.nlp; None when there was no NLP), and the starts
+    that reached the best objective (``equal_optima``, the best first, with their free
+    tunables): a tunable whose values among them differ by more than DISTINCT_POINT_TOL
+    (relative) spreads.
+    """
+    starts = [i + 1 for i, _ in equal_optima]
+    spread = {}
+    for name in (equal_optima[0][1] if equal_optima else {}):
+        values = [point[name] for _, point in equal_optima]
+        if max(values) - min(values) > DISTINCT_POINT_TOL * max(values):
+            spread[name] = SpreadValue(min=min(values), max=max(values), unit=tunables[name].unit)
+    undecided = list(dict.fromkeys([*(flat or []), *spread]))
+    if not undecided:
+        checked = flat is not None or len(equal_optima) > 1
+        return OptimumCheck(unique=True if checked else None, starts=starts)
+    advice = (f"the objective does not decide {', '.join(undecided)}: add a secondary objective "
+              f"term with a small weight that prefers one point (e.g. iae), or fix one of them "
+              f"(\"tunables\": {{\"{undecided[0]}\": {{\"value\": ...}}}})")
+    return OptimumCheck(unique=False, starts=starts, spread=spread, flat=flat or [],
+                        advice=advice)
 
 
 def _validation(result: TuneResult) -> dict:

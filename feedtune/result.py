@@ -76,6 +76,33 @@ class SolverResult(ResultModel):
     starts: list[StartResult]
 
 
+class SpreadValue(ResultModel):
+    min: float = Field(description="Smallest value among the equal optima [unit]")
+    max: float = Field(description="Largest value among the equal optima [unit]")
+    unit: str
+
+
+class OptimumCheck(ResultModel):
+    """Whether the tuned point is the only one with the best objective, judged from the
+    starts: several starts reaching the best objective at different tunables show a flat
+    direction (e.g. zero radial error along a curve K(T)) or several optima."""
+
+    unique: bool | None = Field(
+        description="false: a flat direction at the optimum, or other starts reaching the "
+                    "same objective at different tunables; true: neither; null: not examined "
+                    "(no NLP was solved and fewer than two starts reached the optimum)")
+    starts: list[int] = Field(
+        default_factory=list, description="Starts (1-based) that reached the best objective")
+    spread: dict[str, SpreadValue] = Field(
+        default_factory=dict, description="Tunables that differ between those starts")
+    flat: list[str] = Field(
+        default_factory=list,
+        description="Tunables along a direction in which the objective does not change to "
+                    "second order while every active constraint holds (reduced Hessian of "
+                    "the Lagrangian at the optimum)")
+    advice: str | None = Field(None, description="How to make the optimum unique")
+
+
 class Provenance(ResultModel):
     feedtune: str
     casadi: str
@@ -99,6 +126,13 @@ class TuneResult(ResultModel):
     solver: SolverResult
     provenance: Provenance
     spec: dict[str, Any] = Field(description="The canonical spec that was solved")
+    optimum: OptimumCheck | None = Field(
+        None, description="Whether the optimum is unique (see OptimumCheck); null when no "
+                          "start succeeded, and in older results")
+    warnings: list[str] = Field(
+        default_factory=list, description="Ways the tuned design is implausible on its own "
+                                          "terms (counter overflow, a unit slip, contradictory "
+                                          "plant data); each is also printed on stderr")
     validation: dict[str, Any] | None = Field(
         None, description="Independent numpy/scipy re-simulation of the tuned design "
                           "(feedtune.validate): each metric as reported and as re-measured, "

@@ -41,7 +41,7 @@ from typing import Callable, Mapping
 
 import casadi as ca
 import numpy as np
-from scipy import optimize
+from scipy import linalg, optimize
 from scipy.stats import qmc
 
 from feedtune.expr import Crossing, Magnitude, Supremum
@@ -64,6 +64,16 @@ EXCHANGE_TOL = 1e-7
 #: it, where any rounding puts the first crossing at the dip (measured on Bhatia's showcase:
 #: 690 rad/s claimed, 471 rad/s by python-control)
 DIP_MARGIN = 1e-3
+#: the objective (divided by its value at the start) curves less than this along a direction
+#: of ln(tunables) allowed by the active constraints: a flat direction, the optimum not unique
+FLAT_CURVATURE = 1e-6
+#: a multiplier larger than this (relative to 1 and the largest) makes its constraint active
+ACTIVE_MULTIPLIER = 1e-6
+#: a tunable moves along a flat direction when its share of the direction exceeds this
+FLAT_SHARE = 0.1
+#: two starts reach the same optimum when their objectives differ by less than this,
+#: relative to the larger of the best objective and the objective's scale at the starts
+SAME_OPTIMUM_TOL = 1e-6
 
 _STATUS = {
     "Solve_Succeeded": "optimal",
@@ -150,6 +160,10 @@ class Outcome:
     horizon_bound: bool  # the optimum lies on the loop's settling conditions: lengthen it
     starts: list[StartOutcome]
     method: str = "ipopt"  # the solver that produced it
+    #: every start that reached the best objective, the best first: (index, free tunables)
+    equal_optima: list[tuple[int, dict[str, float]]] = field(default_factory=list)
+    #: tunables along a flat direction at the optimum (None: not examined)
+    flat_tunables: list[str] | None = None
 
 
 def _number(x) -> float | None:
@@ -560,17 +574,22 @@ class Problem:
         """Run every start; ``progress(start_outcome, total)`` is called after each."""
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, stats)
+        optima = []  # (index, objective, z) of every start that solved feasibly
+        kkt = {}  # index: the start's last NLP solution and multipliers (see _flat_tunables)
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
             if self.has_nlp:
                 z_opt, return_status, iterations, exchanged = self._solve_from(z0, started)
                 status = _STATUS.get(return_status, "error")
+                kkt[index] = self._kkt
             else:
                 z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
                 exchanged = 0
             elapsed = time.perf_counter() - started
             objective, bounds, conditions, matrices = self._evaluate(z_opt)
             feasible, _ = self._feasible(bounds, conditions, matrices)
+            if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
+                objective = None
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
                                        elapsed, feasible, exchanged))
             if progress is not None:
@@ -578,9 +597,13 @@ class Problem:
             violation = self._violation(bounds, conditions)
             solved = status in SOLVED and feasible and objective is not None
             key = (0, objective, index) if solved else (1, violation, index)
+            if solved:
+                optima.append((index, objective, z_opt))
             if best is None or self._better(key, best[0]):
                 best = (key, index, z_opt, return_status, status)
         _, index, z_opt, return_status, status = best
+        equal_optima = self._equal_optima(optima, index)
+        flat = self._flat_tunables(*kkt[index]) if kkt.get(index) else None
         started = time.perf_counter()
         values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
         values.update(self.fixed)
@@ -590,8 +613,12 @@ class Problem:
         settling = np.asarray(self.settling(z_opt, self.param_values), dtype=float).ravel()
         horizon_bound = bool(np.any(settling < SETTLING_ACTIVE))
         evaluation_time = time.perf_counter() - started
-        success = status in SOLVED and feasible
-        if success:
+        success = status in SOLVED and feasible and objective is not None
+        if status in SOLVED and feasible and objective is None:
+            status = "error"
+            message = ("the objective is not a finite number at the tuned point (an input far "
+                       "outside the model's range?)")
+        elif success:
             message = f"start {index + 1} of {len(starts)} gave the best feasible optimum"
         elif status in SOLVED:
             status = "infeasible"
@@ -603,6 +630,10 @@ class Problem:
                 if not inner or not stability["conditions_hold"]:
                     broken.append("closed-loop stability")
             message = "no start satisfied every constraint; violated: " + ", ".join(broken)
+        elif all(s.return_status == "No_Stable_Start" for s in starts):
+            message = (f"no stable start: none of the {len(starts)} starts has a stable loop "
+                       "within reach (restoration searched near each); widen the tunables' "
+                       "bounds towards a stable design, or give a stable 'initial' point")
         else:
             message = f"no start converged; best attempt (start {index + 1}) ended with {return_status}"
         return Outcome(
@@ -613,7 +644,57 @@ class Problem:
             stability=stability, iterations=starts[index].iterations,
             solve_time=sum(s.solve_time for s in starts), build_time=self.build_time,
             evaluation_time=evaluation_time, model_gap=model_gap, horizon_bound=horizon_bound,
-            starts=starts)
+            starts=starts, equal_optima=equal_optima if success else [],
+            flat_tunables=flat if success else None)
+
+    def _flat_tunables(self, x, p, lam_g, lam_x, lbg, ubg) -> list[str]:
+        """Tunables that move along a flat direction of the NLP's solution ``x``.
+
+        Second-order conditions: the Hessian of the Lagrangian (IPOPT's own, with its
+        multipliers) reduced to the directions that keep every active constraint and bound
+        (a multiplier above ACTIVE_MULTIPLIER, or an equality) unchanged to first order. A
+        reduced curvature below FLAT_CURVATURE (the objective is divided by its value at
+        the start, the tunables are logarithms) is a direction in which the optimum is not
+        unique, e.g. zero radial error along a curve K(T).
+        """
+        threshold = ACTIVE_MULTIPLIER * max(1.0, float(np.max(np.abs(lam_g), initial=0.0)),
+                                            float(np.max(np.abs(lam_x), initial=0.0)))
+        _, jacobian = self._nlpsol.get_function("nlp_jac_g")(x, p)
+        rows = [i for i in range(len(lbg)) if (lbg[i] == ubg[i] and math.isfinite(lbg[i]))
+                or (abs(lam_g[i]) > threshold and (math.isfinite(lbg[i]) or math.isfinite(ubg[i])))]
+        active = np.vstack([np.asarray(jacobian.full())[rows].reshape(len(rows), len(x)),
+                            np.eye(len(x))[np.abs(lam_x) > threshold]])
+        directions = linalg.null_space(active) if len(active) else np.eye(len(x))
+        if directions.shape[1] == 0:
+            return []  # a vertex: the active constraints fix every variable
+        triu = np.asarray(self._nlpsol.get_function("nlp_hess_l")(x, p, 1.0, lam_g).full())
+        hessian = triu + np.triu(triu, 1).T
+        curvature, vectors = np.linalg.eigh(directions.T @ hessian @ directions)
+        flat = set()
+        for value, vector in zip(curvature, vectors.T):
+            direction = directions @ vector
+            tunables = direction[:self.n_z]
+            if value < FLAT_CURVATURE and np.linalg.norm(tunables) > FLAT_SHARE * np.linalg.norm(direction):
+                share = np.abs(tunables) / np.linalg.norm(tunables)
+                flat.update(v.name for v, c in zip(self.variables, share) if c > FLAT_SHARE)
+        return [v.name for v in self.variables if v.name in flat]
+
+    def _equal_optima(self, optima, best_index) -> list[tuple[int, dict[str, float]]]:
+        """The starts whose optimum has the best start's objective, the best first, with
+        their free tunables.
+
+        Equal: objectives within SAME_OPTIMUM_TOL of the larger of |best| and the objective's
+        scale at the starts (an optimum of 0, e.g. a radial error, is compared against the
+        error the starts had, not against itself).
+        """
+        best = next((objective for i, objective, _ in optima if i == best_index), None)
+        if best is None:
+            return []
+        tolerance = SAME_OPTIMUM_TOL * max(abs(best), self.f_scale)
+        equal = sorted((i != best_index, i, z) for i, objective, z in optima
+                       if abs(objective - best) <= tolerance)
+        return [(i, {v.name: float(math.exp(z[k])) for k, v in enumerate(self.variables)})
+                for _, i, z in equal]
 
     def _solve_from(self, start: np.ndarray, started: float) -> tuple[np.ndarray, str, int, int]:
         """One start: IPOPT, then exchange rounds while a refined peak or dip violates its bound.
@@ -623,6 +704,7 @@ class Problem:
         ends the start with its status; so do the start's time limit (``time_limit``),
         running out of exchange points, and a start that restoration cannot make stable.
         """
+        self._kkt = None
         z0 = self._stable_start(start)
         if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)
             return start, "No_Stable_Start", 0, 0
@@ -639,6 +721,9 @@ class Problem:
             iterations += min(max(int(stats.get("iter_count", 0)), 0), self.settings.max_iter)
             return_status = stats.get("return_status", "unknown")
             x0 = np.asarray(solution["x"], dtype=float).ravel()
+            self._kkt = (x0, np.concatenate([[p_scale], slots, self.param_values]),
+                         np.asarray(solution["lam_g"], dtype=float).ravel(),
+                         np.asarray(solution["lam_x"], dtype=float).ravel(), lbg.copy(), ubg.copy())
             if _STATUS.get(return_status) not in SOLVED:
                 break
             added = self._add_exchange_points(x0, slots, lbg, ubg, used)
