@@ -23,7 +23,7 @@ delay buffer], so a delay of d samples adds d states. Continuous loops
 A linear interpolator (``interpolation: linear``) sits in front of the servo loop and is
 not part of the export: the systems start at the servo's position reference.
 
-This module sits beside the data flow of DESIGN.md (plant → Loop → metrics → tuner): it
+This module sits beside the data flow of docs/design.md (plant → Loop → metrics → tuner): it
 reads a result and a plant's Loop, and nothing in feedtune imports it but the package's
 ``load_result``.
 """

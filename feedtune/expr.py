@@ -2,7 +2,7 @@
 
 A metric returns a plain CasADi expression, or one of these when its value is not smooth
 in the tunables; the tuner then reformulates it so that the NLP stays smooth
-(DESIGN.md: non-smooth metrics are reformulated by the tuner, not by each metric).
+(docs/design.md: non-smooth metrics are reformulated by the tuner, not by each metric).
 """
 
 from typing import Callable, NamedTuple

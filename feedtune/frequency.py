@@ -1,7 +1,7 @@
 """Peaks and crossings of frequency responses, exact between grid points.
 
 A grid alone is exploited by an optimiser: a light resonance slips between points and a
-bandwidth is claimed where the true −3 dB point lies lower (DESIGN.md, numerical notes).
+bandwidth is claimed where the true −3 dB point lies lower (docs/design.md, numerical notes).
 So every quantity here is located on a logarithmic grid first and then solved exactly:
 crossings by bisection to a bracket then Newton steps, peaks by golden section in every
 grid window then Newton steps. The last Newton step carries the implicit-function

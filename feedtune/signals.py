@@ -2,7 +2,7 @@
 
 Two error shapes occur in feed-drive loops, and both are integrated in closed form, so
 that the integrals are smooth functions of the loop parameters (IPOPT converges on them;
-a quadrature of |e| would not, see DESIGN.md numerical notes):
+a quadrature of |e| would not, see docs/design.md numerical notes):
 
 * a second-order continuous loop: e(t) = Re(c·e^{pt}), or a sum of two real exponentials;
 * one sample of a sampled loop whose plant is an integrator with a first-order lag:

@@ -204,7 +204,7 @@ def koren_step_response(gain: float, period: float, time_constant: float, sample
     Returns ``(response, alpha_t, omega_t, m, zeta)`` for n = 0..samples−1, where
     W(n)/V = 1 − e^{−nαT}(cos nωT + M sin nωT). Valid for complex closed-loop poles and
     no computation delay. W(n) is the counter reading ΔP(n)/T, which equals the position
-    step response at sample n (DESIGN.md errata).
+    step response at sample n (docs/design.md errata).
     """
     k, t, tau = gain, period, time_constant
     x = math.exp(-t / tau)

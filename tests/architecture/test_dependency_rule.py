@@ -1,4 +1,4 @@
-"""The dependency rule (DESIGN.md): plant → Loop → metrics → tuner, nothing flows back.
+"""The dependency rule (docs/design.md): plant → Loop → metrics → tuner, nothing flows back.
 
 * the tuner imports neither ``feedtune.plants`` nor ``feedtune.objectives``;
 * an objective imports nothing from ``feedtune.plants``;
@@ -204,7 +204,7 @@ TUNER_SIDE = ("casadi", "feedtune.loop", "feedtune.linalg", "feedtune.plants",
 
 @pytest.mark.parametrize("module", VALIDATE_MODULES)
 def test_validator_and_report_are_independent_of_the_tuner(module):
-    """DESIGN.md: validate/ checks a design with numpy/scipy only, so that a loop is never
+    """docs/design.md: validate/ checks a design with numpy/scipy only, so that a loop is never
     called stable on CasADi's word alone; neither it, nor the report drawn from it, nor any
     feedtune module they use imports casadi or the tuner's own models and metrics."""
     for name in {module} | transitive_imports(module):

@@ -1,4 +1,4 @@
-"""Reference tests against Bhatia 1971 (../shared/seeds/001_a2d709fd07e2d5af.txt).
+"""Reference tests against Bhatia 1971 (S. Bhatia, M.S. thesis, Univ. of Missouri–Rolla, 1971).
 
 Ch. IV (Fig 21 quartic, Tables 1, 2, 4, 5, 6, Fig 29b, Figs 33–34, margins) and
 Appendices A2 and C. Every loop is built by the real plant (HydraulicRotary from the SI
@@ -33,7 +33,7 @@ from feedtune.plants.compensator import compensator_polynomials
 from feedtune.plants.hydraulic_rotary import HydraulicRotary, HydraulicRotaryParams
 
 EXAMPLE = load_example("bhatia-1971-hydraulic")
-TAU = 0.01  # s, torque-motor time constant of the tables (printed 0.0105, DESIGN.md errata)
+TAU = 0.01  # s, torque-motor time constant of the tables (printed 0.0105, docs/design.md errata)
 TAU_PRINTED = 0.0105
 VELOCITY_LAG_LEAD = {"tau1": 10 / 75, "tau2": 1 / 75, "tau12": 10.0}  # Fig 29a
 POSITION_LAG = {"tau1": 1 / 240, "tau2": 1 / 80}  # Table 5, compensator type 1
@@ -633,7 +633,7 @@ def table_response(table: int):
 
 
 def test_tables_use_the_velocity_loop_normalised_to_unit_dc_gain():
-    # DESIGN.md: Tables 4–6 equal the open loop with the velocity loop normalised to unit DC
+    # docs/design.md: Tables 4–6 equal the open loop with the velocity loop normalised to unit DC
     # gain, a factor (1 + 10K'_v)/(10K'_v) = 301/300. At ω = 1 rad/s that is what puts Table 4
     # at 79.637 (79.372 without it): printed to 5 significant digits.
     normalisation, response = table_response(4)

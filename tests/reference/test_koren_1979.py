@@ -1,4 +1,4 @@
-"""Reference tests against Koren 1979 (../shared/seeds/000_8e9178dd74fd70a1.txt).
+"""Reference tests against Koren 1979 (Y. Koren, ASME J. Eng. Ind., 1979).
 
 Each test cites the equation it reproduces and says why its tolerance is what it is.
 Gains are found by the optimiser from the bundled examples, never typed in.
@@ -110,7 +110,7 @@ def test_min_radial_error_locus_eq40(ratio):
 
 def test_min_iae_natural_time_gives_k_tau_0567(tuned_example):
     # Text before eq 34: "For T = 0 the minimum IAE criterion results in Kτ = 0.567".
-    # Only with time normalised by ω_n (DESIGN.md errata). The exact optimum is
+    # Only with time normalised by ω_n (docs/design.md errata). The exact optimum is
     # Kτ = 0.5698 (ζ = 0.662); the issue asks for 1 %.
     result = tuned_example("koren-1979-iae-natural")
     assert result.success
@@ -121,7 +121,7 @@ def test_min_iae_natural_time_gives_k_tau_0567(tuned_example):
 
 
 def test_min_iae_plain_time_has_no_interior_optimum_at_t0():
-    # DESIGN.md errata: in plain time the IAE of K/(s(1+sτ)) falls monotonically with K,
+    # docs/design.md errata: in plain time the IAE of K/(s(1+sτ)) falls monotonically with K,
     # so the optimiser must end on the upper gain bound.
     spec = load_example("koren-1979-iae-natural")
     spec["objective"] = [{"metric": "iae", "time": "absolute"}]

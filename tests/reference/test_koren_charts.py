@@ -3,7 +3,7 @@
 Every gain here is found by tuning a spec (``feedtune.charts.koren.tune_point``), never
 typed in; the paper's closed forms are evaluated independently and compared. Each test
 cites the equation or sentence and says why its tolerance is what it is. Paper:
-../shared/seeds/000_8e9178dd74fd70a1.txt; misprints: docs/errata.md.
+Y. Koren, ASME J. Eng. Ind., 1979; misprints: docs/errata.md.
 """
 
 from __future__ import annotations

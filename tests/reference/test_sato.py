@@ -1,4 +1,4 @@
-"""Reference tests against Sato et al. (../shared/seeds/004_8326aa67efce66dc.txt).
+"""Reference tests against Sato et al. (Sato et al., software servo).
 
 Table 2's analysis values, conditions (a) and (b): a circle of r = 50 mm at ω = 1 rad/s,
 K_p = 40 1/s, Δt_p = 2 ms, L = 1.5 Δt_p, N = 24 and 48 sides. The values come from the

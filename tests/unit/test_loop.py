@@ -153,7 +153,7 @@ def test_sampled_loop_matrices_match_numpy(delay, gain, period):
 
 
 def test_sampled_loop_positions_follow_koren_eq16():
-    """Position at sample n from Φ_cl, Γ_cl equals W(n)/V of eq 16 (DESIGN.md errata: W(n) is
+    """Position at sample n from Φ_cl, Γ_cl equals W(n)/V of eq 16 (docs/design.md errata: W(n) is
     the counter reading, i.e. the position step response); design example K = 18, T = 1/64."""
     gain, period = 18.0, 1 / 64
     loop = SampledLoop(IntegratorLag(TAU), gain, period)

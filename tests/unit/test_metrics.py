@@ -1,6 +1,6 @@
 """Each metric's formula on numeric loops built by SoftwareServo, against numpy or the paper.
 
-Paper formulas are typed here from Koren 1979 (../shared/seeds/000_8e9178dd74fd70a1.txt):
+Paper formulas are typed here from Koren 1979 (Y. Koren, ASME J. Eng. Ind., 1979):
 eq 1 f_m = V_m/BLU; eq 9 ζ = 1/(2√(Kτ)); eq 10 ω_n = √(K/τ); eq 26 f_m/f_s; eq 28
 e_r/r = (L/2)(ωT)² (+ an (ωT)⁴ term); eq 29 L = (Kτ(T/τ + 2) − 1)/(KT)²; eq 32
 r/BLU = L(T f_m)²; eq 33 r/BLU = (2Kτ − 1)(f_m/K)²; eq 37

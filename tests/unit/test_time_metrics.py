@@ -4,7 +4,7 @@ load_rejection) on loops given by polynomials, and what stays unchanged on Koren
 Closed forms: a TransferLoop with L = ω²/(s(s + 2ζω)) closes to ω²/(s² + 2ζωs + ω²):
 overshoot e^{−πζ/√(1−ζ²)}, step ISE (1 + 4ζ²)/(4ζω), ramp e_ss = 1/C_v = 2ζ/ω. Bhatia's
 loop: examples/bhatia-1971-hydraulic.json (his hand design, Ch. IV F) and his time responses
-(Figs 35, 36; ../shared/seeds/001_a2d709fd07e2d5af.txt around line 1120-1190).
+(Bhatia 1971, Figs 35, 36).
 """
 
 from __future__ import annotations
@@ -262,7 +262,7 @@ def test_bhatia_figs_35_36_transients():
 
     'Die out' is read off a plot of a unit step: we take it as |e| ≤ 0.2 % of the step, about
     a line width. Our loop uses his tables' 0.01 s torque-motor constant (printed 0.0105,
-    DESIGN.md errata) and keeps the two fast poles he dropped, so his figures are matched
+    docs/design.md errata) and keeps the two fast poles he dropped, so his figures are matched
     within 15 % (measured: 0.334 s and 0.473 s). For the ramp, 'steady state' within 5 % of
     the following error (0.6 mrad of 12.5 mrad; measured 0.22 s and 0.25 s). The ordering
     (the higher gain rings longer: its pair at −11 ± 171j against −23 ± 172j) is exact.
