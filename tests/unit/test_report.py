@@ -49,3 +49,33 @@ def test_text_from_the_result_is_escaped(tmp_path):
     result["name"] = "<script>alert(1)</script>"
     page = write_report(result, tmp_path)[0].read_text()
     assert "<script>" not in page and "&lt;script&gt;" in page
+
+
+def test_a_report_killed_while_writing_leaves_files_the_next_one_may_replace(tmp_path,
+                                                                            monkeypatch):
+    """The manifest lists old and new digests while files are replaced: after a failure
+    between two files the directory holds only listed files, and a rerun completes."""
+    from feedtune.report import output
+
+    result = json.loads((DATA / "tian-vf-pulse.result.json").read_text())
+    figures = build_figures(result)
+    write_report(result, tmp_path, figures)
+    result["name"] = "renamed"  # a different page: report.html must be replaced
+    real, calls = output.write_atomic, []
+
+    def dies_on_the_second_file(path, data):
+        calls.append(path.name)
+        if len(calls) == 3:  # pending manifest, first file, then the kill
+            raise KeyboardInterrupt
+        real(path, data)
+
+    monkeypatch.setattr(output, "write_atomic", dies_on_the_second_file)
+    with pytest.raises(KeyboardInterrupt):
+        write_report(result, tmp_path, figures)
+    assert calls[0] == output.MANIFEST
+    monkeypatch.setattr(output, "write_atomic", real)
+    written = write_report(result, tmp_path, figures)
+    assert "renamed" in written[0].read_text()
+    manifest = output.read_manifest(tmp_path)
+    assert sorted(manifest) == sorted(p.name for p in written)
+    assert all(len(digests) == 1 for digests in manifest.values())
