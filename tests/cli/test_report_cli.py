@@ -28,26 +28,42 @@ def feedtune(*args: str) -> subprocess.CompletedProcess:
 
 
 class _Page(HTMLParser):
-    """Images (src) and the text of every table cell."""
+    """Images (src), the text of every table cell, table rows (cell texts), <pre> texts and
+    the attributes of <html> and every <meta>."""
 
     def __init__(self):
         super().__init__()
-        self.images, self.cells, self._cell = [], [], None
+        self.images, self.cells, self.rows, self.pre, self.meta = [], [], [], [], []
+        self.html, self._cell, self._pre = {}, None, None
 
     def handle_starttag(self, tag, attrs):
         if tag == "img":
             self.images.append(dict(attrs)["src"])
+        if tag == "html":
+            self.html = dict(attrs)
+        if tag == "meta":
+            self.meta.append(dict(attrs))
+        if tag == "tr":
+            self.rows.append([])
         if tag == "td":
             self._cell = ""
+        if tag == "pre":
+            self._pre = ""
 
     def handle_data(self, data):
         if self._cell is not None:
             self._cell += data
+        if self._pre is not None:
+            self._pre += data
 
     def handle_endtag(self, tag):
         if tag == "td":
             self.cells.append(self._cell)
+            self.rows[-1].append(self._cell)
             self._cell = None
+        if tag == "pre":
+            self.pre.append(self._pre)
+            self._pre = None
 
 
 def parse(path: Path) -> _Page:
@@ -169,6 +185,26 @@ def test_tune_checks_the_report_directory_before_solving(tmp_path):
     assert str(out / "responses.png") in proc.stderr.decode() and "'--report'" in proc.stderr.decode()
     assert not (tmp_path / "result.json").exists() and "start 1/" not in proc.stderr.decode()
     assert (out / "responses.png").read_bytes() == b"mine"
+
+
+def test_the_page_shows_the_plant_with_units_the_provenance_and_the_spec(tmp_path):
+    source = DATA / "bhatia-1971-hydraulic.result.json"
+    result = json.loads(source.read_text())
+    proc = feedtune("report", str(source), "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr.decode()
+    page = parse(tmp_path / "report.html")
+    rows = {row[0]: row[1:] for row in page.rows if row}
+    assert rows["bulk_modulus"][:2] == ["689475729.0", "Pa"]
+    assert rows["displacement"][:2] == ["1.38233e-07", "m³/rad"]
+    assert rows["hydraulic_natural_frequency"][:2] == ["75.0", "rad/s"]
+    assert rows["torque_motor_natural_frequency"][:1] == ["null"]
+    assert "Effective bulk modulus" in rows["bulk_modulus"][2]
+    for key in ("feedtune", "casadi", "ipopt", "python", "spec_sha256"):
+        assert [result["provenance"][key]] in rows.values(), key
+    assert [json.loads(text) for text in page.pre] == [result["spec"]]
+    assert page.html.get("lang") == "en"
+    assert {"charset": "utf-8"} in page.meta
+    assert {"name": "viewport", "content": "width=device-width, initial-scale=1"} in page.meta
 
 
 def test_figures_a_plant_cannot_offer_are_named_with_the_reason(tmp_path):

@@ -47,8 +47,11 @@ def test_a_failed_tuning_gets_a_page_saying_what_is_missing(tmp_path):
 def test_text_from_the_result_is_escaped(tmp_path):
     result = json.loads((DATA / "tian-vf-pulse.result.json").read_text())
     result["name"] = "<script>alert(1)</script>"
+    result["spec"]["description"] = "</pre><script>alert(2)</script>"
+    result["spec"]["plant"]["type"] = "<b>x</b>"
     page = write_report(result, tmp_path)[0].read_text()
-    assert "<script>" not in page and "&lt;script&gt;" in page
+    assert "<script>" not in page and "<b>x" not in page
+    assert "&lt;script&gt;alert(1)" in page and "&lt;/pre&gt;&lt;script&gt;alert(2)" in page
 
 
 def test_a_report_killed_while_writing_leaves_files_the_next_one_may_replace(tmp_path,
