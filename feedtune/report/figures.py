@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 from matplotlib.figure import Figure
+from scipy.optimize import brentq
 
 from feedtune.validate.model import NotCovered
 
@@ -21,8 +22,10 @@ from feedtune.validate.model import NotCovered
 SIZE, DPI = (7.5, 5.0), 100
 #: a displayed response ends when it stays within this fraction of its largest excursion
 DISPLAY_SETTLED = 2e-3
-#: Bode plots span this factor beyond the slowest and fastest closed-loop pole
-BODE_MARGIN = 30.0
+#: Bode plots span this factor beyond the lowest and highest characteristic frequency
+BODE_DECADE = 10.0
+#: a closed-loop |H| peak this factor (0.1 dB) above its low-frequency value is a resonance
+RESONANCE = 10 ** (0.1 / 20)
 #: Bode grid density [points per decade]
 BODE_POINTS = 400
 #: the magnified circle deviation spans this fraction of the plotted radius
@@ -56,10 +59,12 @@ def _display_end(t: np.ndarray, y: np.ndarray) -> int:
     return int(np.searchsorted(t, end_time)) + 1
 
 
-def _note(ax, lines: list[str]) -> None:
+def _note(ax, lines: list[str], left: bool = False) -> None:
+    """A box of ``lines`` in the lower right (``left``: lower left) corner of ``ax``."""
     if lines:
-        ax.text(0.98, 0.04, "\n".join(lines), transform=ax.transAxes, ha="right", va="bottom",
-                fontsize=8, bbox={"boxstyle": "round", "fc": "white", "alpha": 0.85})
+        ax.text(0.02 if left else 0.98, 0.04, "\n".join(lines), transform=ax.transAxes,
+                ha="left" if left else "right", va="bottom", fontsize=8,
+                bbox={"boxstyle": "round", "fc": "white", "alpha": 0.85})
 
 
 def _g(value: float) -> str:
@@ -144,21 +149,73 @@ def responses_figure(model, result: dict) -> Figure:
     return figure
 
 
-def bode_range(model) -> tuple[float, float]:
-    """(low, high) [rad/s]: BODE_MARGIN beyond the slowest and fastest nonzero pole; a
-    sampled loop ends at the Nyquist frequency π/T."""
+def _s_poles(model) -> np.ndarray:
+    """Closed-loop poles in the s-plane [1/s]; a sampled loop's by s = ln(z)/T (z = 0 has
+    none)."""
     poles = np.asarray(model.poles(), dtype=complex)
     if model.sampled:
-        poles = poles[np.abs(poles) > 1e-12]
-        poles = np.log(poles) / model.period
+        poles = np.log(poles[poles != 0]) / model.period
+    return poles
+
+
+def _crossings(omega: np.ndarray, f: np.ndarray, level: float, curve) -> list[float]:
+    """Every ω [rad/s] where ``f`` (sampled on ``omega``) crosses ``level``, refined by
+    Brent's method on ``curve(ω) − level`` in log ω."""
+    above = f > level
+    found = []
+    for i in np.nonzero(above[:-1] != above[1:])[0]:
+        found.append(math.exp(brentq(lambda x: curve(math.exp(x)) - level,
+                                     math.log(omega[i]), math.log(omega[i + 1]), xtol=1e-9)))
+    return found
+
+
+def characteristic_frequencies(model) -> dict[str, float]:
+    """The frequencies [rad/s] that set a Bode diagram's range.
+
+    ``slowest pole`` and ``dominant pole`` (largest real part) are |s| of closed-loop poles;
+    ``crossover`` the highest ω where |L| = 1, ``bandwidth`` the first ω where |H| falls
+    3 dB below its low-frequency value, ``peak`` the ω of the largest |H| (where it is
+    not at an end of the scan and at least RESONANCE above the low-frequency gain). Found on a 40-per-decade scan from 10⁻³ of the slowest to
+    10³ times the fastest pole (the Nyquist frequency π/T for a sampled loop), crossings
+    refined by Brent's method.
+    """
+    poles = _s_poles(model)
     speeds = np.abs(poles)
-    speeds = speeds[speeds > 1e-9 * max(float(np.max(speeds, initial=0.0)), 1e-300)]
-    if speeds.size == 0:
+    alive = speeds > 0
+    if not np.any(alive):
         raise NotCovered("no nonzero pole to set the frequency range")
-    low, high = float(np.min(speeds)) / BODE_MARGIN, float(np.max(speeds)) * BODE_MARGIN
+    freqs = {"slowest pole": float(np.min(speeds[alive])),
+             "dominant pole": float(speeds[alive][np.argmax(poles[alive].real)])}
+    low = freqs["slowest pole"] / 1e3
+    high = math.pi / model.period * (1 - 1e-6) if model.sampled else float(np.max(speeds)) * 1e3
+    omega = np.logspace(math.log10(low), math.log10(high),
+                        int(40 * math.log10(high / low)) + 2)
+    open_loop, closed = (np.abs(h) for h in model.frequency_response(omega))
+    gain = lambda w, i: float(np.abs(model.frequency_response(np.array([w]))[i][0]))  # noqa: E731
+    crossings = _crossings(omega, np.log(open_loop), 0.0, lambda w: math.log(gain(w, 0)))
+    if crossings:
+        freqs["crossover"] = crossings[-1]
+    steady = gain(freqs["slowest pole"] * 1e-6, 1)  # |H(0)| to ~1e-12
+    dips = _crossings(omega, np.log(closed / steady), -0.5 * math.log(2),
+                      lambda w: math.log(gain(w, 1) / steady))
+    if dips:
+        freqs["bandwidth"] = dips[0]
+    peak = int(np.argmax(closed))
+    if 0 < peak < len(omega) - 1 and closed[peak] > RESONANCE * steady:
+        freqs["peak"] = float(omega[peak])
+    return freqs
+
+
+def bode_range(model) -> tuple[float, float]:
+    """(low, high) [rad/s]: a factor BODE_DECADE below the lowest and above the highest
+    :func:`characteristic_frequencies`, not the fastest pole's (a hydraulic pole at
+    4.5e5 rad/s says nothing about a 700 rad/s loop); a sampled loop ends at the Nyquist
+    frequency π/T, at least two decades above ``low``."""
+    freqs = characteristic_frequencies(model).values()
+    low, high = min(freqs) / BODE_DECADE, max(freqs) * BODE_DECADE
     if model.sampled:
         high = math.pi / model.period * (1 - 1e-6)
-        low = min(low, high / 1e3)
+        low = min(low, high / 1e2)
     return low, high
 
 
@@ -201,14 +258,14 @@ def bode_figure(model, result: dict) -> Figure:
         for ax in (mag, phase):
             ax.axvline(math.pi / model.period, color="k", lw=0.8)
         lines.append(f"Nyquist π/T = {_g(math.pi / model.period)} rad/s")
-    _note(mag, lines)
+    _note(mag, lines, left=True)  # |L| and |H| fall to the lower right
     mag.set_ylabel("magnitude [dB]")
     phase.set_ylabel("phase [deg]")
     phase.set_xlabel("frequency ω [rad/s]")
-    mag.legend(loc="lower left", fontsize=8)
+    mag.legend(loc="upper right", fontsize=8)
     for ax in (mag, phase):
         ax.grid(True, which="both", alpha=0.3)
-    mag.set_title("Bode diagram" + (" (sampled loop, z = e^{jωT})" if model.sampled else ""),
+    mag.set_title("Bode diagram" + (" (sampled loop, z = e^(jωT))" if model.sampled else ""),
                   fontsize=10)
     figure.tight_layout()
     return figure
