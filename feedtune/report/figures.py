@@ -28,8 +28,11 @@ BODE_DECADE = 10.0
 RESONANCE = 10 ** (0.1 / 20)
 #: Bode grid density [points per decade]
 BODE_POINTS = 400
-#: the magnified circle deviation spans this fraction of the plotted radius
-CIRCLE_SPAN = 0.35
+#: micrometres per metre: the circle figure's deviations are in µm
+UM = 1e6
+#: the circle figure's ring spans at least this deviation range [m] (1 nm, far below a
+#: BLU), so a path with no deviation at all is still drawn on a readable scale
+CIRCLE_MIN_SPAN = 1e-9
 #: the zoomed circle deviation shows this many interpolator sides, or degrees without one
 ZOOM_SIDES, ZOOM_DEGREES = 4, 30
 
@@ -280,51 +283,106 @@ def circle_options(result: dict) -> tuple[float, float]:
     raise NotCovered("no circle metric (radius and feed) in the result")
 
 
+def circle_limits(result: dict) -> list[tuple[float, str]]:
+    """(radial deviation [m], label) of every constraint bound that places the path: a
+    ``radius_decrease`` max Δr at −Δr, ``circle_mean_deviation`` min/max as they are, a
+    ``radial_error`` max e at ±e."""
+    limits = []
+    for c in result.get("constraints") or []:
+        low, high, name = c.get("min"), c.get("max"), c.get("metric")
+        if name == "radius_decrease" and high is not None:
+            limits.append((-high, f"constraint Δr ≤ {_g(high * UM)} µm"))
+        elif name == "circle_mean_deviation":
+            limits += [(v, f"constraint mean deviation {op} {_g(v * UM)} µm")
+                       for v, op in ((low, "≥"), (high, "≤")) if v is not None]
+        elif name == "radial_error" and high is not None:
+            limits += [(v, f"constraint |radial error| ≤ {_g(high * UM)} µm")
+                       for v in (-high, high)]
+    return limits
+
+
 def circle_figure(model, result: dict) -> Figure:
-    """Polar plot of the steady circle's radial deviation, magnified about the mean radius,
-    and the deviation [m] against the angle over the first few sides (or degrees)."""
+    """The steady circle test, ballbar style: the radial deviation [µm] from the commanded
+    radius around the revolution (a ring, not to scale: its width is the deviation range),
+    with the commanded radius, the band between the smallest and largest deviation
+    (circularity), the constraint bounds and the zoomed wedge marked; below, the deviation
+    [µm] over the first few interpolator sides (or degrees)."""
     if model.position_unit != "m":
         raise NotCovered(f"a rotary axis (position in {model.position_unit}): no two-axis "
                          "circle test")
     radius, feed = circle_options(result)
     trace = model.circle_test(radius, feed)
-    deviation = np.asarray(trace.deviation)
     angle = np.unwrap(np.asarray(trace.angle))
-    mean = float(np.mean(deviation))
-    ripple = float(np.ptp(deviation))
-    magnification = CIRCLE_SPAN * radius / ripple if ripple > 0 else 1.0
-    figure = Figure(figsize=(6.5, 9.0), dpi=DPI)
-    grid = figure.add_gridspec(3, 1, height_ratios=[3.2, 1.3, 0.9])
-    ax = figure.add_subplot(grid[0], projection="polar")
-    theta = np.linspace(0, 2 * math.pi, 721)
-    ax.plot(theta, np.full_like(theta, radius), "--", color="0.5", label="mean radius")
-    ax.plot(angle, radius + magnification * (deviation - mean), lw=0.8, label="path")
-    ax.set_rlim(0, radius * (1 + 1.5 * CIRCLE_SPAN))
-    ax.set_yticklabels([])
-    ax.legend(loc="lower left", fontsize=7, bbox_to_anchor=(-0.12, -0.08))
-    ax.set_title("circle test: radial deviation", fontsize=10)
-    zoom = figure.add_subplot(grid[1])
+    dev = np.asarray(trace.deviation) * UM
+    mean, low, high = float(np.mean(dev)), float(np.min(dev)), float(np.max(dev))
+    limits = [(v * UM, label) for v, label in circle_limits(result)]
+    shown = [0.0, low, high] + [v for v, _ in limits]
+    span = max(max(shown) - min(shown), CIRCLE_MIN_SPAN * UM)
+    r_min, r_max = min(shown) - 0.15 * span, max(shown) + 0.15 * span
     interval = getattr(model, "reference_interval", None)
-    span = ZOOM_SIDES * interval * feed / radius if interval else math.radians(ZOOM_DEGREES)
-    shown = angle - angle[0] <= span
-    zoom.plot(np.degrees(angle[shown] - angle[0]), deviation[shown])
-    zoom.axhline(mean, color="0.5", ls="--", lw=0.8)
+    wedge = ZOOM_SIDES * interval * feed / radius if interval else math.radians(ZOOM_DEGREES)
+    figure = Figure(figsize=(6.5, 9.5), dpi=DPI)
+    grid = figure.add_gridspec(3, 1, height_ratios=[4.0, 1.6, 0.7])
+    ax = figure.add_subplot(grid[0], projection="polar")
+    ax.set_rorigin(r_min - (r_max - r_min))  # a ring: the centre is not r = 0
+    ax.set_rlim(r_min, r_max)
+    theta = np.linspace(0, 2 * math.pi, 721)
+    ax.fill_between(theta, low, high, color="C0", alpha=0.15, lw=0,
+                    label=f"circularity band (max − min) {_g(high - low)} µm")
+    ax.plot(theta, np.zeros_like(theta), "--", color="k", lw=1.0,
+            label=f"commanded radius r = {_g(radius * 1e3)} mm (0 µm)")
+    ax.plot(theta, np.full_like(theta, mean), ":", color="0.3", lw=1.0,
+            label=f"mean deviation {_g(mean)} µm")
+    for i, (value, label) in enumerate(limits):
+        ax.plot(theta, np.full_like(theta, value), color="C3", lw=1.2,
+                label=label if i == 0 or label != limits[i - 1][1] else None)
+    ax.plot(angle, dev, color="C0", lw=0.6, label="path (re-simulated)")
+    start = angle[0]
+    ax.fill_between(np.linspace(start, start + wedge, 50), r_min, r_max, color="C1", alpha=0.35,
+                    lw=1.0, edgecolor="C1", label="zoomed below")
+    middle = math.degrees(start + wedge / 2) % 360  # labels upright, clear of the wedge
+    label_at = 270 if abs(middle - 90) < 45 + math.degrees(wedge) / 2 else 90
+    ax.set_rlabel_position(label_at)
+    ax.tick_params(axis="y", labelsize=7)
+    for label in ax.get_yticklabels():  # readable over the path
+        label.set_bbox({"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.8})
+    ax.text(math.radians(label_at), r_min - 0.12 * (r_max - r_min), "[µm]", fontsize=8,
+            ha="center", va="center")  # in the hole, next to the innermost label
+    ax.set_title(f"circle test at {_g(feed * 1e3)} mm/s: radial deviation from the commanded "
+                 f"radius [µm]\n(ring not to scale: it spans {_g(r_max - r_min)} µm)",
+                 fontsize=10)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7,
+              frameon=False)
+    zoom = figure.add_subplot(grid[1])
+    part = angle - start <= wedge
+    degrees = np.degrees(angle[part] - start)
+    ripple = max(high - low, CIRCLE_MIN_SPAN * UM)
+    zoom.set_ylim(low - 0.4 * ripple, high + 0.4 * ripple)
+    zoom.axhspan(low, high, color="C0", alpha=0.15, lw=0)
+    zoom.plot(degrees, dev[part], color="C0")
+    zoom.axhline(mean, color="0.3", ls=":", lw=1.0)
+    for value, _ in limits + [(0.0, "")]:
+        if low - 0.4 * ripple <= value <= high + 0.4 * ripple:  # only those in view
+            zoom.axhline(value, color="C3" if _ else "k", ls="-" if _ else "--", lw=1.0)
     zoom.set_xlabel("angle from the start of the revolution [deg]")
-    zoom.set_ylabel("|y| − r [m]")
+    zoom.set_ylabel("deviation [µm]")
     zoom.grid(True, alpha=0.3)
-    zoom.set_title((f"first {ZOOM_SIDES} sides of the interpolated polygon" if interval
-                    else f"first {ZOOM_DEGREES}°"), fontsize=9)
-    lines = [f"r = {_g(radius)} m, feed {_g(feed)} m/s; polar: deviation from the mean "
-             f"radius ×{magnification:.3g}",
-             f"mean radius r {'+' if mean >= 0 else '−'} {_g(abs(mean))} m, circularity "
-             f"(max − min) {_g(ripple)} m (re-simulated)"]
+    for side in zoom.spines.values():
+        side.set_color("C1")
+        side.set_linewidth(1.5)
+    zoom.set_title("zoom on the orange wedge: " + (
+        f"first {ZOOM_SIDES} sides of the interpolated polygon" if interval
+        else f"first {ZOOM_DEGREES}°"), fontsize=9)
+    lines = [f"r = {_g(radius * 1e3)} mm, feed {_g(feed * 1e3)} mm/s",
+             f"re-simulated: mean deviation {_g(mean)} µm, circularity (max − min) "
+             f"{_g(high - low)} µm"]
     for name, label in (("circle_roughness", "roughness"),
                         ("surface_roughness", "surface roughness (Sato eq 10)"),
                         ("radial_error", "radial error (Koren eq 28)"),
                         ("radius_decrease", "decrease in radius (Sato eq 7)")):
         value = metric(result, name)
         if value is not None:
-            lines.append(f"{label} {_g(value)} m (reported)")
+            lines.append(f"{label} {_g(value * UM)} µm (reported)")
     text = figure.add_subplot(grid[2])
     text.axis("off")
     text.text(0.0, 1.0, "\n".join(lines), fontsize=8, va="top", transform=text.transAxes)

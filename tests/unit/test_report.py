@@ -115,3 +115,34 @@ def test_a_report_killed_while_writing_leaves_files_the_next_one_may_replace(tmp
     manifest = output.read_manifest(tmp_path)
     assert sorted(manifest) == sorted(p.name for p in written)
     assert all(len(digests) == 1 for digests in manifest.values())
+
+
+def test_the_circle_figure_is_in_micrometres_about_the_commanded_radius():
+    """Koren's sampled loop (K = 18 1/s, τ = 20 ms, T = 1/64 s) on an 8 mm circle at
+    40 mm/s: the path is drawn as its deviation in µm, on a ring that shows the commanded
+    radius (0 µm), the circularity band and the constraint bound, with a legend naming
+    each, the zoomed wedge marked and the zoom in µm."""
+    from feedtune.report.figures import circle_figure
+
+    model = ServoModel(18.0, 0.02, 0.015625)
+    options = {"radius": 0.008, "feed": 0.04}
+    result = {"metrics": {"radial_error": {"metric": "radial_error", "options": options,
+                                           "value": 1e-9, "unit": "m"}},
+              "constraints": [{"metric": "radial_error", "options": options, "min": None,
+                               "max": 5e-6, "value": 1e-9, "satisfied": True}]}
+    figure = circle_figure(model, result)
+    polar, zoom = figure.axes[0], figure.axes[1]
+    deviation = np.asarray(model.circle_test(0.008, 0.04).deviation) * 1e6
+    lines = {line.get_label(): line for line in polar.get_lines()}
+    assert np.array_equal(lines["path (re-simulated)"].get_ydata(), deviation)
+    assert set(lines["commanded radius r = 8 mm (0 µm)"].get_ydata()) == {0.0}
+    assert {tuple(set(line.get_ydata())) for line in polar.get_lines()
+            if line.get_label().startswith(("constraint", "_"))} >= {(-5.0,), (5.0,)}
+    low, high = polar.get_ylim()
+    assert low < -5.0 < deviation.min() < deviation.max() < 5.0 < high and low < 0 < high
+    assert np.ptp(deviation) > 0.1  # the ripple of the sampled loop, in µm
+    legend = [t.get_text() for t in polar.get_legend().get_texts()]
+    for label in ("circularity band (max − min)", "constraint |radial error| ≤ 5 µm",
+                  "zoomed below", "mean deviation"):
+        assert any(text.startswith(label) for text in legend), label
+    assert zoom.get_ylabel() == "deviation [µm]" and "zoom" in zoom.get_title()
