@@ -14,7 +14,7 @@ padding:0.2em 0.6em;text-align:left;font-size:90%}th{background:#f3f3f3}
 td.num{text-align:right;font-family:monospace}.bad{color:#b00;font-weight:bold}
 .ok{color:#070}.note{color:#666;font-style:italic}img{max-width:100%;height:auto}
 .scroll{overflow-x:auto}pre{white-space:pre-wrap;overflow-wrap:anywhere;background:#f7f7f7;
-padding:0.5em;font-size:85%}"""
+padding:0.5em;font-size:85%}td.about{min-width:18em}"""
 
 #: provenance keys of a result, with what the page calls them
 PROVENANCE = (("feedtune", "feedtune (tuned with)"), ("casadi", "CasADi"), ("ipopt", "IPOPT"),
@@ -111,7 +111,7 @@ def plant_table(result: dict, parameters: list[dict] | None) -> str:
         about = known.get(name, {})
         shown = value if isinstance(value, str) else json.dumps(value, ensure_ascii=False)
         rows.append([_td(name), _td(shown, "num"), _td(about.get("unit") or ""),
-                     _td(about.get("description") or "")])
+                     _td(about.get("description") or "", "about")])
     note = ("" if parameters is not None else
             '<p class="note">Parameter units unknown here; see <code>feedtune plants</code>.</p>')
     return _table(["parameter", "value", "unit", "meaning"], rows) + note
