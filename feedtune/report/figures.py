@@ -26,6 +26,9 @@ DISPLAY_SETTLED = 2e-3
 BODE_DECADE = 10.0
 #: a closed-loop |H| peak this factor (0.1 dB) above its low-frequency value is a resonance
 RESONANCE = 10 ** (0.1 / 20)
+#: the scan for the characteristic frequencies: [points per decade], and the factor it
+#: extends beyond the slowest and fastest pole
+SCAN_POINTS, SCAN_SPAN = 40, 1e3
 #: Bode grid density [points per decade]
 BODE_POINTS = 400
 #: micrometres per metre: the circle figure's deviations are in µm
@@ -178,8 +181,9 @@ def characteristic_frequencies(model) -> dict[str, float]:
     ``slowest pole`` and ``dominant pole`` (largest real part) are |s| of closed-loop poles;
     ``crossover`` the highest ω where |L| = 1, ``bandwidth`` the first ω where |H| falls
     3 dB below its low-frequency value, ``peak`` the ω of the largest |H| (where it is
-    not at an end of the scan and at least RESONANCE above the low-frequency gain). Found on a 40-per-decade scan from 10⁻³ of the slowest to
-    10³ times the fastest pole (the Nyquist frequency π/T for a sampled loop), crossings
+    not at an end of the scan and at least RESONANCE above the low-frequency gain).
+    Found on a SCAN_POINTS-per-decade scan from the slowest pole / SCAN_SPAN to the
+    fastest × SCAN_SPAN (to the Nyquist frequency π/T for a sampled loop), crossings
     refined by Brent's method.
     """
     poles = _s_poles(model)
@@ -189,12 +193,16 @@ def characteristic_frequencies(model) -> dict[str, float]:
         raise NotCovered("no nonzero pole to set the frequency range")
     freqs = {"slowest pole": float(np.min(speeds[alive])),
              "dominant pole": float(speeds[alive][np.argmax(poles[alive].real)])}
-    low = freqs["slowest pole"] / 1e3
-    high = math.pi / model.period * (1 - 1e-6) if model.sampled else float(np.max(speeds)) * 1e3
+    low = freqs["slowest pole"] / SCAN_SPAN
+    high = (math.pi / model.period * (1 - 1e-6) if model.sampled
+            else float(np.max(speeds)) * SCAN_SPAN)
     omega = np.logspace(math.log10(low), math.log10(high),
-                        int(40 * math.log10(high / low)) + 2)
+                        int(SCAN_POINTS * math.log10(high / low)) + 2)
     open_loop, closed = (np.abs(h) for h in model.frequency_response(omega))
-    gain = lambda w, i: float(np.abs(model.frequency_response(np.array([w]))[i][0]))  # noqa: E731
+
+    def gain(w: float, which: int) -> float:  # |L| (0) or |H| (1) at ω = w [rad/s]
+        return float(np.abs(model.frequency_response(np.array([w]))[which][0]))
+
     crossings = _crossings(omega, np.log(open_loop), 0.0, lambda w: math.log(gain(w, 0)))
     if crossings:
         freqs["crossover"] = crossings[-1]
