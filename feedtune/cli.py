@@ -461,7 +461,8 @@ def _start_text(start) -> str:
 @click.option("-q", "--quiet", is_flag=True, help="Do not print the summary to stderr.")
 @click.option("--report", "report_dir", metavar="DIR",
               help="Also write the report (report.html and PNG figures, as `feedtune report`) "
-                   "into DIR, created if missing.")
+                   "into DIR, created if missing; checked before solving, exit 2 if DIR holds "
+                   "a file of the report's names that an earlier report did not write.")
 def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> None:
     """Solve the tuning problem in SPEC (a JSON file, or '-' for stdin).
 
@@ -516,14 +517,25 @@ def _check_report_dir(report_dir: str | None, option: str = "--report") -> Path 
     if not path.exists() and not path.parent.is_dir():
         raise click.BadParameter(f"{report_dir}: its parent directory does not exist",
                                  param_hint=f"'{option}'")
+    if path.is_dir():
+        from feedtune.report import ReportDirError, check_out_dir
+
+        try:
+            check_out_dir(path)
+        except ReportDirError as exc:
+            raise click.BadParameter(str(exc), param_hint=f"'{option}'") from None
     return path
 
 
 def _write_report(result: dict, out: Path, quiet: bool) -> None:
-    from feedtune.report import build_figures, write_report
+    from feedtune.report import ReportDirError, build_figures, write_report
 
+    plant = describe_plants().get(((result.get("spec") or {}).get("plant") or {}).get("type"))
     figures = build_figures(result)
-    written = write_report(result, out, figures)
+    try:
+        written = write_report(result, out, figures, plant and plant["parameters"])
+    except ReportDirError as exc:  # a file appeared since the check
+        _fail(str(exc))
     if not quiet:
         drawn = len(written) - 1
         left_out = [f"{stem} ({why})" for stem, _, png, why in figures if png is None]
@@ -536,7 +548,9 @@ def _write_report(result: dict, out: Path, quiet: bool) -> None:
 @click.argument("result_file", metavar="RESULT")
 @click.option("--out", "out", metavar="DIR", required=True,
               help="Directory for report.html (self-contained: figures embedded) and the "
-                   "PNG figures; created if missing, earlier figures replaced.")
+                   "PNG figures; created if missing. Replaces only what an earlier report "
+                   "wrote there (listed in DIR/.feedtune-report.json); exit 2 if a file of "
+                   "the same name is someone else's.")
 @click.option("-q", "--quiet", is_flag=True, help="Do not print what was written.")
 def report(result_file: str, out: str, quiet: bool) -> None:
     """Plots and an HTML page of RESULT (a result JSON of `feedtune tune` or `batch`).

@@ -10,11 +10,14 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from feedtune.files import write_atomic
 from feedtune.report.figures import FIGURES
+from feedtune.report.output import ReportDirError, write_files
+from feedtune.report.output import check_out_dir as check
 from feedtune.report.page import render
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
+
+__all__ = ["NAMES", "ReportDirError", "build_figures", "check_out_dir", "write_report"]
 
 
 def _png(figure) -> bytes:
@@ -49,20 +52,49 @@ def build_figures(result: dict) -> list[tuple[str, str, bytes | None, str | None
     return figures
 
 
-def write_report(result: dict, out_dir: Path, figures: list | None = None) -> list[Path]:
-    """Write ``report.html`` and one PNG per drawn figure into ``out_dir`` (created);
-    returns the paths written, the page first. ``figures``: from :func:`build_figures`
-    (drawn here when omitted)."""
+#: every file a report may write into its directory, the page first
+NAMES = ["report.html"] + [f"{stem}.png" for stem, _, _ in FIGURES]
+
+
+def check_out_dir(out_dir: Path) -> None:
+    """Raise :class:`ReportDirError` naming every file of ``out_dir`` the report would
+    replace or delete but did not write (see :mod:`feedtune.report.output`)."""
+    check(out_dir, NAMES)
+
+
+def write_report(result: dict, out_dir: Path, figures: list | None = None,
+                 parameters: list[dict] | None = None) -> list[Path]:
+    """Write ``report.html`` and one PNG per drawn figure into ``out_dir`` (created).
+
+    Parameters
+    ----------
+    result : dict
+        A result of ``feedtune tune`` (JSON form).
+    out_dir : Path
+        The report directory; files of other names in it are left alone.
+    figures : list, optional
+        From :func:`build_figures` (drawn here when omitted).
+    parameters : list of dict, optional
+        The plant's parameter descriptions (``name``, ``unit``, ``description``, as
+        ``feedtune plants --json`` lists them), for the units on the page.
+
+    Returns
+    -------
+    list of Path
+        The files written, the page first.
+
+    Raises
+    ------
+    ReportDirError
+        ``out_dir`` holds a file of a name the report writes that it did not write; nothing
+        is written then.
+    """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    check(out_dir, NAMES)  # before the slow drawing
     if figures is None:
         figures = build_figures(result)
-    written = [out_dir / "report.html"]
-    for stem, _, png, _ in figures:
-        if png is not None:
-            write_atomic(out_dir / f"{stem}.png", png)
-            written.append(out_dir / f"{stem}.png")
-        else:  # a figure of an earlier report of this directory would now be stale
-            (out_dir / f"{stem}.png").unlink(missing_ok=True)
-    write_atomic(written[0], render(result, figures).encode("utf-8"))
-    return written
+    files = {"report.html": render(result, figures, parameters).encode("utf-8")}
+    files.update((f"{stem}.png", png) for stem, _, png, _ in figures if png is not None)
+    write_files(out_dir, files, NAMES)
+    return [out_dir / name for name in files]

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 from matplotlib.figure import Figure
+from scipy.optimize import brentq
 
 from feedtune.validate.model import NotCovered
 
@@ -21,12 +22,20 @@ from feedtune.validate.model import NotCovered
 SIZE, DPI = (7.5, 5.0), 100
 #: a displayed response ends when it stays within this fraction of its largest excursion
 DISPLAY_SETTLED = 2e-3
-#: Bode plots span this factor beyond the slowest and fastest closed-loop pole
-BODE_MARGIN = 30.0
+#: Bode plots span this factor beyond the lowest and highest characteristic frequency
+BODE_DECADE = 10.0
+#: a closed-loop |H| peak this factor (0.1 dB) above its low-frequency value is a resonance
+RESONANCE = 10 ** (0.1 / 20)
+#: the scan for the characteristic frequencies: [points per decade], and the factor it
+#: extends beyond the slowest and fastest pole
+SCAN_POINTS, SCAN_SPAN = 40, 1e3
 #: Bode grid density [points per decade]
 BODE_POINTS = 400
-#: the magnified circle deviation spans this fraction of the plotted radius
-CIRCLE_SPAN = 0.35
+#: micrometres per metre: the circle figure's deviations are in µm
+UM = 1e6
+#: the circle figure's ring spans at least this deviation range [m] (1 nm, far below a
+#: BLU), so a path with no deviation at all is still drawn on a readable scale
+CIRCLE_MIN_SPAN = 1e-9
 #: the zoomed circle deviation shows this many interpolator sides, or degrees without one
 ZOOM_SIDES, ZOOM_DEGREES = 4, 30
 
@@ -56,10 +65,12 @@ def _display_end(t: np.ndarray, y: np.ndarray) -> int:
     return int(np.searchsorted(t, end_time)) + 1
 
 
-def _note(ax, lines: list[str]) -> None:
+def _note(ax, lines: list[str], left: bool = False) -> None:
+    """A box of ``lines`` in the lower right (``left``: lower left) corner of ``ax``."""
     if lines:
-        ax.text(0.98, 0.04, "\n".join(lines), transform=ax.transAxes, ha="right", va="bottom",
-                fontsize=8, bbox={"boxstyle": "round", "fc": "white", "alpha": 0.85})
+        ax.text(0.02 if left else 0.98, 0.04, "\n".join(lines), transform=ax.transAxes,
+                ha="left" if left else "right", va="bottom", fontsize=8,
+                bbox={"boxstyle": "round", "fc": "white", "alpha": 0.85})
 
 
 def _g(value: float) -> str:
@@ -144,21 +155,78 @@ def responses_figure(model, result: dict) -> Figure:
     return figure
 
 
-def bode_range(model) -> tuple[float, float]:
-    """(low, high) [rad/s]: BODE_MARGIN beyond the slowest and fastest nonzero pole; a
-    sampled loop ends at the Nyquist frequency π/T."""
+def _s_poles(model) -> np.ndarray:
+    """Closed-loop poles in the s-plane [1/s]; a sampled loop's by s = ln(z)/T (z = 0 has
+    none)."""
     poles = np.asarray(model.poles(), dtype=complex)
     if model.sampled:
-        poles = poles[np.abs(poles) > 1e-12]
-        poles = np.log(poles) / model.period
+        poles = np.log(poles[poles != 0]) / model.period
+    return poles
+
+
+def _crossings(omega: np.ndarray, f: np.ndarray, level: float, curve) -> list[float]:
+    """Every ω [rad/s] where ``f`` (sampled on ``omega``) crosses ``level``, refined by
+    Brent's method on ``curve(ω) − level`` in log ω."""
+    above = f > level
+    found = []
+    for i in np.nonzero(above[:-1] != above[1:])[0]:
+        found.append(math.exp(brentq(lambda x: curve(math.exp(x)) - level,
+                                     math.log(omega[i]), math.log(omega[i + 1]), xtol=1e-9)))
+    return found
+
+
+def characteristic_frequencies(model) -> dict[str, float]:
+    """The frequencies [rad/s] that set a Bode diagram's range.
+
+    ``slowest pole`` and ``dominant pole`` (largest real part) are |s| of closed-loop poles;
+    ``crossover`` the highest ω where |L| = 1, ``bandwidth`` the first ω where |H| falls
+    3 dB below its low-frequency value, ``peak`` the ω of the largest |H| (where it is
+    not at an end of the scan and at least RESONANCE above the low-frequency gain).
+    Found on a SCAN_POINTS-per-decade scan from the slowest pole / SCAN_SPAN to the
+    fastest × SCAN_SPAN (to the Nyquist frequency π/T for a sampled loop), crossings
+    refined by Brent's method.
+    """
+    poles = _s_poles(model)
     speeds = np.abs(poles)
-    speeds = speeds[speeds > 1e-9 * max(float(np.max(speeds, initial=0.0)), 1e-300)]
-    if speeds.size == 0:
+    alive = speeds > 0
+    if not np.any(alive):
         raise NotCovered("no nonzero pole to set the frequency range")
-    low, high = float(np.min(speeds)) / BODE_MARGIN, float(np.max(speeds)) * BODE_MARGIN
+    freqs = {"slowest pole": float(np.min(speeds[alive])),
+             "dominant pole": float(speeds[alive][np.argmax(poles[alive].real)])}
+    low = freqs["slowest pole"] / SCAN_SPAN
+    high = (math.pi / model.period * (1 - 1e-6) if model.sampled
+            else float(np.max(speeds)) * SCAN_SPAN)
+    omega = np.logspace(math.log10(low), math.log10(high),
+                        int(SCAN_POINTS * math.log10(high / low)) + 2)
+    open_loop, closed = (np.abs(h) for h in model.frequency_response(omega))
+
+    def gain(w: float, which: int) -> float:  # |L| (0) or |H| (1) at ω = w [rad/s]
+        return float(np.abs(model.frequency_response(np.array([w]))[which][0]))
+
+    crossings = _crossings(omega, np.log(open_loop), 0.0, lambda w: math.log(gain(w, 0)))
+    if crossings:
+        freqs["crossover"] = crossings[-1]
+    steady = gain(freqs["slowest pole"] * 1e-6, 1)  # |H(0)| to ~1e-12
+    dips = _crossings(omega, np.log(closed / steady), -0.5 * math.log(2),
+                      lambda w: math.log(gain(w, 1) / steady))
+    if dips:
+        freqs["bandwidth"] = dips[0]
+    peak = int(np.argmax(closed))
+    if 0 < peak < len(omega) - 1 and closed[peak] > RESONANCE * steady:
+        freqs["peak"] = float(omega[peak])
+    return freqs
+
+
+def bode_range(model) -> tuple[float, float]:
+    """(low, high) [rad/s]: a factor BODE_DECADE below the lowest and above the highest
+    :func:`characteristic_frequencies`, not the fastest pole's (a hydraulic pole at
+    4.5e5 rad/s says nothing about a 700 rad/s loop); a sampled loop ends at the Nyquist
+    frequency π/T, at least two decades above ``low``."""
+    freqs = characteristic_frequencies(model).values()
+    low, high = min(freqs) / BODE_DECADE, max(freqs) * BODE_DECADE
     if model.sampled:
         high = math.pi / model.period * (1 - 1e-6)
-        low = min(low, high / 1e3)
+        low = min(low, high / 1e2)
     return low, high
 
 
@@ -201,14 +269,14 @@ def bode_figure(model, result: dict) -> Figure:
         for ax in (mag, phase):
             ax.axvline(math.pi / model.period, color="k", lw=0.8)
         lines.append(f"Nyquist π/T = {_g(math.pi / model.period)} rad/s")
-    _note(mag, lines)
+    _note(mag, lines, left=True)  # |L| and |H| fall to the lower right
     mag.set_ylabel("magnitude [dB]")
     phase.set_ylabel("phase [deg]")
     phase.set_xlabel("frequency ω [rad/s]")
-    mag.legend(loc="lower left", fontsize=8)
+    mag.legend(loc="upper right", fontsize=8)
     for ax in (mag, phase):
         ax.grid(True, which="both", alpha=0.3)
-    mag.set_title("Bode diagram" + (" (sampled loop, z = e^{jωT})" if model.sampled else ""),
+    mag.set_title("Bode diagram" + (" (sampled loop, z = e^(jωT))" if model.sampled else ""),
                   fontsize=10)
     figure.tight_layout()
     return figure
@@ -223,51 +291,106 @@ def circle_options(result: dict) -> tuple[float, float]:
     raise NotCovered("no circle metric (radius and feed) in the result")
 
 
+def circle_limits(result: dict) -> list[tuple[float, str]]:
+    """(radial deviation [m], label) of every constraint bound that places the path: a
+    ``radius_decrease`` max Δr at −Δr, ``circle_mean_deviation`` min/max as they are, a
+    ``radial_error`` max e at ±e."""
+    limits = []
+    for c in result.get("constraints") or []:
+        low, high, name = c.get("min"), c.get("max"), c.get("metric")
+        if name == "radius_decrease" and high is not None:
+            limits.append((-high, f"constraint Δr ≤ {_g(high * UM)} µm"))
+        elif name == "circle_mean_deviation":
+            limits += [(v, f"constraint mean deviation {op} {_g(v * UM)} µm")
+                       for v, op in ((low, "≥"), (high, "≤")) if v is not None]
+        elif name == "radial_error" and high is not None:
+            limits += [(v, f"constraint |radial error| ≤ {_g(high * UM)} µm")
+                       for v in (-high, high)]
+    return limits
+
+
 def circle_figure(model, result: dict) -> Figure:
-    """Polar plot of the steady circle's radial deviation, magnified about the mean radius,
-    and the deviation [m] against the angle over the first few sides (or degrees)."""
+    """The steady circle test, ballbar style: the radial deviation [µm] from the commanded
+    radius around the revolution (a ring, not to scale: its width is the deviation range),
+    with the commanded radius, the band between the smallest and largest deviation
+    (circularity), the constraint bounds and the zoomed wedge marked; below, the deviation
+    [µm] over the first few interpolator sides (or degrees)."""
     if model.position_unit != "m":
         raise NotCovered(f"a rotary axis (position in {model.position_unit}): no two-axis "
                          "circle test")
     radius, feed = circle_options(result)
     trace = model.circle_test(radius, feed)
-    deviation = np.asarray(trace.deviation)
     angle = np.unwrap(np.asarray(trace.angle))
-    mean = float(np.mean(deviation))
-    ripple = float(np.ptp(deviation))
-    magnification = CIRCLE_SPAN * radius / ripple if ripple > 0 else 1.0
-    figure = Figure(figsize=(6.5, 9.0), dpi=DPI)
-    grid = figure.add_gridspec(3, 1, height_ratios=[3.2, 1.3, 0.9])
-    ax = figure.add_subplot(grid[0], projection="polar")
-    theta = np.linspace(0, 2 * math.pi, 721)
-    ax.plot(theta, np.full_like(theta, radius), "--", color="0.5", label="mean radius")
-    ax.plot(angle, radius + magnification * (deviation - mean), lw=0.8, label="path")
-    ax.set_rlim(0, radius * (1 + 1.5 * CIRCLE_SPAN))
-    ax.set_yticklabels([])
-    ax.legend(loc="lower left", fontsize=7, bbox_to_anchor=(-0.12, -0.08))
-    ax.set_title("circle test: radial deviation", fontsize=10)
-    zoom = figure.add_subplot(grid[1])
+    dev = np.asarray(trace.deviation) * UM
+    mean, low, high = float(np.mean(dev)), float(np.min(dev)), float(np.max(dev))
+    limits = [(v * UM, label) for v, label in circle_limits(result)]
+    shown = [0.0, low, high] + [v for v, _ in limits]
+    span = max(max(shown) - min(shown), CIRCLE_MIN_SPAN * UM)
+    r_min, r_max = min(shown) - 0.15 * span, max(shown) + 0.15 * span
     interval = getattr(model, "reference_interval", None)
-    span = ZOOM_SIDES * interval * feed / radius if interval else math.radians(ZOOM_DEGREES)
-    shown = angle - angle[0] <= span
-    zoom.plot(np.degrees(angle[shown] - angle[0]), deviation[shown])
-    zoom.axhline(mean, color="0.5", ls="--", lw=0.8)
+    wedge = ZOOM_SIDES * interval * feed / radius if interval else math.radians(ZOOM_DEGREES)
+    figure = Figure(figsize=(6.5, 9.5), dpi=DPI)
+    grid = figure.add_gridspec(3, 1, height_ratios=[4.0, 1.6, 0.7])
+    ax = figure.add_subplot(grid[0], projection="polar")
+    ax.set_rorigin(r_min - (r_max - r_min))  # a ring: the centre is not r = 0
+    ax.set_rlim(r_min, r_max)
+    theta = np.linspace(0, 2 * math.pi, 721)
+    ax.fill_between(theta, low, high, color="C0", alpha=0.15, lw=0,
+                    label=f"circularity band (max − min) {_g(high - low)} µm")
+    ax.plot(theta, np.zeros_like(theta), "--", color="k", lw=1.0,
+            label=f"commanded radius r = {_g(radius * 1e3)} mm (0 µm)")
+    ax.plot(theta, np.full_like(theta, mean), ":", color="0.3", lw=1.0,
+            label=f"mean deviation {_g(mean)} µm")
+    for i, (value, label) in enumerate(limits):
+        ax.plot(theta, np.full_like(theta, value), color="C3", lw=1.2,
+                label=label if i == 0 or label != limits[i - 1][1] else None)
+    ax.plot(angle, dev, color="C0", lw=0.6, label="path (re-simulated)")
+    start = angle[0]
+    ax.fill_between(np.linspace(start, start + wedge, 50), r_min, r_max, color="C1", alpha=0.35,
+                    lw=1.0, edgecolor="C1", label="zoomed below")
+    middle = math.degrees(start + wedge / 2) % 360  # labels upright, clear of the wedge
+    label_at = 270 if abs(middle - 90) < 45 + math.degrees(wedge) / 2 else 90
+    ax.set_rlabel_position(label_at)
+    ax.tick_params(axis="y", labelsize=7)
+    for label in ax.get_yticklabels():  # readable over the path
+        label.set_bbox({"boxstyle": "round,pad=0.1", "fc": "white", "ec": "none", "alpha": 0.8})
+    ax.text(math.radians(label_at), r_min - 0.12 * (r_max - r_min), "[µm]", fontsize=8,
+            ha="center", va="center")  # in the hole, next to the innermost label
+    ax.set_title(f"circle test at {_g(feed * 1e3)} mm/s: radial deviation from the commanded "
+                 f"radius [µm]\n(ring not to scale: it spans {_g(r_max - r_min)} µm)",
+                 fontsize=10)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), ncol=2, fontsize=7,
+              frameon=False)
+    zoom = figure.add_subplot(grid[1])
+    part = angle - start <= wedge
+    degrees = np.degrees(angle[part] - start)
+    ripple = max(high - low, CIRCLE_MIN_SPAN * UM)
+    zoom.set_ylim(low - 0.4 * ripple, high + 0.4 * ripple)
+    zoom.axhspan(low, high, color="C0", alpha=0.15, lw=0)
+    zoom.plot(degrees, dev[part], color="C0")
+    zoom.axhline(mean, color="0.3", ls=":", lw=1.0)
+    for value, _ in limits + [(0.0, "")]:
+        if low - 0.4 * ripple <= value <= high + 0.4 * ripple:  # only those in view
+            zoom.axhline(value, color="C3" if _ else "k", ls="-" if _ else "--", lw=1.0)
     zoom.set_xlabel("angle from the start of the revolution [deg]")
-    zoom.set_ylabel("|y| − r [m]")
+    zoom.set_ylabel("deviation [µm]")
     zoom.grid(True, alpha=0.3)
-    zoom.set_title((f"first {ZOOM_SIDES} sides of the interpolated polygon" if interval
-                    else f"first {ZOOM_DEGREES}°"), fontsize=9)
-    lines = [f"r = {_g(radius)} m, feed {_g(feed)} m/s; polar: deviation from the mean "
-             f"radius ×{magnification:.3g}",
-             f"mean radius r {'+' if mean >= 0 else '−'} {_g(abs(mean))} m, circularity "
-             f"(max − min) {_g(ripple)} m (re-simulated)"]
+    for side in zoom.spines.values():
+        side.set_color("C1")
+        side.set_linewidth(1.5)
+    zoom.set_title("zoom on the orange wedge: " + (
+        f"first {ZOOM_SIDES} sides of the interpolated polygon" if interval
+        else f"first {ZOOM_DEGREES}°"), fontsize=9)
+    lines = [f"r = {_g(radius * 1e3)} mm, feed {_g(feed * 1e3)} mm/s",
+             f"re-simulated: mean deviation {_g(mean)} µm, circularity (max − min) "
+             f"{_g(high - low)} µm"]
     for name, label in (("circle_roughness", "roughness"),
                         ("surface_roughness", "surface roughness (Sato eq 10)"),
                         ("radial_error", "radial error (Koren eq 28)"),
                         ("radius_decrease", "decrease in radius (Sato eq 7)")):
         value = metric(result, name)
         if value is not None:
-            lines.append(f"{label} {_g(value)} m (reported)")
+            lines.append(f"{label} {_g(value * UM)} µm (reported)")
     text = figure.add_subplot(grid[2])
     text.axis("off")
     text.text(0.0, 1.0, "\n".join(lines), fontsize=8, va="top", transform=text.transAxes)

@@ -3,13 +3,23 @@
 from __future__ import annotations
 
 import base64
+import json
 from html import escape
+
+from feedtune import __version__
 
 CSS = """body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;
 padding:0.2em 0.6em;text-align:left;font-size:90%}th{background:#f3f3f3}
 td.num{text-align:right;font-family:monospace}.bad{color:#b00;font-weight:bold}
-.ok{color:#070}.note{color:#666;font-style:italic}img{max-width:100%}"""
+.ok{color:#070}.note{color:#666;font-style:italic}img{max-width:100%;height:auto}
+.scroll{overflow-x:auto}pre{white-space:pre-wrap;overflow-wrap:anywhere;background:#f7f7f7;
+padding:0.5em;font-size:85%}td.about{min-width:18em}"""
+
+#: provenance keys of a result, with what the page calls them
+PROVENANCE = (("feedtune", "feedtune (tuned with)"), ("casadi", "CasADi"), ("ipopt", "IPOPT"),
+              ("python", "Python"),
+              ("spec_sha256", "SHA-256 of the canonical spec (sorted keys, defaults filled)"))
 
 
 def _num(value) -> str:
@@ -32,9 +42,10 @@ def _label(name: str, options: dict | None) -> str:
 
 def _table(head: list[str], rows: list[list[str]]) -> str:
     """Cells are HTML already (escaped by the caller)."""
-    out = ["<table><tr>" + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr>"]
+    out = ['<div class="scroll"><table><tr>'
+           + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr>"]
     out += ["<tr>" + "".join(rows_cell for rows_cell in row) + "</tr>" for row in rows]
-    return "\n".join(out) + "</table>"
+    return "\n".join(out) + "</table></div>"
 
 
 def _td(text: str, cls: str = "") -> str:
@@ -88,20 +99,65 @@ def validation_table(block: dict | None) -> str:
             + _table(["metric", "reported", "re-measured", "gap", "tolerance", ""], rows))
 
 
-def render(result: dict, figures: list[tuple[str, str, bytes | None, str | None]]) -> str:
-    """The page. ``figures``: (stem, title, PNG bytes or None, note when omitted)."""
+def plant_table(result: dict, parameters: list[dict] | None) -> str:
+    """The spec's plant block, one row per parameter with its unit and description from
+    ``parameters`` (``name``, ``unit``, ``description`` each; None: units unknown)."""
+    plant = (result.get("spec") or {}).get("plant") or {}
+    if not plant:
+        return '<p class="note">The result holds no plant block.</p>'
+    known = {p["name"]: p for p in parameters or []}
+    rows = []
+    for name, value in plant.items():
+        about = known.get(name, {})
+        shown = value if isinstance(value, str) else json.dumps(value, ensure_ascii=False)
+        rows.append([_td(name), _td(shown, "num"), _td(about.get("unit") or ""),
+                     _td(about.get("description") or "", "about")])
+    note = ("" if parameters is not None else
+            '<p class="note">Parameter units unknown here; see <code>feedtune plants</code>.</p>')
+    return _table(["parameter", "value", "unit", "meaning"], rows) + note
+
+
+def provenance_table(result: dict) -> str:
+    """Versions the result was tuned with, the spec's SHA-256, and this report's version."""
+    provenance = result.get("provenance") or {}
+    rows = [[_td(label), _td(str(provenance[key]) if provenance.get(key) is not None else "—")]
+            for key, label in PROVENANCE]
+    rows.append([_td("feedtune (this report)"), _td(__version__)])
+    return _table(["", "version or digest"], rows)
+
+
+def spec_block(result: dict) -> str:
+    """The canonical spec as pretty JSON."""
+    text = json.dumps(result.get("spec") or {}, indent=2, ensure_ascii=False)
+    return f"<details open><summary>Spec (canonical JSON)</summary><pre>{escape(text)}</pre></details>"
+
+
+def render(result: dict, figures: list[tuple[str, str, bytes | None, str | None]],
+           parameters: list[dict] | None = None) -> str:
+    """The page.
+
+    Parameters
+    ----------
+    result : dict
+        A result (JSON form).
+    figures : list of tuple
+        (stem, title, PNG bytes or None, note when omitted).
+    parameters : list of dict, optional
+        The plant's parameter descriptions for units (see :func:`plant_table`).
+    """
     name = result.get("name") or "result"
     status = result.get("status", "")
     success = result.get("success")
-    parts = [f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>feedtune report: "
-             f"{escape(name)}</title><style>{CSS}</style></head><body>",
+    parts = ['<!DOCTYPE html><html lang="en"><head><meta charset="utf-8">'
+             '<meta name="viewport" content="width=device-width, initial-scale=1">'
+             f"<title>feedtune report: {escape(name)}</title><style>{CSS}</style></head><body>",
              f"<h1>{escape(name)}</h1>",
              f"<p>Status: <b class=\"{'ok' if success else 'bad'}\">{escape(str(status))}</b>"
              f" — {escape(result.get('message') or '')}; objective "
              f"{escape(_num(result.get('objective')))}.</p>"]
     plant = ((result.get("spec") or {}).get("plant") or {}).get("type")
     if plant:
-        parts.append(f"<p>Plant: <code>{escape(plant)}</code>.</p>")
+        parts.append(f"<p>Plant: <code>{escape(str(plant))}</code>.</p>")
     parts.append("<h2>Tuned values</h2>" + tuned_table(result))
     for stem, title, png, note in figures:
         parts.append(f"<h2>{escape(title)}</h2>")
@@ -115,5 +171,8 @@ def render(result: dict, figures: list[tuple[str, str, bytes | None, str | None]
     if result.get("constraints"):
         parts.append("<h2>Constraints</h2>" + constraints_table(result))
     parts.append("<h2>Independent validation</h2>" + validation_table(result.get("validation")))
+    parts.append("<h2>Plant parameters</h2>" + plant_table(result, parameters))
+    parts.append("<h2>Provenance</h2>" + provenance_table(result))
+    parts.append("<h2>Spec</h2>" + spec_block(result))
     parts.append("</body></html>")
     return "\n".join(parts)

@@ -28,26 +28,42 @@ def feedtune(*args: str) -> subprocess.CompletedProcess:
 
 
 class _Page(HTMLParser):
-    """Images (src) and the text of every table cell."""
+    """Images (src), the text of every table cell, table rows (cell texts), <pre> texts and
+    the attributes of <html> and every <meta>."""
 
     def __init__(self):
         super().__init__()
-        self.images, self.cells, self._cell = [], [], None
+        self.images, self.cells, self.rows, self.pre, self.meta = [], [], [], [], []
+        self.html, self._cell, self._pre = {}, None, None
 
     def handle_starttag(self, tag, attrs):
         if tag == "img":
             self.images.append(dict(attrs)["src"])
+        if tag == "html":
+            self.html = dict(attrs)
+        if tag == "meta":
+            self.meta.append(dict(attrs))
+        if tag == "tr":
+            self.rows.append([])
         if tag == "td":
             self._cell = ""
+        if tag == "pre":
+            self._pre = ""
 
     def handle_data(self, data):
         if self._cell is not None:
             self._cell += data
+        if self._pre is not None:
+            self._pre += data
 
     def handle_endtag(self, tag):
         if tag == "td":
             self.cells.append(self._cell)
+            self.rows[-1].append(self._cell)
             self._cell = None
+        if tag == "pre":
+            self.pre.append(self._pre)
+            self._pre = None
 
 
 def parse(path: Path) -> _Page:
@@ -91,20 +107,104 @@ def test_report_tables_list_the_whole_result(sato_report):
     assert "circle_roughness(radius=0.05, feed=0.05)" in cells
 
 
-def test_report_command_is_deterministic_and_replaces_stale_figures(tmp_path):
-    """The same result gives the same bytes (no dates in PNGs or the page); a figure that
-    a later result cannot offer is removed, not left stale."""
+def test_report_command_is_deterministic(tmp_path):
+    """The same result gives the same bytes (no dates in PNGs, the page or the manifest)."""
     first, second = tmp_path / "a", tmp_path / "b"
     source = DATA / "bhatia-1971-hydraulic.result.json"
     for out in (first, second):
         proc = feedtune("report", str(source), "--out", str(out))
         assert proc.returncode == 0, proc.stderr.decode()
+    assert sorted(p.name for p in first.iterdir()) == sorted(p.name for p in second.iterdir())
     for path in first.iterdir():
         assert path.read_bytes() == (second / path.name).read_bytes(), path.name
-    (first / "circle.png").write_bytes(b"stale")
-    proc = feedtune("report", str(DATA / "tian-vf-pulse.result.json"), "--out", str(first))
+
+
+def test_a_later_report_removes_its_stale_figures_and_nothing_else(sato_report, tmp_path):
+    """circle.png of a sato report is stale once a rotary result is reported into the same
+    directory: removed; the user's files next to it, of other names, stay."""
+    out = tmp_path / "report"
+    proc = feedtune("report", str(sato_report / "result.json"), "--out", str(out))
     assert proc.returncode == 0, proc.stderr.decode()
-    assert not (first / "circle.png").exists()
+    assert (out / "circle.png").exists()
+    mine = {"step.png": b"my step plot", "notes.txt": b"x", "report.html.bak": b"old"}
+    for name, data in mine.items():
+        (out / name).write_bytes(data)
+    proc = feedtune("report", str(DATA / "bhatia-1971-hydraulic.result.json"), "--out", str(out))
+    assert proc.returncode == 0, proc.stderr.decode()
+    assert not (out / "circle.png").exists()
+    for name, data in mine.items():
+        assert (out / name).read_bytes() == data, name
+    manifest = json.loads((out / ".feedtune-report.json").read_text())
+    assert sorted(manifest["files"]) == ["bode.png", "poles.png", "report.html", "responses.png"]
+
+
+@pytest.mark.parametrize("name", ["bode.png", "report.html", "circle.png"])
+def test_a_file_of_a_report_name_the_report_did_not_write_is_never_replaced(tmp_path, name):
+    """Even a name this result would not draw (circle.png on a rotary axis): the directory's
+    files of the report's names are the report's or left alone, exit 2 naming the file."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).write_bytes(b"the user's own")
+    proc = feedtune("report", str(DATA / "bhatia-1971-hydraulic.result.json"), "--out", str(out))
+    assert proc.returncode == 2
+    err = proc.stderr.decode()
+    assert str(out / name) in err and "'--out'" in err and "does not overwrite" in err
+    assert sorted(p.name for p in out.iterdir()) == [name]
+    assert (out / name).read_bytes() == b"the user's own"
+
+
+def test_a_figure_changed_since_the_report_wrote_it_is_the_users(tmp_path):
+    out = tmp_path / "out"
+    source = str(DATA / "bhatia-1971-hydraulic.result.json")
+    assert feedtune("report", source, "--out", str(out)).returncode == 0
+    (out / "poles.png").write_bytes(b"annotated by hand")
+    proc = feedtune("report", source, "--out", str(out))
+    assert proc.returncode == 2 and str(out / "poles.png") in proc.stderr.decode()
+    assert (out / "poles.png").read_bytes() == b"annotated by hand"
+
+
+def test_a_manifest_the_report_did_not_write_stops_it(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".feedtune-report.json").write_text('{"files": {"bode.png": ["0"]}}')
+    proc = feedtune("report", str(DATA / "tian-vf-pulse.result.json"), "--out", str(out))
+    assert proc.returncode == 2
+    assert str(out / ".feedtune-report.json") in proc.stderr.decode()
+    assert sorted(p.name for p in out.iterdir()) == [".feedtune-report.json"]
+
+
+def test_tune_checks_the_report_directory_before_solving(tmp_path):
+    """A conflict found after a long tuning would still exit 2: it is found first, before
+    anything is solved or written."""
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "responses.png").write_bytes(b"mine")
+    proc = feedtune("tune", str(REPO / "examples" / "koren-1979-sampled-data.json"), "-o",
+                    str(tmp_path / "result.json"), "--report", str(out))
+    assert proc.returncode == 2
+    assert str(out / "responses.png") in proc.stderr.decode() and "'--report'" in proc.stderr.decode()
+    assert not (tmp_path / "result.json").exists() and "start 1/" not in proc.stderr.decode()
+    assert (out / "responses.png").read_bytes() == b"mine"
+
+
+def test_the_page_shows_the_plant_with_units_the_provenance_and_the_spec(tmp_path):
+    source = DATA / "bhatia-1971-hydraulic.result.json"
+    result = json.loads(source.read_text())
+    proc = feedtune("report", str(source), "--out", str(tmp_path))
+    assert proc.returncode == 0, proc.stderr.decode()
+    page = parse(tmp_path / "report.html")
+    rows = {row[0]: row[1:] for row in page.rows if row}
+    assert rows["bulk_modulus"][:2] == ["689475729.0", "Pa"]
+    assert rows["displacement"][:2] == ["1.38233e-07", "m³/rad"]
+    assert rows["hydraulic_natural_frequency"][:2] == ["75.0", "rad/s"]
+    assert rows["torque_motor_natural_frequency"][:1] == ["null"]
+    assert "Effective bulk modulus" in rows["bulk_modulus"][2]
+    for key in ("feedtune", "casadi", "ipopt", "python", "spec_sha256"):
+        assert [result["provenance"][key]] in rows.values(), key
+    assert [json.loads(text) for text in page.pre] == [result["spec"]]
+    assert page.html.get("lang") == "en"
+    assert {"charset": "utf-8"} in page.meta
+    assert {"name": "viewport", "content": "width=device-width, initial-scale=1"} in page.meta
 
 
 def test_figures_a_plant_cannot_offer_are_named_with_the_reason(tmp_path):
