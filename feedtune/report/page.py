@@ -70,12 +70,25 @@ def metrics_table(result: dict) -> str:
 
 def constraints_table(result: dict) -> str:
     rows = []
+    unstable = (result.get("stability") or {}).get("stable") is False
     for c in result.get("constraints") or []:
         ok = c.get("satisfied")
         rows.append([_td(_label(c["metric"], c.get("options"))), _td(_num(c.get("value")), "num"),
                      _td(_num(c.get("min")), "num"), _td(_num(c.get("max")), "num"),
-                     _td("OK" if ok else "violated", "ok" if ok else "bad")])
+                     _td("OK" if ok else "not met (loop unstable)" if unstable else "violated",
+                         "ok" if ok else "bad")])
     return _table(["constraint", "value", "min", "max", ""], rows)
+
+
+def findings(result: dict) -> str:
+    """Plausibility warnings and a non-unique optimum, as the command line states them."""
+    items = [f"<li>Implausible: {escape(w)}</li>" for w in result.get("warnings") or []]
+    optimum = result.get("optimum") or {}
+    if optimum.get("unique") is False:
+        undecided = list(dict.fromkeys([*optimum.get("flat", []), *optimum.get("spread", {})]))
+        items.append(f"<li>The optimum is not unique: the objective does not decide "
+                     f"{escape(', '.join(undecided))}. {escape(optimum.get('advice') or '')}</li>")
+    return f'<ul class="bad">{"".join(items)}</ul>' if items else ""
 
 
 def validation_table(block: dict | None) -> str:
@@ -158,6 +171,7 @@ def render(result: dict, figures: list[tuple[str, str, bytes | None, str | None]
     plant = ((result.get("spec") or {}).get("plant") or {}).get("type")
     if plant:
         parts.append(f"<p>Plant: <code>{escape(str(plant))}</code>.</p>")
+    parts.append(findings(result))
     parts.append("<h2>Tuned values</h2>" + tuned_table(result))
     for stem, title, png, note in figures:
         parts.append(f"<h2>{escape(title)}</h2>")

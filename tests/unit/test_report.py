@@ -146,3 +146,17 @@ def test_the_circle_figure_is_in_micrometres_about_the_commanded_radius():
                   "zoomed below", "mean deviation"):
         assert any(text.startswith(label) for text in legend), label
     assert zoom.get_ylabel() == "deviation [µm]" and "zoom" in zoom.get_title()
+
+
+def test_the_page_states_warnings_a_non_unique_optimum_and_unmet_constraints(tmp_path):
+    result = json.loads((DATA / "tian-vf-pulse.result.json").read_text())
+    result["warnings"] = ["/objective/0/radius: circle radius 20 m is far outside <practice>"]
+    result["optimum"] = {"unique": False, "starts": [1, 2], "spread": {}, "flat": ["position_gain"],
+                         "advice": "fix one of them"}
+    result["stability"]["stable"] = False
+    result["constraints"] = [{"metric": "m_peak", "options": {}, "min": None, "max": 1.3,
+                              "value": None, "satisfied": False}]
+    page = write_report(result, tmp_path)[0].read_text()
+    assert "Implausible: /objective/0/radius: circle radius 20 m is far outside &lt;practice&gt;" in page
+    assert "not unique: the objective does not decide position_gain. fix one of them" in page
+    assert "not met (loop unstable)" in page and ">OK<" not in page.split("<h2>Constraints</h2>")[1].split("<h2>")[0]
