@@ -51,6 +51,8 @@ CRITERION_BAND = 1e-3
 #: radii scanned for the minimum radius: this many per decade, over MIN_RADIUS_SPAN decades
 #: from V_m/C_v up (ω from C_v down)
 RADII_PER_DECADE, MIN_RADIUS_SPAN = 400, 4
+#: times the scan may grow by MIN_RADIUS_SPAN decades while its largest radius still fails
+MIN_RADIUS_EXTENSIONS = 3
 
 #: the simulated step response runs until the free response has decayed to this fraction
 SETTLED = 1e-13
@@ -480,7 +482,8 @@ class ServoModel:
         above it again (where the ω² and ω⁴ terms of eq 28 have opposite signs), so r_min
         is the largest radius where the error crosses the level upwards as r decreases.
         Radii from V_m/C_v (an error of the order of the following error V_m/C_v ≫ BLU)
-        up MIN_RADIUS_SPAN decades, RADII_PER_DECADE per decade; every local maximum of
+        up MIN_RADIUS_SPAN decades (more while the largest still fails), RADII_PER_DECADE
+        per decade; every local maximum of
         the grid above the largest failing grid point is refined (bounded Brent on ln r),
         so that a failing band narrower than the grid is not missed; brentq then finds the
         crossing above the largest failing radius.
@@ -490,10 +493,16 @@ class ServoModel:
         grid = np.geomspace(low, low * 10.0**MIN_RADIUS_SPAN,
                             RADII_PER_DECADE * MIN_RADIUS_SPAN + 1)
         values = self.blu_criterion(grid)
+        for _ in range(MIN_RADIUS_EXTENSIONS):  # a slow loop: further up, until a circle passes
+            if values[-1] <= level:
+                break
+            more = grid[1:] * (grid[-1] / grid[0])
+            grid, values = np.concatenate([grid, more]), np.concatenate([values, self.blu_criterion(more)])
         if values[-1] > level:
             raise NotCovered("no radius in the bracket meets the BLU/2 criterion")
-        failing = grid[values > level]
-        worst = float(failing[-1]) if failing.size else float(grid[0])
+        if values[0] <= level:
+            raise NotCovered("even r = V_m/C_v meets the BLU/2 criterion (f_m/C_v too small)")
+        worst = float(grid[values > level][-1])
         peaks = np.nonzero((values[1:-1] >= values[:-2]) & (values[1:-1] >= values[2:]))[0] + 1
         for i in peaks:
             if values[i] > level or grid[i + 1] <= worst:
