@@ -10,6 +10,9 @@ differ by per cents, as in the issue's 24 false alarms.
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import pytest
 from scipy.optimize import brentq
 
@@ -110,3 +113,15 @@ def test_every_rule_names_a_metric_a_scale_and_a_reason(key):
         context = Context(blu=BLU, time=0.01, period=1e-5, pulse=1e-3)
         value, label = scale_of(rule.scale, metric, {"radius": RADIUS, "input": "step"}, context)
         assert value > 0 and label
+
+
+def test_the_documented_table_is_the_declared_one():
+    """docs/validation.md lists every rule with its relative tolerance and fraction."""
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "validation.md").read_text()
+    cells = [re.split(r"(?<!\\)\|", line) for line in doc.splitlines() if line.startswith("| `")]
+    rows = {c[1].strip(" `"): [x.strip() for x in c[2:5]] for c in cells}
+    assert set(rows) == set(RULES)
+    for key, rule in RULES.items():
+        rel, _, fraction = rows[key]
+        assert float(rel) == rule.rel
+        assert fraction == "—" if rule.scale == RELATIVE else float(fraction) == rule.fraction
