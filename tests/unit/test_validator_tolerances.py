@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 from scipy.optimize import brentq
 
+from feedtune.batch.reports import row_ok
 from feedtune.objectives import METRICS
 from feedtune.validate import validate_result, warning_lines
 from feedtune.validate.software_servo import ServoModel
@@ -125,3 +126,14 @@ def test_the_documented_table_is_the_declared_one():
         rel, _, fraction = rows[key]
         assert float(rel) == rule.rel
         assert fraction == "—" if rule.scale == RELATIVE else float(fraction) == rule.fraction
+
+
+def test_tune_and_batch_judge_the_same_entries():
+    """`feedtune tune` warns on exactly the entries `feedtune batch` fails a spec for: both
+    read the ``ok`` that :func:`judge` set (warning_lines and the batch row's validation_ok)."""
+    base = {"status": "optimal", "success": True, "constraints_satisfied": True,
+            "message": "fine", "objective": 1.0}
+    for reported, alarm in ((_exact() + 2e-15, False), (_exact() + BLU / 100, True)):
+        block = validate_result(_result(reported))
+        assert bool(warning_lines(block)) is alarm
+        assert row_ok({**base, "validation_ok": block["ok"]}) is not alarm
