@@ -93,7 +93,7 @@ def test_no_overshoot_is_not_compared_relatively():
     the unit step, not of zero."""
     row = judge({"metric": "overshoot", "options": {}, "value": 0.0, "unit": "1"}, 1e-13,
                 Context(time=0.01))
-    assert row["ok"] and row["basis"] == "1/1000000"
+    assert row["ok"] and row["basis"] == "1e-06"
 
 
 def test_an_infinite_value_has_no_gap():
