@@ -69,7 +69,8 @@ class MinRadius(Metric):
         count = PER_DECADE_SYMBOLIC * SPAN
         cell = math.log(10) / PER_DECADE_SYMBOLIC
         grid = low + ca.DM(np.arange(count + 1) * cell).T
-        values = excess_fn.map(count + 1)(grid, *free)
+        # the scan is scalar arithmetic: expanded to SX it evaluates ~2x faster
+        values = excess_fn.expand().map(count + 1)(grid, *free)
         worst = ca.stop_diff(ca.mmax(ca.if_else(values > 0, grid, low)), 1)  # largest failing
         lower, upper = worst, worst + cell
         for _ in range(_BISECTIONS):

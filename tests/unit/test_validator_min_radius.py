@@ -127,3 +127,23 @@ def test_the_nlp_sees_the_largest_crossing():
     exact = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M).min_radius()
     assert symbolic == pytest.approx(exact, rel=1e-9)
     assert math.isfinite(slope) and slope != 0.0
+
+
+def test_a_min_radius_constraint_holds_on_the_exact_value():
+    """Koren's sampled design example (τ 20 ms, BLU 5 µm, V_m 40 mm/s, T 1/64 s), least IAE
+    with r_min ≤ 20 mm: the bound is met by the exact (reported) value, which the validator
+    confirms; before issue 14 the NLP's root and the exact one disagreed and IPOPT ran out
+    of iterations."""
+    spec = {"name": "min-radius-bound",
+            "plant": {"type": "software_servo", "technique": "sampled_data",
+                      "time_constant": 0.02, "blu": 5e-6, "max_velocity": 0.04},
+            "tunables": {"position_gain": {"min": 1, "max": 200},
+                         "sampling_period": {"value": 0.015625}},
+            "objective": [{"metric": "iae"}],
+            "constraints": [{"metric": "min_radius", "max": 0.02}],
+            "solver": {"multistart": 4}}
+    result = tune(parse_spec(spec)).model_dump(mode="json")
+    assert result["success"], result["message"]
+    # the result's feasibility tolerance is 1e-6 relative to the bound (tuner/nlp.py)
+    assert result["metrics"]["min_radius"]["value"] <= 0.02 * (1 + 1e-6)
+    assert result["validation"]["ok"] is True
