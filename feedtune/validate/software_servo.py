@@ -454,7 +454,10 @@ class ServoModel:
                          if name == "average_radius" else
                          self.radius_decrease(options["radius"], options["feed"], interval))
             elif name == "min_radius" and self.blu is not None and self.max_velocity is not None:
-                value, scale = self.min_radius_judged(reported)
+                try:
+                    value, scale = self.min_radius_judged(reported)
+                except NotCovered:  # beyond the scan: this entry only is left out
+                    continue
             elif (name in ("circle_mean_deviation", "circularity", "circle_roughness")
                   and self.reference_interval is not None):
                 key = (options["radius"], options["feed"])

@@ -147,3 +147,25 @@ def test_a_min_radius_constraint_holds_on_the_exact_value():
     # the result's feasibility tolerance is 1e-6 relative to the bound (tuner/nlp.py)
     assert result["metrics"]["min_radius"]["value"] <= 0.02 * (1 + 1e-6)
     assert result["validation"]["ok"] is True
+
+
+
+def test_a_minimum_radius_outside_the_scan_leaves_out_that_entry_only():
+    """A BLU of 1 cm on Koren's example (K 18 1/s, τ 20 ms, V_m 40 mm/s): the error at
+    V_m/C_v = 2.2 mm is already below BLU/2, so there is no failing radius to start the
+    scan from. The validator leaves min_radius out and still judges the rest."""
+    model = ServoModel(18.0, 0.02, 0.015625, blu=0.01, max_velocity=0.04)
+    poles = model.poles()
+    result = {
+        "tuned": {"position_gain": {"value": 18.0}, "sampling_period": {"value": 0.015625}},
+        "spec": {"plant": {"type": "software_servo", "technique": "sampled_data",
+                           "time_constant": 0.02, "blu": 0.01, "max_velocity": 0.04}},
+        "metrics": {"min_radius": {"metric": "min_radius", "value": 0.001, "unit": "m",
+                                   "options": {}},
+                    "damping_ratio": {"metric": "damping_ratio", "unit": "1", "options": {},
+                                      "value": model.equivalent_pair()[0]}},
+        "stability": {"stable": True, "poles": [[p.real, p.imag] for p in poles]},
+    }
+    block = validate_result(result)
+    assert block["covered"] and block["ok"] is True
+    assert {e["metric"] for e in block["entries"]} == {"damping_ratio", "poles", "stable"}
