@@ -136,7 +136,9 @@ class TuneResult(ResultModel):
     validation: dict[str, Any] | None = Field(
         None, description="Independent numpy/scipy re-simulation of the tuned design "
                           "(feedtune.validate): each metric as reported and as re-measured, "
-                          "the relative gap [1] and its tolerance [1]; null in older results")
+                          "the gap |reported − validated| and its tolerance max(rel·|value|, "
+                          "fraction·physical scale), both in the metric's unit, and the "
+                          "scale that set it (docs/validation.md); null in older results")
 
 
 @functools.cache

@@ -1,5 +1,6 @@
 """The ``validation`` block of a result: each metric as the optimiser reported it, as the
-independent numpy/scipy model re-measured it, and the relative gap.
+independent numpy/scipy model re-measured it, and the gap judged on the metric's physical
+scale (:mod:`feedtune.validate.tolerances`).
 
 Each plant type has its model in :mod:`feedtune.validate.models`; a plant without one is
 ``covered: false`` with the reason, and a metric its model does not measure is not listed.
@@ -39,7 +40,8 @@ def validate_result(result) -> dict:
     0.2–0.4 s on Bhatia's (whose tuning takes 20 s).
 
     ``{"validator", "covered", "reason", "ok", "entries": [{"metric", "options",
-    "reported", "validated", "gap", "tolerance", "ok"}, ...]}``; ``ok`` is None when
+    "reported", "validated", "unit", "gap", "tolerance", "basis", "ok"}, ...]}`` (gap and
+    tolerance in ``unit``, ``basis`` the scale that set the tolerance); ``ok`` is None when
     nothing was validated (a plant not covered, a failed tuning), else whether every entry
     is within its tolerance. A validator failure is a block with ``error``.
     """
@@ -79,18 +81,20 @@ def _fmt(value) -> str:
 
 
 def warning_lines(block: dict | None) -> list[str]:
-    """``warning: validation: METRIC reported X, re-simulated Y, gap G > tolerance T``."""
+    """``warning: validation: METRIC reported X, re-simulated Y, gap G m > tolerance T m
+    (BLU/1000)``: one line per entry outside its tolerance, judged once by
+    :func:`feedtune.validate.tolerances.judge` (``feedtune batch`` fails the same entries)."""
     lines = []
     for e in failures(block):
-        if e["gap"] is None:
-            lines.append(f"warning: validation: {e['metric']} reported {_fmt(e['reported'])}, "
-                         f"re-simulated {_fmt(e['validated'])}")
-        else:
-            label = e["metric"] + ("(" + ",".join(f"{k}={v}" for k, v in e["options"].items())
-                                   + ")" if e["options"] else "")
-            lines.append(f"warning: validation: {label} reported {_fmt(e['reported'])}, "
-                         f"re-simulated {_fmt(e['validated'])}, gap {e['gap']:.3g} > "
-                         f"tolerance {e['tolerance']:g}")
+        label = e["metric"] + ("(" + ",".join(f"{k}={v}" for k, v in e["options"].items())
+                               + ")" if e["options"] else "")
+        text = (f"warning: validation: {label} reported {_fmt(e['reported'])}, "
+                f"re-simulated {_fmt(e['validated'])}")
+        if e["gap"] is not None:
+            unit = f" {e['unit']}" if e.get("unit") not in (None, "1") else ""
+            basis = f" ({e['basis']})" if e.get("basis") else ""
+            text += f", gap {e['gap']:.3g}{unit} > tolerance {e['tolerance']:.3g}{unit}{basis}"
+        lines.append(text)
     if block and block.get("error"):
         lines.append(f"warning: validation: the validator failed: {block['error']}")
     return lines

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from feedtune.validate.continuous import TOLERANCES, Block, ContinuousModel, siso
+from feedtune.validate.continuous import Block, ContinuousModel, siso
 from feedtune.validate.entries import poles_entry
 from feedtune.validate.model import NotCovered
 
@@ -41,8 +41,6 @@ def compensator(kind: str, prefix: str, tuned: dict) -> Block:
 
 class CascadeModel(ContinuousModel):
     """Position loop around a velocity loop around ``drive`` (inputs u, T_L → θ̇)."""
-
-    TOLERANCES = {**TOLERANCES, "sensitivity": 1e-9}  # a linear solve on each side
 
     def __init__(self, drive: Block, position_gain: float, velocity_gain: float,
                  position_compensator: Block, velocity_compensator: Block, has_load: bool):

@@ -17,9 +17,9 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
-from feedtune.validate.entries import entry
 from feedtune.validate.integrals import error_integrals
 from feedtune.validate.model import NotCovered, Response
+from feedtune.validate.tolerances import Context, judge
 
 #: the response is simulated until the slowest mode has decayed to this fraction
 SETTLED = 1e-12
@@ -29,22 +29,8 @@ FINE, GROWTH, ALIVE = 0.01, 1.02, 1e-10
 #: frequency grid [points per decade] over FREQUENCY_SPAN beyond the slowest/fastest pole
 POINTS_PER_DECADE, FREQUENCY_SPAN = 200, 1e3
 
-#: relative tolerance of each metric's gap, and why:
-TOLERANCES = {
-    # Brent on exact expressions on both sides (tuner: Newton on the exact response)
-    "m_peak": 1e-6, "bandwidth": 1e-6, "crossover_frequency": 1e-6, "phase_margin": 1e-6,
-    "gain_margin": 1e-6,
-    # closed forms: a linear solve on each side
-    "velocity_constant": 1e-9,
-    # trapezoid on the graded grid, step ≤ 0.01/|p|: relative error ~(0.01)²/12 ≈ 1e-5
-    "iae": 1e-4, "ise": 1e-4, "itae": 1e-4, "load_rejection(iae)": 1e-4,
-    # extremes and band exits refined by Brent's method on the exact state
-    "overshoot": 1e-6, "settling_time": 1e-6, "load_rejection(peak)": 1e-6,
-}
-
 
 @dataclass(frozen=True)
-
 class Block:
     """ẋ = A x + B w, y = C x + D w."""
 
@@ -87,7 +73,6 @@ class ContinuousModel:
     sampled = False
     period = None
     position_unit = "rad"
-    TOLERANCES = TOLERANCES
 
     def __init__(self, closed: tuple, open_loop: tuple, has_load: bool):
         self.a, self.b, self.c = closed
@@ -100,6 +85,13 @@ class ContinuousModel:
     def stable(self) -> bool:
         p = self.poles()
         return bool(np.all(p.real < 0))
+
+    def context(self) -> Context:
+        """The physical scales of this loop: its slowest time constant 1/min|p| [s]."""
+        speeds = np.abs(self.poles())
+        speeds = speeds[speeds > 0]
+        return Context(time=1.0 / float(np.min(speeds)) if speeds.size else None,
+                       position_unit=self.position_unit)
 
     def _response(self, a, b, c, d, omega) -> np.ndarray:
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
@@ -300,8 +292,10 @@ class ContinuousModel:
                 "gain_margin": self.gain_margin, "velocity_constant": self.velocity_constant}
 
     def measure(self, result: dict) -> list[dict]:
-        """Entries for every frequency- and time-domain metric the result reports."""
+        """Entries for every frequency- and time-domain metric the result reports, judged
+        by :func:`feedtune.validate.tolerances.judge`."""
         entries, cache = [], {}
+        context = self.context()
 
         def error(kind):
             if kind not in cache:
@@ -318,21 +312,17 @@ class ContinuousModel:
                     value = closed_forms[name]()
                 except NotCovered:
                     continue
-                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
             elif name in ("iae", "ise", "itae") and options.get("time", "absolute") == "absolute":
                 t, e, _, _ = error(options.get("input", "step"))
-                entries.append(entry(name, options, reported, error_integrals(t, e)[name],
-                                     self.TOLERANCES[name]))
+                value = error_integrals(t, e)[name]
             elif name == "overshoot":
                 t, e, exact, _ = error("step")
                 value = max(0.0, self._extreme(t, -e, lambda tt: -exact(tt), 1.0))
-                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
             elif name == "settling_time":
                 kind = options.get("input", "step")
                 t, e, exact, steady = error(kind)
                 size = 1.0 if kind == "step" else abs(steady)
                 value = self._last_exit(t, e, exact, options.get("band", 0.02) * size)
-                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
             elif name == "load_rejection" and self.has_load:
                 t, e, exact, steady = error("load")
                 if options.get("measure", "peak") == "iae":
@@ -341,7 +331,7 @@ class ContinuousModel:
                     value = max(self._extreme(t, e + steady, lambda tt: exact(tt) + steady, s)
                                 for s in (1.0, -1.0))
                     value = max(value, abs(steady))
-                key = f"load_rejection({options.get('measure', 'peak')})"
-                entries.append(entry(name, options, reported, value, self.TOLERANCES[key]))
+            else:
+                continue
+            entries.append(judge(m, value, context))
         return entries
-

@@ -1,25 +1,13 @@
-"""Rows of the ``validation`` block: a metric as reported, as re-measured, and the gap."""
+"""Rows of the ``validation`` block that are not a metric: the closed-loop poles and the
+stability verdict (a metric's row is :func:`feedtune.validate.tolerances.judge`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-#: poles on both sides are eigenvalues; only rounding separates them (~1e-12)
+#: poles on both sides are eigenvalues; only rounding separates them (~1e-12). The scale is
+#: the spectral one: the unit circle (z-plane) or each pole's own magnitude (s-plane)
 POLE_TOLERANCE = 1e-6
-
-
-def relative_gap(reported: float, validated: float, floor: float = 0.0) -> float:
-    """|validated − reported| / max(|reported|, |validated|, floor)."""
-    scale = max(abs(reported), abs(validated), floor)
-    return 0.0 if scale == 0 else abs(validated - reported) / scale
-
-
-def entry(metric: str, options: dict, reported: float, validated: float, tolerance: float,
-          floor: float = 0.0) -> dict:
-    """One row: ``gap`` relative (see :func:`relative_gap`), ``ok`` = gap ≤ tolerance."""
-    gap = relative_gap(reported, validated, floor)
-    return {"metric": metric, "options": options, "reported": reported, "validated": validated,
-            "gap": gap, "tolerance": tolerance, "ok": bool(gap <= tolerance)}
 
 
 def pole_gap(reported: list, validated: np.ndarray, discrete: bool) -> float:
@@ -39,18 +27,21 @@ def pole_gap(reported: list, validated: np.ndarray, discrete: bool) -> float:
 
 
 def poles_entry(reported: list, validated: np.ndarray, discrete: bool) -> dict:
-    """The ``poles`` row: reported and validated as sorted [re, im] pairs."""
+    """The ``poles`` row: reported and validated as sorted [re, im] pairs; ``gap`` is
+    :func:`pole_gap` [1], on the spectral scale named by ``basis``."""
     validated = np.asarray(validated, dtype=complex)
     gap = pole_gap(reported, validated, discrete)
     ordered = validated[np.lexsort((validated.imag, validated.real))]
     return {"metric": "poles", "options": {"domain": "z" if discrete else "s"},
             "reported": reported,
             "validated": [[float(p.real), float(p.imag)] for p in ordered],
-            "gap": gap, "tolerance": POLE_TOLERANCE, "ok": bool(gap <= POLE_TOLERANCE)}
+            "unit": "1", "gap": gap, "tolerance": POLE_TOLERANCE,
+            "basis": "the unit circle" if discrete else "each pole's magnitude",
+            "ok": bool(gap <= POLE_TOLERANCE)}
 
 
 def stable_entry(reported: bool, validated: bool) -> dict:
     """The ``stable`` row: no gap, ``ok`` when both agree."""
     return {"metric": "stable", "options": {}, "reported": bool(reported),
-            "validated": bool(validated), "gap": None, "tolerance": None,
-            "ok": bool(validated) == bool(reported)}
+            "validated": bool(validated), "unit": None, "gap": None, "tolerance": None,
+            "basis": None, "ok": bool(validated) == bool(reported)}

@@ -15,12 +15,8 @@ import math
 
 import numpy as np
 
-from feedtune.validate.entries import entry
 from feedtune.validate.model import NotCovered, Response
-
-#: the same integer arithmetic on both sides: only the float sum of errors could differ
-#: (it is added in the same order), so any gap beyond rounding is a real disagreement
-TOLERANCE = 1e-9
+from feedtune.validate.tolerances import Context, judge
 
 
 class PulseModel:
@@ -154,22 +150,19 @@ class PulseModel:
     # -- the Model protocol ------------------------------------------------------------
 
     def measure(self, result: dict) -> list[dict]:
+        """Every pulse metric the result reports, judged against one pulse δ, one period
+        1/f and their quotients (feedtune.validate.tolerances): the same integer arithmetic
+        runs on both sides, so any gap beyond rounding is a real disagreement."""
+        context = Context(period=self.period, pulse=self.delta, position_unit=self.position_unit)
         entries = []
         for m in (result.get("metrics") or {}).values():
-            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
-            if reported is None:
+            if m.get("value") is None:
                 continue
             try:
-                value = self.metric(name, options)
+                value = self.metric(m["metric"], m.get("options") or {})
             except NotCovered:
                 continue
-            if math.isinf(value) or math.isinf(reported):
-                row = entry(name, options, reported, value, TOLERANCE) if value == reported else {
-                    "metric": name, "options": options, "reported": reported,
-                    "validated": value, "gap": 1.0, "tolerance": TOLERANCE, "ok": False}
-                entries.append(row)
-                continue
-            entries.append(entry(name, options, reported, value, TOLERANCE))
+            entries.append(judge(m, value, context))
         return entries
 
     def stable(self) -> bool:

@@ -32,44 +32,27 @@ What it measures, all on floats:
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.linalg import expm
-from scipy.optimize import brentq
+from scipy.optimize import brentq, minimize_scalar
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
-from feedtune.validate.continuous import TOLERANCES as CONTINUOUS_TOLERANCES
 from feedtune.validate.continuous import ContinuousModel, siso
-from feedtune.validate.entries import entry
 from feedtune.validate.integrals import error_integrals
 from feedtune.validate.model import CircleTrace, NotCovered, Response
+from feedtune.validate.tolerances import Context, judge
 
-#: relative tolerance of each metric's gap, and why:
-TOLERANCES = {
-    # step integrals: the validator's trapezoid on ≥ 256 sub-steps per sample/block has a
-    # relative error ~(h·ω)²/12 ≤ 1e-6 on the loops of the examples (measured 4e-8 … 3e-7)
-    "iae": 1e-4, "ise": 1e-4, "itae": 1e-4,
-    # eigenvalues/closed forms on both sides: only rounding separates them (~1e-12)
-    "damping_ratio": 1e-6, "natural_frequency": 1e-6, "velocity_constant": 1e-6,
-    "radial_error": 1e-6,
-    # closed forms (Sato eqs 3, 7) on both sides
-    "radius_decrease": 1e-6, "average_radius": 1e-9,
-    # a root of the radial error on both sides (tuner: bisection + Newton; here brentq)
-    "min_radius": 1e-6,
-    # circle test: the tuner's closed-form periodic steady state against this time
-    # simulation; the mean is a trapezoid of a periodic signal on both sides (measured gap
-    # 6e-7 on sato-finish)
-    "circle_mean_deviation": 1e-5,
-    # peak and valley on grid points: the tuner's 16 points per sample have a relative
-    # error up to (π/(16q))²/2 of the ripple, 1.9 % at q = 1 (measured 1.8e-5 at q = 5);
-    # a q that is not whole the tuner takes as its nearest fraction a/b, b ≤ 16, while this
-    # simulates the true T (measured 5e-4 on sato-throughput, q = 13.15)
-    "circularity": 2e-2, "circle_roughness": 2e-2,
-}
-#: radial errors below this fraction of the radius count as zero (|H| = 1 to rounding)
-RADIAL_FLOOR = 1e-8
+#: the minimum radius is judged on the radii where the error at V_m is BLU/2 ± this (in BLU)
+CRITERION_BAND = 1e-3
+#: radii scanned for the minimum radius: this many per decade, over MIN_RADIUS_SPAN decades
+#: from V_m/C_v up (ω from C_v down)
+RADII_PER_DECADE, MIN_RADIUS_SPAN = 400, 4
+#: times the scan may grow by MIN_RADIUS_SPAN decades while its largest radius still fails
+MIN_RADIUS_EXTENSIONS = 3
 
 #: the simulated step response runs until the free response has decayed to this fraction
 SETTLED = 1e-13
@@ -111,7 +94,8 @@ class ServoModel:
         if plant.get("model", "exact") == "pade":
             return PadeServoModel(gain, None if tau is None else float(tau),
                                   float(tuned["sampling_period"]),
-                                  int(plant.get("computation_delay", 0)), interval)
+                                  int(plant.get("computation_delay", 0)), interval,
+                                  plant.get("blu"))
         return cls(gain, None if tau is None else float(tau), float(tuned["sampling_period"]),
                    int(plant.get("computation_delay", 0)), reference_interval=interval, **koren)
 
@@ -129,6 +113,7 @@ class ServoModel:
         return (np.array([[0.0, 1.0], [0.0, -1.0 / tau]]), np.array([[0.0], [1.0 / tau]]),
                 np.array([[1.0, 0.0]]))
 
+    @functools.lru_cache(maxsize=8)
     def zoh(self, step: float):
         """Exact ZOH discretisation over ``step`` [s]: (Φ, Γ) from expm([[A, B], [0, 0]]·step)."""
         a, b, _ = self.drive_matrices()
@@ -175,6 +160,17 @@ class ServoModel:
     def stable(self) -> bool:
         p = self.poles()
         return bool(np.max(np.abs(p)) < 1) if self.sampled else bool(np.max(p.real) < 0)
+
+    def context(self) -> Context:
+        """The physical scales: the BLU [m] and the slowest time constant 1/min|s| [s]
+        (s = ln z / T for a sampled loop; z = 0 poles, the delay buffer, have none)."""
+        p = self.poles().astype(complex)
+        if self.sampled:
+            p = np.log(p[np.abs(p) > 1e-12]) / self.period
+        speeds = np.abs(p)
+        speeds = speeds[speeds > 0]
+        return Context(blu=self.blu, time=1.0 / float(np.min(speeds)) if speeds.size else None,
+                       position_unit=self.position_unit)
 
     def equivalent_pair(self) -> tuple[float, float]:
         """(ζ, ω_n [rad/s]) of a second-order loop: s-plane poles s1, s2 (s = ln(z)/T when
@@ -301,9 +297,8 @@ class ServoModel:
         _, _, c = self.drive_matrices()
         m = phi.shape[0]
         z = np.exp(1j * omega * self.period)
-        out = np.empty(z.shape, dtype=complex)
-        for i, zi in enumerate(z):
-            out[i] = (c @ np.linalg.solve(zi * np.eye(m) - phi, gamma))[0, 0]
+        resolvent = z[:, None, None] * np.eye(m) - phi
+        out = np.linalg.solve(resolvent, np.broadcast_to(gamma, (z.size, m, 1)))[:, :, 0] @ c[0]
         return self.gain * z ** (-self.delay) * out
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
@@ -419,8 +414,11 @@ class ServoModel:
 
     def measure(self, result: dict) -> list[dict]:
         """Entries for the step integrals (plain and natural time), ζ, ω_n, C_v, the radial
-        error (Koren eq 28) and Sato's average radius and decrease in radius (eqs 3, 7)."""
+        error (Koren eq 28), the minimum radius, Sato's average radius and decrease in
+        radius (eqs 3, 7) and the circle test, judged by
+        :func:`feedtune.validate.tolerances.judge`."""
         entries = []
+        context = self.context()
         tuned = {name: t["value"] for name, t in result.get("tuned", {}).items()}
         zeta = wn = None
         try:
@@ -433,7 +431,7 @@ class ServoModel:
             name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
             if reported is None:
                 continue
-            tolerance = TOLERANCES.get(name)
+            scale = None
             if name in ("iae", "ise", "itae") and options.get("input", "step") == "step":
                 if integrals is None:
                     integrals = self.error_integrals()
@@ -442,55 +440,98 @@ class ServoModel:
                     if wn is None:
                         continue
                     value *= wn ** {"iae": 1, "ise": 1, "itae": 2}[name]
-                entries.append(entry(name, options, reported, value, tolerance))
             elif name == "damping_ratio" and zeta is not None:
-                entries.append(entry(name, options, reported, zeta, tolerance))
+                value = zeta
             elif name == "natural_frequency" and wn is not None:
-                entries.append(entry(name, options, reported, wn, tolerance))
+                value = wn
             elif name == "velocity_constant":
-                entries.append(entry(name, options, reported, 1.0 / self.ramp_following_error(),
-                                     tolerance))
+                value = 1.0 / self.ramp_following_error()
             elif name == "radial_error" and "radius" in options and "feed" in options:
-                entries.append(entry(name, options, reported,
-                                     self.radial_error(options["radius"], options["feed"]),
-                                     tolerance, floor=RADIAL_FLOOR * options["radius"]))
+                value = self.radial_error(options["radius"], options["feed"])
             elif name in ("radius_decrease", "average_radius") and "reference_interval" in tuned:
                 omega, interval = options["feed"] / options["radius"], tuned["reference_interval"]
                 value = (average_polygon_radius(options["radius"], omega, interval)
                          if name == "average_radius" else
                          self.radius_decrease(options["radius"], options["feed"], interval))
-                entries.append(entry(name, options, reported, value, tolerance,
-                                     floor=RADIAL_FLOOR * options["radius"]))
             elif name == "min_radius" and self.blu is not None and self.max_velocity is not None:
-                entries.append(entry(name, options, reported, self.min_radius(), tolerance))
+                try:
+                    value, scale = self.min_radius_judged(reported)
+                except NotCovered:  # beyond the scan: this entry only is left out
+                    continue
             elif (name in ("circle_mean_deviation", "circularity", "circle_roughness")
                   and self.reference_interval is not None):
                 key = (options["radius"], options["feed"])
                 if key not in circles:
                     circles[key] = self.circle_statistics(*key)
-                entries.append(entry(name, options, reported, circles[key][name], tolerance,
-                                     floor=RADIAL_FLOOR * options["radius"]))
+                value = circles[key][name]
+            else:
+                continue
+            entries.append(judge(m, value, context, scale))
         return entries
 
-    def min_radius(self) -> float:
-        """r_min [m]: the largest r in [V_m/C_v, 10⁴·V_m/C_v] where the radial error at V_m
-        falls to BLU/2 (Koren eqs 30–32 on the loop's own |H|), bracketed on a log grid of
-        400 points per decade and refined by brentq."""
-        v, half = self.max_velocity, self.blu / 2
-        low = v * self.ramp_following_error()  # V_m/C_v
-        grid = np.geomspace(low, 1e4 * low, 1601)
-
-        def excess(radius):
-            return self.radial_error(radius, v) / half - 1
-
-        lo = self.open_loop(v / grid)
+    def blu_criterion(self, radii) -> np.ndarray:
+        """r·| |H(jV_m/r)| − 1 | [m] at each radius r [m]: the radial error of a circle at
+        V_m (Koren eqs 30–31 on the loop's own |H|), |H| − 1 without cancellation."""
+        radii = np.atleast_1d(np.asarray(radii, dtype=float))
+        lo = self.open_loop(self.max_velocity / radii)
         one = np.abs(1 + lo)
-        values = grid * np.abs((1 + 2 * lo.real) / (one * (np.abs(lo) + one))) / half - 1
-        above = np.nonzero(values > 0)[0]
-        if above.size == 0 or above[-1] == grid.size - 1:
+        return radii * np.abs((1 + 2 * lo.real) / (one * (np.abs(lo) + one)))
+
+    def min_radius(self, level: float | None = None) -> float:
+        """r_min [m]: the smallest r* such that every circle of radius r ≥ r* traversed at
+        V_m has a radial error ≤ ``level`` [m] (default BLU/2, Koren eqs 30–32).
+
+        The error need not fall monotonically with r: it can dip below the level and rise
+        above it again (where the ω² and ω⁴ terms of eq 28 have opposite signs), so r_min
+        is the largest radius where the error crosses the level upwards as r decreases.
+        Radii from V_m/C_v (an error of the order of the following error V_m/C_v ≫ BLU)
+        up MIN_RADIUS_SPAN decades (more while the largest still fails), RADII_PER_DECADE
+        per decade; every local maximum of
+        the grid above the largest failing grid point is refined (bounded Brent on ln r),
+        so that a failing band narrower than the grid is not missed; brentq then finds the
+        crossing above the largest failing radius.
+        """
+        level = self.blu / 2 if level is None else level
+        low = self.max_velocity * self.ramp_following_error()  # V_m/C_v
+        grid = np.geomspace(low, low * 10.0**MIN_RADIUS_SPAN,
+                            RADII_PER_DECADE * MIN_RADIUS_SPAN + 1)
+        values = self.blu_criterion(grid)
+        for _ in range(MIN_RADIUS_EXTENSIONS):  # a slow loop: further up, until a circle passes
+            if values[-1] <= level:
+                break
+            more = grid[1:] * (grid[-1] / grid[0])
+            grid, values = np.concatenate([grid, more]), np.concatenate([values, self.blu_criterion(more)])
+        if values[-1] > level:
             raise NotCovered("no radius in the bracket meets the BLU/2 criterion")
-        i = above[-1]
-        return float(brentq(excess, grid[i], grid[i + 1], xtol=1e-15 * grid[i]))
+        if values[0] <= level:
+            raise NotCovered("even r = V_m/C_v meets the BLU/2 criterion (f_m/C_v too small)")
+        worst = float(grid[values > level][-1])
+        peaks = np.nonzero((values[1:-1] >= values[:-2]) & (values[1:-1] >= values[2:]))[0] + 1
+        for i in peaks:
+            if values[i] > level or grid[i + 1] <= worst:
+                continue
+            res = minimize_scalar(lambda u: -self.blu_criterion(math.exp(u))[0],
+                                  bounds=(math.log(grid[i - 1]), math.log(grid[i + 1])),
+                                  method="bounded", options={"xatol": 1e-12})
+            if -res.fun > level:
+                worst = max(worst, math.exp(float(res.x)))
+        above = grid[grid > worst]
+        upper = float(above[np.argmax(self.blu_criterion(above) <= level)])
+        return float(brentq(lambda r: self.blu_criterion(r)[0] - level, worst, upper,
+                            xtol=1e-15 * worst))
+
+    def min_radius_judged(self, reported: float) -> tuple[float, tuple[float, str]]:
+        """(r_min [m], (allowed gap [m], its label)): a reported radius agrees when it lies
+        between the minimum radii for BLU/2 + BLU/1000 and BLU/2 − BLU/1000, i.e. when the
+        criterion would have to move by more than BLU/1000 to give it; this also accepts
+        either side of a dip that just touches BLU/2, where r_min jumps."""
+        value = self.min_radius()
+        band = CRITERION_BAND * self.blu
+        if reported >= value:
+            edge, label = self.min_radius(self.blu / 2 - band), "r_min(BLU/2 − BLU/1000) − r_min"
+        else:
+            edge, label = self.min_radius(self.blu / 2 + band), "r_min − r_min(BLU/2 + BLU/1000)"
+        return value, (abs(edge - value), label)
 
     def circle_statistics(self, radius: float, feed: float) -> dict[str, float]:
         """circle_mean_deviation (time mean of |y| − r), circularity (max − min) and
@@ -514,10 +555,9 @@ class PadeServoModel(ContinuousModel):
     the sampled loop really does is the ``exact`` model's (docs/sato.md)."""
 
     position_unit = "m"
-    TOLERANCES = {**CONTINUOUS_TOLERANCES, **TOLERANCES}
 
     def __init__(self, gain: float, time_constant: float | None, period: float, delay: int,
-                 reference_interval: float | None):
+                 reference_interval: float | None, blu: float | None = None):
         half = (delay + 0.5) * period / 2
         den = np.polymul(np.polymul([half, 1.0], [time_constant or 0.0, 1.0]), [1.0, 0.0])
         block = siso([-gain * half, gain], den)
@@ -525,7 +565,11 @@ class PadeServoModel(ContinuousModel):
         closed_b = np.column_stack([block.b[:, 0], np.zeros(block.order)])
         super().__init__((closed_a, closed_b, block.c[0]), (block.a, block.b, block.c[0]),
                          has_load=False)
-        self.gain, self.reference_interval = gain, reference_interval
+        self.gain, self.reference_interval, self.blu = gain, reference_interval, blu
+
+    def context(self) -> Context:
+        """The continuous loop's time scale, and the BLU [m] where the spec gives one."""
+        return replace(super().context(), blu=self.blu)
 
     def circle_test(self, radius, feed):
         raise NotCovered("the Padé model is a continuous stand-in for the sampled loop: no "
@@ -535,7 +579,7 @@ class PadeServoModel(ContinuousModel):
         """The continuous loop's entries, ζ and ω_n of a second-order loop, and Sato's
         average radius and decrease in radius (eqs 3, 7) with this loop's |H|."""
         entries = super().measure(result)
-        poles = self.poles()
+        poles, context = self.poles(), self.context()
         for m in result.get("metrics", {}).values():
             name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
             if reported is None:
@@ -543,14 +587,14 @@ class PadeServoModel(ContinuousModel):
             if name in ("damping_ratio", "natural_frequency") and poles.size == 2:
                 wn = math.sqrt(abs((poles[0] * poles[1]).real))
                 value = wn if name == "natural_frequency" else -float(poles.sum().real) / (2 * wn)
-                entries.append(entry(name, options, reported, value, self.TOLERANCES[name]))
             elif name in ("radius_decrease", "average_radius") and self.reference_interval:
                 radius, omega = options["radius"], options["feed"] / options["radius"]
                 average = average_polygon_radius(radius, omega, self.reference_interval)
                 h = abs(self.frequency_response(omega)[1][0])
                 value = average if name == "average_radius" else abs(radius - average * h)
-                entries.append(entry(name, options, reported, value, self.TOLERANCES[name],
-                                     floor=RADIAL_FLOOR * radius))
+            else:
+                continue
+            entries.append(judge(m, value, context))
         return entries
 
 

@@ -37,15 +37,16 @@ def test_a_gap_beyond_tolerance_warns_on_stderr(tmp_path, monkeypatch, capsys):
 
     import feedtune.validate.block as block_module
     from feedtune.cli import main
-    from feedtune.validate.entries import entry
+    from feedtune.validate.tolerances import Context, judge
 
     original = block_module._measure
 
     def tampered(model, result):
         entries = original(model, result)
         first = entries[0]
-        entries[0] = entry(first["metric"], first["options"], first["reported"],
-                           first["validated"] * 1.5, first["tolerance"])
+        record = {"metric": first["metric"], "options": first["options"],
+                  "value": first["reported"], "unit": first["unit"]}
+        entries[0] = judge(record, first["validated"] * 1.5, Context(time=model.context().time))
         return entries
 
     monkeypatch.setattr(block_module, "_measure", tampered)
@@ -56,6 +57,6 @@ def test_a_gap_beyond_tolerance_warns_on_stderr(tmp_path, monkeypatch, capsys):
     assert result.exit_code == 0
     stderr = result.stderr if hasattr(result, "stderr") else result.output
     assert "warning: validation: iae(time=absolute,input=step) reported" in stderr
-    assert "> tolerance 0.0001" in stderr
+    assert "m·s > tolerance" in stderr and "(0.0001 × |value|)" in stderr
     block = json.loads(out.read_text())["validation"]
     assert block["ok"] is False

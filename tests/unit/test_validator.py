@@ -178,8 +178,9 @@ def _result(gain=18.0, period=0.015625, iae=None):
                            "time_constant": TAU}},
         "metrics": {
             "iae": {"metric": "iae", "value": integrals["iae"] if iae is None else iae,
-                    "options": {"time": "absolute", "input": "step"}},
-            "damping_ratio": {"metric": "damping_ratio", "value": zeta, "options": {}},
+                    "unit": "m·s", "options": {"time": "absolute", "input": "step"}},
+            "damping_ratio": {"metric": "damping_ratio", "value": zeta, "unit": "1",
+                              "options": {}},
         },
         "stability": {"stable": True, "poles": [[p.real, p.imag] for p in poles]},
     }
@@ -198,7 +199,12 @@ def test_block_flags_a_tampered_metric():
     assert block["ok"] is False
     [line] = warning_lines(block)
     assert line.startswith("warning: validation: iae(time=absolute,input=step) reported ")
-    assert "> tolerance 0.0001" in line
+    # IAE ≈ 0.055 m·s: the relative 1e-4 (trapezoid) sets the tolerance, not the scale
+    # 1 m × t (t = 1/min|p| ≈ 0.04 s) × 1e-6
+    row = block["entries"][0]
+    assert row["tolerance"] == pytest.approx(1e-4 * row["validated"], rel=1e-12)
+    assert (f"gap {row['gap']:.3g} m·s > tolerance {row['tolerance']:.3g} m·s "
+            "(0.0001 × |value|)") in line
 
 
 def test_block_of_an_uncovered_plant_says_why():
