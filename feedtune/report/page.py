@@ -101,15 +101,20 @@ def validation_table(block: dict | None) -> str:
     rows = []
     for e in block.get("entries") or []:
         ok = e.get("ok")
+        unit = e.get("unit") or ""
         rows.append([_td(_label(e["metric"], e.get("options"))), _td(_num(e.get("reported")), "num"),
-                     _td(_num(e.get("validated")), "num"),
+                     _td(_num(e.get("validated")), "num"), _td(unit),
                      _td("" if e.get("gap") is None else f"{e['gap']:.2g}", "num"),
-                     _td("" if e.get("tolerance") is None else f"{e['tolerance']:g}", "num"),
+                     _td("" if e.get("tolerance") is None else f"{e['tolerance']:.2g}", "num"),
+                     _td(e.get("basis") or ""),
                      _td("OK" if ok else "beyond tolerance", "ok" if ok else "bad")])
     summary = ("every gap within its tolerance" if block.get("ok")
                else "some gaps beyond tolerance" if block.get("ok") is False else "nothing compared")
-    return (f"<p>{escape(block.get('validator', ''))}: {escape(summary)}.</p>"
-            + _table(["metric", "reported", "re-measured", "gap", "tolerance", ""], rows))
+    return (f"<p>{escape(block.get('validator', ''))}: {escape(summary)}. A gap is "
+            "|reported − re-measured| in the metric's unit, judged against the tolerance's "
+            "physical scale (basis).</p>"
+            + _table(["metric", "reported", "re-measured", "unit", "gap", "tolerance", "basis", ""],
+                     rows))
 
 
 def plant_table(result: dict, parameters: list[dict] | None) -> str:
