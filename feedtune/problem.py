@@ -212,9 +212,16 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                 return plant.loop(values, box, horizon_scale=scale)
 
             # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
-            problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
-                                                constraints, reports, settings,
-                                                numbers=plant_numbers)
+            try:
+                problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
+                                                    constraints, reports, settings,
+                                                    numbers=plant_numbers)
+            except HorizonError as exc:
+                if refinement == 0:
+                    raise
+                outcome.message += (f"; a {scale:g}x longer step-response horizon is over the "
+                                    f"sample limit ({exc}): the result is the shorter horizon's")
+                break
             outcome = problem.solve(progress)
             if outcome.model_gap <= MODEL_GAP_TOL and not outcome.horizon_bound:
                 break
@@ -229,8 +236,6 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                                 f"NLP still differs from the exact evaluation by "
                                 f"{outcome.model_gap:.2g} (relative), or the optimum still lies "
                                 f"on the horizon's settling bound")
-    except HorizonError as exc:
-        raise SpecError([("/tunables", str(exc))]) from None
     except Exception as exc:  # noqa: BLE001 — a failure is a result, never a traceback
         return _error_result(spec, f"{type(exc).__name__}: {exc}")
 

@@ -6,28 +6,114 @@ from pathlib import Path
 
 import pytest
 
-from feedtune.spec import SpecError, parse_spec
+from pydantic import TypeAdapter
+
+from feedtune.spec import IpoptOptions, SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "koren-1979-sampled-data.json"
 
 
-@pytest.mark.parametrize("options, pointer, reason", [
-    ({"bogus_option": 3}, "/solver/ipopt_options/bogus_option", "No such IPOPT option"),
-    ({"max_iter": "abc"}, "/solver/ipopt_options/max_iter", "type mismatch"),
-])
-def test_ipopt_options_are_checked_by_ipopt_before_solving(options, pointer, reason):
+@pytest.mark.parametrize("name", ["output_file", "option_file_name", "hsllib", "pardisolib",
+                                  "print_level", "file_print_level", "print_options_documentation",
+                                  "bogus_option", "obj_scaling_factor"])
+def test_ipopt_options_outside_the_allow_list_are_refused_listing_the_allowed(name):
+    """Options that name a file or a library, print, or change what is optimised: refused
+    at their pointer, without asking IPOPT (which would open the file or load the library)."""
     spec = json.loads(EXAMPLE.read_text())
-    spec["solver"]["ipopt_options"] = options
+    spec["solver"]["ipopt_options"] = {name: "x", "mu_strategy": "adaptive"}
     with pytest.raises(SpecError) as info:
         parse_spec(spec)
-    assert info.value.errors[0][0] == pointer
-    assert reason in info.value.errors[0][1]
+    [(pointer, message)] = info.value.errors
+    assert pointer == f"/solver/ipopt_options/{name}"
+    allowed = message.split("allowed: ")[1].split(", ")
+    assert allowed == sorted(IpoptOptions.__annotations__) and "hessian_approximation" in allowed
 
 
-def test_valid_ipopt_options_pass():
+@pytest.mark.parametrize("name, field", [("max_iter", "max_iter"), ("tol", "tol"),
+                                         ("max_wall_time", "time_limit")])
+def test_ipopt_options_the_solver_section_sets_point_there(name, field):
     spec = json.loads(EXAMPLE.read_text())
-    spec["solver"]["ipopt_options"] = {"max_iter": 50, "mu_strategy": "adaptive"}
-    assert parse_spec(spec).solver.ipopt_options["max_iter"] == 50
+    spec["solver"]["ipopt_options"] = {name: 50}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    assert info.value.errors == [(f"/solver/ipopt_options/{name}",
+                                  f"set it as /solver/{field} instead")]
+
+
+@pytest.mark.parametrize("name, value, message", [
+    ("linear_solver", "ma27", "should be 'mumps', not \"ma27\""),
+    ("linear_solver", "pardiso", "should be 'mumps', not \"pardiso\""),
+    ("nlp_scaling_method", "equilibration-based", "should be 'none' or 'gradient-based'"),
+    ("linear_system_scaling", "mc19", "should be 'none' or 'slack-based'"),
+    ("bound_frac", 0.6, "less than or equal to 0.5"),
+    ("mu_init", 0, "greater than 0"),
+    ("mu_init", "0.1", "Input should be a valid number, not a string"),
+    ("max_soc", 2.5, "Input should be a valid integer"),
+    ("max_soc", True, "Input should be a valid integer, not true"),
+    ("limited_memory_max_history", None, "Input should be a valid integer, not null"),
+    ("hessian_approximation", ["exact"], "should be 'exact' or 'limited-memory'"),
+])
+def test_ipopt_option_values_are_checked_by_type_and_range(name, value, message):
+    spec = json.loads(EXAMPLE.read_text())
+    spec["solver"]["ipopt_options"] = {name: value}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    [(pointer, got)] = info.value.errors
+    assert pointer == f"/solver/ipopt_options/{name}"
+    assert message in got
+
+
+def _valid_value(name: str):
+    """A value inside the allow-list's type and range for option ``name``."""
+    schema = IPOPT_SCHEMA["properties"][name]
+    if "enum" in schema or "const" in schema:
+        return schema["enum"][-1] if "enum" in schema else schema["const"]
+    if schema["type"] == "integer":
+        return schema.get("minimum", 0) + 1
+    return 0.25 if schema.get("maximum", 1) <= 1 else 0.5
+
+
+IPOPT_SCHEMA = TypeAdapter(IpoptOptions).json_schema()
+
+
+def test_every_allowed_option_is_one_ipopt_takes_with_that_type():
+    """The allow-list is IPOPT 3.14's own table, checked against the IPOPT CasADi bundles:
+    every option at a value of its declared type and range solves a small NLP."""
+    import casadi as ca
+
+    options = {name: _valid_value(name) for name in IPOPT_SCHEMA["properties"]}
+    options["mumps_pivtol"], options["mumps_pivtolmax"] = 1e-6, 0.25
+    spec = json.loads(EXAMPLE.read_text())
+    spec["solver"]["ipopt_options"] = options
+    parsed = parse_spec(spec).solver.ipopt_options
+    assert parsed == options and all(type(parsed[k]) is type(options[k]) for k in options)
+    x = ca.MX.sym("x")
+    solver = ca.nlpsol("allow_list", "ipopt", {"x": x, "f": (x - 1) ** 2},
+                       {"ipopt": {**parsed, "print_level": 0, "sb": "yes", "option_file_name": ""},
+                        "print_time": False, "error_on_fail": False})
+    solver(x0=3, lbx=0, ubx=10)
+    assert solver.stats()["return_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def test_a_whole_number_for_a_real_option_reaches_ipopt_as_a_real():
+    """IPOPT refuses an integer for a Number option (type mismatch): 1 becomes 1.0."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["solver"]["ipopt_options"] = {"mu_init": 1, "max_soc": 2, "mu_strategy": "adaptive"}
+    options = parse_spec(spec).solver.ipopt_options
+    assert options == {"mu_init": 1.0, "max_soc": 2, "mu_strategy": "adaptive"}
+    assert type(options["mu_init"]) is float and type(options["max_soc"]) is int
+
+
+def test_the_tuner_refuses_library_options_whoever_builds_its_settings():
+    """Defence in depth: feedtune.tuner takes no option that loads a library, even from a
+    caller that did not go through parse_spec."""
+    from feedtune.tuner import Settings
+
+    for options in ({"hsllib": "/tmp/x.so"}, {"linear_solver": "ma27"},
+                    {"nlp_scaling_method": "equilibration-based"}):
+        with pytest.raises(ValueError, match="would load a library"):
+            Settings(ipopt_options=options)
+    assert Settings(ipopt_options={"linear_solver": "mumps"}).ipopt_options
 
 
 # -- objective goal ----------------------------------------------------------------------------
