@@ -21,7 +21,7 @@ from typing_extensions import TypedDict
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
-from feedtune.objectives.step_error import has_exact_step
+from feedtune.objectives.step_error import StepErrorMetric, has_exact_step
 from feedtune.plants import PLANTS, plant_for
 
 MAX_SPEC_BYTES = 1_000_000
@@ -492,33 +492,26 @@ def _tuner_loop(plant, box: dict):
     return plant.loop(values, box)
 
 
+def _default_options(metric):
+    """The metric's options with their defaults, or None when some have no default."""
+    try:
+        return metric.Options()
+    except ValidationError:
+        return None
+
+
 def supported_metrics(loop) -> list[str]:
-    """Metrics defined on ``loop`` (with default options where the metric has them)."""
-    names = []
-    for name, metric_cls in METRICS.items():
-        metric = metric_cls()
-        try:
-            options = metric.Options()
-        except ValidationError:
-            options = None
-        if metric.supports(loop, options):
-            names.append(name)
-    return names
+    """Metrics defined on ``loop`` (with default options, or none for metrics whose
+    options have no defaults)."""
+    return [name for name, metric in METRICS.items()
+            if metric().supports(loop, _default_options(metric()))]
 
 
 def _optimisable_metrics(loop) -> list[str]:
-    """Metrics that can be objective terms or constraints on ``loop`` (default options, or
-    none for metrics whose options have no defaults)."""
-    names = []
-    for name in supported_metrics(loop):
-        metric = METRICS[name]()
-        try:
-            options = metric.Options()
-        except ValidationError:
-            options = None
-        if metric.optimisable(loop, options):
-            names.append(name)
-    return names
+    """Metrics that can be objective terms or constraints on ``loop`` (options as in
+    :func:`supported_metrics`)."""
+    return [name for name in supported_metrics(loop)
+            if METRICS[name]().optimisable(loop, _default_options(METRICS[name]()))]
 
 
 def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
@@ -549,7 +542,10 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
             if term is None and not (isinstance(name, str) and name in METRICS):
                 continue  # the schema errors say what is wrong with it
             metric = METRICS[name]()
-            if not metric.supports(loop, term):
+            options = term if term is not None else _default_options(metric)
+            if options is None:
+                continue  # a term whose options did not validate and have no defaults
+            if not metric.supports(loop, options):
                 supported = supported if supported is not None else supported_metrics(loop)
                 errors.append((where, f"metric {json.dumps(name)} is not defined for this "
                                       f"plant configuration; defined here: "
@@ -561,8 +557,11 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
                                "configuration: evaluated on the tuned design, it cannot be an "
                                "objective term or a constraint; optimisable here: "
                                f"{', '.join(optimisable) or 'none'}"))
-            elif term is not None and box_complete and has_exact_step(loop, term):
+            elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
+                  and has_exact_step(loop, term)):
                 tuner_loop = tuner_loop if tuner_loop is not None else _tuner_loop(plant, box)
+                if not hasattr(type(tuner_loop), "horizon_samples"):
+                    continue  # a continuous loop's integrals are closed-form lobe sums
                 try:
                     tuner_loop.horizon_samples  # noqa: B018 — raises when over the limit
                 except HorizonError as exc:

@@ -8,7 +8,7 @@ import pytest
 
 from pydantic import TypeAdapter
 
-from feedtune.spec import IpoptOptions, SpecError, parse_spec
+from feedtune.spec import MAX_OBJECTIVE_TERMS, IpoptOptions, SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "koren-1979-sampled-data.json"
 
@@ -245,3 +245,85 @@ def test_compensator_tunables_need_the_compensator():
     assert pointers == ["/tunables/velocity_compensator.tau1", "/tunables/velocity_compensator.tau2",
                         "/tunables/velocity_compensator.tau12"]
     assert "unknown tunable" in info.value.errors[0][1]
+
+
+# -- all errors in one pass ----------------------------------------------------------------
+
+def test_schema_and_registry_errors_come_together():
+    """A bad weight (schema) no longer hides an unknown tunable, an unsupported metric,
+    empty bounds and a bad IPOPT option (registry checks): one SpecError has them all."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"][0]["weight"] = -1
+    spec["tunables"]["velocity_gain"] = {"min": 1, "max": 2}
+    spec["tunables"]["position_gain"] = {"min": 300, "max": 200}
+    spec["constraints"].append({"metric": "m_peak", "max": 1.3})
+    spec["solver"]["ipopt_options"] = {"output_file": "/tmp/x"}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    errors = dict(info.value.errors)
+    assert set(errors) == {"/objective/0/weight", "/tunables/velocity_gain",
+                           "/tunables/position_gain", "/constraints/1/metric",
+                           "/solver/ipopt_options/output_file"}
+    assert "unknown tunable" in errors["/tunables/velocity_gain"]
+    assert "min (300.0) is greater than max (200.0)" in errors["/tunables/position_gain"]
+
+
+def test_an_unsupported_metric_lists_the_metrics_this_plant_supports():
+    spec = json.loads(EXAMPLE.read_text())
+    spec["constraints"] = [{"metric": "bandwidth", "min": 10}]
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    [(pointer, message)] = info.value.errors
+    assert pointer == "/constraints/0/metric"
+    listed = message.split("defined here: ")[1].split(", ")
+    assert "radial_error" in listed and "damping_ratio" in listed and "bandwidth" not in listed
+
+
+def test_a_term_that_fails_the_schema_is_still_checked_against_the_plant():
+    """m_peak with a bad weight on Koren's sampled loop: both problems at once."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"].append({"metric": "m_peak", "weight": "heavy"})
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    errors = dict(info.value.errors)
+    assert set(errors) == {"/objective/1/weight", "/objective/1/metric"}
+    assert "not a string" in errors["/objective/1/weight"]
+    assert "not defined for this plant configuration" in errors["/objective/1/metric"]
+
+
+def test_empty_bounds_and_a_start_outside_them_are_spec_errors():
+    """What tune's resolve_tunables refused after validation, parse_spec refuses first."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["tunables"]["position_gain"] = {"min": 2000}  # above the default max, 1000 1/s
+    spec["tunables"]["sampling_period"] = {"min": 0.01, "max": 0.02, "initial": 0.5}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    errors = dict(info.value.errors)
+    assert set(errors) == {"/tunables/position_gain", "/tunables/sampling_period/initial"}
+    assert "are empty" in errors["/tunables/position_gain"]
+
+
+def test_the_step_response_sample_limit_is_a_spec_error_at_the_term():
+    """20·(2τ + T_max)/T_min samples, τ = 20 ms, T in [1 µs, 20 ms]: 1.2 million, over the
+    tuner's 50 000: refused by parse_spec (validate and tune alike); at T_min = 0.1 ms
+    (12 000 samples) accepted."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"] = [{"metric": "radial_error", "radius": 0.008, "feed": 0.04},
+                         {"metric": "iae", "weight": 0.1}]
+    spec["tunables"]["sampling_period"] = {"min": 1e-6, "max": 0.02}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    [(pointer, message)] = info.value.errors
+    assert pointer == "/objective/1/metric"
+    assert "1200000 samples (limit 50000)" in message
+    spec["tunables"]["sampling_period"] = {"min": 1e-4, "max": 0.02}
+    assert parse_spec(spec).objective[1].metric == "iae"
+
+
+def test_objective_terms_are_bounded():
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"] = spec["objective"] * (MAX_OBJECTIVE_TERMS + 1)
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    assert info.value.errors == [("/objective", f"Array should have at most {MAX_OBJECTIVE_TERMS} "
+                                                f"items, not {MAX_OBJECTIVE_TERMS + 1}")]
