@@ -275,7 +275,7 @@ def _strictness_errors(value: Any, pointer: str = "") -> list[tuple[str, str]]:
     elif isinstance(value, dict):
         for key in getattr(value, "duplicates", ()):
             errors.append((f"{pointer}/{_escape(key)}",
-                           f"duplicate key {json.dumps(key)} (JSON objects name each key once)"))
+                           f"duplicate key {key!r} (JSON objects name each key once)"))
         for key, item in value.items():
             errors.extend(_strictness_errors(item, f"{pointer}/{_escape(key)}"))
     elif isinstance(value, list):
@@ -420,31 +420,36 @@ def _message(error: dict) -> str:
         return (f"{container} should have {bound} {limit} item{'s' if limit != 1 else ''}, "
                 f"not {ctx.get('actual_length')}")
     if kind == "union_tag_invalid" and isinstance(given, dict):
-        tag = ctx["discriminator"].strip("'")
-        return (f"'{tag}' should be one of {ctx['expected_tags']}, not "
-                f"{json.dumps(given.get(tag))}")
-    if kind == "union_tag_not_found":
-        return f"needs the member {ctx['discriminator']}"
+        value = given.get(ctx["discriminator"].strip("'"))
+        if not isinstance(value, str):  # pydantic would print Python's str() of it
+            return error["msg"].replace(f"tag '{ctx['tag']}'", f"tag {json.dumps(value)}", 1)
     return error["msg"].removeprefix("Value error, ")
 
 
-def _schema_errors(exc: ValidationError, raw: Any, prefix: tuple = ()) -> list[tuple[str, str]]:
-    """(pointer, message) for each error of a validation of ``raw`` at ``prefix``."""
-    return [(_pointer(prefix + tuple(e["loc"]), raw), _message(e)) for e in exc.errors()]
+def _schema_errors(exc: ValidationError, raw: Any) -> list[tuple[str, str]]:
+    """(pointer, message) for each error of the validation of ``raw``; alternatives of a
+    union at one pointer become 'a or b'."""
+    return _errors_by_pointer([(_pointer(e["loc"], raw), _message(e)) for e in exc.errors()])
+
+
+def _merged(schema: list[tuple[str, str]], semantic: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """Schema errors, then registry errors; two at one pointer are joined by '; '."""
+    merged = dict(schema)
+    for pointer, message in semantic:
+        merged[pointer] = f"{merged[pointer]}; {message}" if pointer in merged else message
+    return list(merged.items())
 
 
 # -- checks that need the registries -----------------------------------------------------
 
-_PLANT = TypeAdapter(PlantSpec)
+_PLANT, _TUNABLE = TypeAdapter(PlantSpec), TypeAdapter(TunableSpec)
 _TERM = {"objective": TypeAdapter(ObjectiveTerm), "constraints": TypeAdapter(ConstraintSpec)}
 
 
-def _valid(adapter: TypeAdapter | type, value: Any):
+def _valid(adapter: TypeAdapter, value: Any):
     """``value`` validated (strict), or None when it does not validate."""
     try:
-        if isinstance(adapter, TypeAdapter):
-            return adapter.validate_python(value, strict=True)
-        return adapter.model_validate(value, strict=True)
+        return adapter.validate_python(value, strict=True)
     except ValidationError:
         return None
 
@@ -458,7 +463,7 @@ def _box(raw_tunables: Any, tunables: dict) -> tuple[dict, list[tuple[str, str]]
     given = raw_tunables if isinstance(raw_tunables, dict) else {}
     box, errors, complete = {}, [], isinstance(raw_tunables, dict) or raw_tunables is None
     for name, tunable in tunables.items():
-        spec = _valid(TunableSpec, given[name]) if name in given else TunableSpec()
+        spec = _valid(_TUNABLE, given[name]) if name in given else TunableSpec()
         if spec is None:
             complete = False
             spec = TunableSpec()
@@ -584,16 +589,15 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     raw = data if isinstance(data, dict) else load_json(data)
     if not isinstance(raw, dict):
         raise SpecError([("", f"a spec is a JSON object, not {json_type(raw)}")])
-    errors = []
-    spec = None
+    schema, spec = [], None
     try:
         # strict: a string is not a number, nor true a count (JSON has the types to say so)
         spec = Spec.model_validate(raw, strict=True)
     except ValidationError as exc:
-        errors += _schema_errors(exc, raw)
-    errors += _semantic_errors(raw)
+        schema = _schema_errors(exc, raw)
+    errors = _merged(schema, _semantic_errors(raw))
     if errors:
-        raise SpecError(_errors_by_pointer(errors))
+        raise SpecError(errors)
     return spec
 
 
