@@ -184,7 +184,8 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     Raises
     ------
     SpecError
-        When the spec cannot be turned into a problem (bounds, horizon).
+        When the tunables' bounds are empty (never for a spec from :func:`parse_spec`,
+        which checks them, and the step-response sample limit, itself).
     """
     plant = build_plant(spec)
     variables, fixed, box = resolve_tunables(spec, plant)

@@ -540,7 +540,8 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
     supported = optimisable = None  # computed when a message needs them
     for section, adapter in _TERM.items():
         terms = raw.get(section)
-        for i, item in enumerate(terms if isinstance(terms, list) else ()):
+        limit = MAX_OBJECTIVE_TERMS if section == "objective" else MAX_CONSTRAINTS
+        for i, item in enumerate(terms[:limit] if isinstance(terms, list) else ()):
             where = f"/{section}/{i}/metric"
             term = _valid(adapter, item)
             name = item.get("metric") if isinstance(item, dict) else None

@@ -327,3 +327,25 @@ def test_objective_terms_are_bounded():
         parse_spec(spec)
     assert info.value.errors == [("/objective", f"Array should have at most {MAX_OBJECTIVE_TERMS} "
                                                 f"items, not {MAX_OBJECTIVE_TERMS + 1}")]
+
+
+def test_a_longer_horizon_over_the_sample_limit_keeps_the_first_result(monkeypatch):
+    """Tune lengthens the step horizon when the first NLP is inexact; a lengthened horizon
+    over the sample limit used to turn a spec validate had passed into a spec error. Now
+    the result is the shorter horizon's, and its message says why. (Koren's lightly damped
+    IAE case, delay 1, K ≥ 40 1/s, T = 1/64 s, needs a longer horizon than the first;
+    a growth of 10⁵ puts the second at 9.1 million samples.)"""
+    import feedtune.problem as problem
+
+    monkeypatch.setattr(problem, "HORIZON_GROWTH", 1e5)
+    result = problem.tune(parse_spec({
+        "name": "lightly-damped",
+        "plant": {"type": "software_servo", "technique": "sampled_data", "time_constant": 0.02,
+                  "blu": 5e-6, "max_velocity": 0.04, "computation_delay": 1},
+        "tunables": {"position_gain": {"min": 40.0, "max": 200},
+                     "sampling_period": {"value": 1 / 64}},
+        "objective": [{"metric": "iae"}],
+        "solver": {"multistart": 2}}))
+    assert result.status != "error" and result.solver.starts
+    assert "100000x longer step-response horizon is over the sample limit" in result.message
+    assert "needs 9120001 samples (limit 50000)" in result.message
