@@ -535,6 +535,11 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
                            f"unknown tunable for this plant; known: {', '.join(tunables)}"))
     box, box_errors, box_complete = _box(raw_tunables, tunables)
     errors += box_errors
+    constraints = raw.get("constraints")
+    if (getattr(plant_params, "integer_ratio", False) and isinstance(constraints, list)
+            and len(constraints) == MAX_CONSTRAINTS):
+        errors.append(("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints with "
+                                       "integer_ratio, which adds one (q = a whole number)"))
     loop = plant.loop({n: hi for n, (lo, hi) in box.items()}, box)
     tuner_loop = None  # built when a term sums a step response
     supported = optimisable = None  # computed when a message needs them

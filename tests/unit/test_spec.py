@@ -8,7 +8,7 @@ import pytest
 
 from pydantic import TypeAdapter
 
-from feedtune.spec import MAX_OBJECTIVE_TERMS, IpoptOptions, SpecError, parse_spec
+from feedtune.spec import MAX_CONSTRAINTS, MAX_OBJECTIVE_TERMS, IpoptOptions, SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "koren-1979-sampled-data.json"
 
@@ -349,3 +349,20 @@ def test_a_longer_horizon_over_the_sample_limit_keeps_the_first_result(monkeypat
     assert result.status != "error" and result.solver.starts
     assert "100000x longer step-response horizon is over the sample limit" in result.message
     assert "needs 9120001 samples (limit 50000)" in result.message
+
+
+def test_integer_ratio_leaves_room_for_the_constraint_it_adds():
+    """integer_ratio solves again with one more constraint (q whole); a spec already at
+    the constraint limit would be refused by tune only, so parse_spec refuses it."""
+    spec = json.loads((EXAMPLE.parent / "sato-finish.json").read_text())
+    spec["plant"]["integer_ratio"] = True
+    spec["plant"]["interpolation"] = "linear"
+    bound = {"metric": "interpolation_ratio", "min": 1}
+    spec["constraints"] = [bound] * (MAX_CONSTRAINTS - 1)
+    assert len(parse_spec(spec).constraints) == MAX_CONSTRAINTS - 1
+    spec["constraints"] = [bound] * MAX_CONSTRAINTS
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    assert info.value.errors == [("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints "
+                                                  "with integer_ratio, which adds one (q = a "
+                                                  "whole number)")]
