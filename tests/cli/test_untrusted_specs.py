@@ -42,9 +42,10 @@ def write(path: Path, doc: dict) -> Path:
     return path
 
 
-def batch_row(tmp_path: Path, spec_path: Path) -> tuple[subprocess.CompletedProcess, dict]:
+def batch_row(tmp_path: Path, spec_path: Path,
+              quiet: bool = True) -> tuple[subprocess.CompletedProcess, dict]:
     out = tmp_path / "batch-out"
-    proc = run("batch", str(spec_path), "--out", str(out), "-q")
+    proc = run("batch", str(spec_path), "--out", str(out), *(["-q"] if quiet else []))
     rows = json.loads((out / "summary.json").read_bytes())["rows"]
     assert len(rows) == 1
     return proc, rows[0]
@@ -274,3 +275,14 @@ def test_terms_and_constraints_are_bounded(tmp_path, section, item, limit):
     proc = run("validate", str(write(tmp_path / "over.json", doc)))
     assert_refused(proc, f"/{section}")
     assert f"Array should have at most {limit} items, not {limit + 1}" in proc.stderr.decode()
+
+
+def test_a_key_cannot_forge_a_log_line_in_the_batch_table(tmp_path):
+    """The batch prints each failing spec's message in its table on stderr."""
+    doc = spec()
+    doc["tunables"]["x\n::error::forged"] = {}
+    proc, row = batch_row(tmp_path, write(tmp_path / "spec.json", doc), quiet=False)
+    assert proc.returncode == 1, text(proc)
+    assert row["status"] == "invalid" and "x\\n::error::forged" in row["message"]
+    assert "FAIL: invalid: /tunables/x\\n::error::forged: unknown tunable" in proc.stderr.decode()
+    assert not any(line.startswith("::") for line in proc.stderr.decode().splitlines())
