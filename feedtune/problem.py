@@ -201,9 +201,10 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
     plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}
     s = spec.solver
-    settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
-                        time_limit=s.time_limit, expand=s.expand, ipopt_options=s.ipopt_options)
     try:
+        settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
+                            time_limit=s.time_limit, expand=s.expand,
+                            ipopt_options=s.ipopt_options)
         for refinement in range(MAX_HORIZON_REFINEMENTS + 1):
             scale = HORIZON_GROWTH**refinement
 

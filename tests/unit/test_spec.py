@@ -366,3 +366,16 @@ def test_integer_ratio_leaves_room_for_the_constraint_it_adds():
     assert info.value.errors == [("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints "
                                                   "with integer_ratio, which adds one (q = a "
                                                   "whole number)")]
+
+
+def test_options_that_bypass_parse_spec_end_in_a_result_not_a_traceback():
+    """A Spec built without parse_spec's checks (model_construct) and an option that loads
+    a library: the tuner refuses it, and tune says so in a result with status error."""
+    from feedtune.problem import tune
+
+    spec = parse_spec(json.loads(EXAMPLE.read_text()))
+    solver = spec.solver.model_construct(**{**dict(spec.solver), "ipopt_options": {
+        "linear_solver": "ma27", "hsllib": "/nonexistent/libhsl.so"}})
+    result = tune(spec.model_construct(**{**dict(spec), "solver": solver}))
+    assert result.status == "error" and not result.success
+    assert "would load a library" in result.message
