@@ -61,10 +61,12 @@ class TunableSpec(SpecModel):
 
 
 def _number(description: str, **limits):
+    """A real IPOPT option (JSON number) with its description [unit] and range."""
     return Annotated[float, Field(description=description, **limits)]
 
 
 def _count(description: str, **limits):
+    """An integer IPOPT option (a whole JSON number) with its description [unit] and range."""
     return Annotated[int, Field(description=description, **limits)]
 
 
