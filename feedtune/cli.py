@@ -52,9 +52,11 @@ def _fail(message: str, code: int = EXIT_BAD_INPUT) -> typing.NoReturn:
 
 def _spec_errors(label: str, errors: list[tuple[str, str]]) -> typing.NoReturn:
     """One ``error: LABEL: POINTER: message`` line per problem, then exit 2."""
+    from feedtune.spec import printable
+
     for pointer, message in errors:
-        where = f"{label}: {pointer}" if pointer else label
-        _err(f"error: {where}: {message}")
+        where = f"{label}: {printable(pointer)}" if pointer else label
+        _err(f"error: {where}: {printable(message)}")
     raise SystemExit(EXIT_BAD_INPUT)
 
 
@@ -580,19 +582,13 @@ def validate(spec: str) -> None:
     """Check SPEC (a JSON file, or '-' for stdin) without solving it.
 
     Checks the JSON, every field and unit range, tunable names, that each metric applies
-    to the plant, and that each tunable's bounds [its unit] are not empty. Prints
-    `ok: NAME` to stderr, or one `error: SPEC: /json/pointer: message` line per problem.
+    to the plant, that each tunable's bounds [its unit] are not empty, the IPOPT options'
+    allow-list and the work limits (terms, constraints, step-response samples): exactly
+    what `tune` refuses. Prints `ok: NAME` to stderr, or one
+    `error: SPEC: /json/pointer: message` line per problem.
     """
-    from feedtune.spec import SpecError
-
     parsed = _parse(spec)
-    from feedtune.problem import build_plant, resolve_tunables  # after parsing: slow import
-
-    try:
-        resolve_tunables(parsed, build_plant(parsed))
-    except SpecError as exc:
-        _spec_errors(_label(spec), exc.errors)
-    _err(f"ok: {parsed.name}")
+    _err(f"ok: {parsed.name}")  # a name holds printable characters only
 
 
 @main.command()

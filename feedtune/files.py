@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import stat
 import tempfile
 from pathlib import Path
 
@@ -17,7 +18,9 @@ def write_atomic(path: Path, data: bytes) -> None:
 
     The temporary file is flushed to disk and renamed over ``path`` (atomic on POSIX), so
     a reader never sees half a file. A kill between creating and renaming it can leave the
-    temporary file behind; :func:`remove_stale_temporaries` clears those.
+    temporary file behind; :func:`remove_stale_temporaries` clears those. A symlink at
+    ``path`` is replaced, never followed; the permissions (read/write/execute bits only)
+    of a regular file there are kept, else the umask's default.
     """
     directory = path.parent
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
@@ -27,8 +30,12 @@ def write_atomic(path: Path, data: bytes) -> None:
             handle.flush()
             os.fsync(handle.fileno())
         try:
-            mode = path.stat().st_mode & 0o7777
+            existing = path.lstat()
         except FileNotFoundError:
+            existing = None
+        if existing is not None and stat.S_ISREG(existing.st_mode):
+            mode = existing.st_mode & 0o777
+        else:
             umask = os.umask(0)
             os.umask(umask)
             mode = 0o666 & ~umask

@@ -188,7 +188,8 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     Raises
     ------
     SpecError
-        When the spec cannot be turned into a problem (bounds, horizon).
+        When the tunables' bounds are empty (never for a spec from :func:`parse_spec`,
+        which checks them, and the step-response sample limit, itself).
     """
     plant = build_plant(spec)
     variables, fixed, box = resolve_tunables(spec, plant)
@@ -204,9 +205,10 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
     plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}
     s = spec.solver
-    settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
-                        time_limit=s.time_limit, expand=s.expand, ipopt_options=s.ipopt_options)
     try:
+        settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
+                            time_limit=s.time_limit, expand=s.expand,
+                            ipopt_options=s.ipopt_options)
         for refinement in range(MAX_HORIZON_REFINEMENTS + 1):
             scale = HORIZON_GROWTH**refinement
 
@@ -216,9 +218,16 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                 return plant.loop(values, box, horizon_scale=scale)
 
             # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
-            problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
-                                                constraints, reports, settings,
-                                                numbers=plant_numbers)
+            try:
+                problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
+                                                    constraints, reports, settings,
+                                                    numbers=plant_numbers)
+            except HorizonError as exc:
+                if refinement == 0:
+                    raise
+                outcome.message += (f"; a {scale:g}x longer step-response horizon is over the "
+                                    f"sample limit ({exc}): the result is the shorter horizon's")
+                break
             outcome = problem.solve(progress)
             if not outcome.stability.get("stable"):
                 break  # a longer horizon cannot make an unstable loop's step response settle
@@ -235,8 +244,6 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                                 f"NLP still differs from the exact evaluation by "
                                 f"{outcome.model_gap:.2g} (relative), or the optimum still lies "
                                 f"on the horizon's settling bound")
-    except HorizonError as exc:
-        raise SpecError([("/tunables", str(exc))]) from None
     except Exception as exc:  # noqa: BLE001 — a failure is a result, never a traceback
         return _error_result(spec, f"{type(exc).__name__}: {exc}")
 

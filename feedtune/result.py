@@ -152,7 +152,8 @@ def ipopt_version() -> str:
             os.dup2(devnull.fileno(), 1)
             solver = ca.nlpsol("version_probe", "ipopt", {"x": x, "f": x**2},
                                {"ipopt": {"print_level": 0, "sb": "yes", "output_file": path,
-                                          "file_print_level": 5}, "print_time": False})
+                                          "file_print_level": 5, "option_file_name": ""},
+                                "print_time": False})  # "": never read ./ipopt.opt
             solver(x0=1)
     finally:
         os.dup2(saved, 1)

@@ -8,19 +8,29 @@ objective (weighted metric terms) and constraints (metric bounds), and solver se
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
+import re
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import Field, PositiveFloat, PositiveInt, ValidationError, create_model, model_validator
+import casadi as ca
+from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
+                      create_model, field_validator, model_validator)
+from typing_extensions import TypedDict
 
+from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
+from feedtune.objectives.step_error import StepErrorMetric, has_exact_step
 from feedtune.plants import PLANTS, plant_for
 
 MAX_SPEC_BYTES = 1_000_000
 MAX_JSON_DEPTH = 32
+#: work limits: each term or constraint adds expressions (and exchange rows) to the NLP
+MAX_OBJECTIVE_TERMS = 64
+MAX_CONSTRAINTS = 64
+#: characters a name may not hold: C0/C1 controls and DEL (a name is printed in CI logs)
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 
 
 class SpecError(ValueError):
@@ -50,6 +60,89 @@ class TunableSpec(SpecModel):
         return self
 
 
+def _number(description: str, **limits):
+    """A real IPOPT option (JSON number) with its description [unit] and range."""
+    return Annotated[float, Field(description=description, **limits)]
+
+
+def _count(description: str, **limits):
+    """An integer IPOPT option (a whole JSON number) with its description [unit] and range."""
+    return Annotated[int, Field(description=description, **limits)]
+
+
+class IpoptOptions(TypedDict, total=False):
+    """The IPOPT options a spec may set: algorithmic ones, with IPOPT 3.14's types and ranges.
+
+    Options that name a file or a library (``output_file``, ``option_file_name``,
+    ``hsllib``, ``pardisolib``), choices that load a library at run time (the HSL and
+    Pardiso linear solvers, MC19 scaling), output (``print_level``: stdout carries the
+    result) and what ``solver`` sets itself (``max_iter``, ``tol``, ``max_wall_time``) are
+    not here, so a spec cannot set them.
+    """
+
+    __pydantic_config__ = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    hessian_approximation: Annotated[Literal["exact", "limited-memory"], Field(
+        description="exact: second derivatives of the NLP; limited-memory: L-BFGS")]
+    limited_memory_max_history: _count("L-BFGS history length [iterations]", ge=0, le=1000)
+    limited_memory_update_type: Annotated[Literal["bfgs", "sr1"], Field(
+        description="Quasi-Newton update of the limited-memory Hessian")]
+    mu_strategy: Annotated[Literal["monotone", "adaptive"], Field(
+        description="Barrier parameter update (Fiacco-McCormick or adaptive)")]
+    mu_oracle: Annotated[Literal["probing", "loqo", "quality-function"], Field(
+        description="Barrier parameter oracle of the adaptive strategy")]
+    mu_init: _number("Initial barrier parameter [1, scaled problem]", gt=0)
+    mu_max: _number("Largest barrier parameter, adaptive strategy [1, scaled problem]", gt=0)
+    mu_min: _number("Smallest barrier parameter, adaptive strategy [1, scaled problem]", gt=0)
+    nlp_scaling_method: Annotated[Literal["none", "gradient-based"], Field(
+        description="Scaling of the NLP before solving")]
+    nlp_scaling_max_gradient: _number("Largest gradient after gradient-based scaling [1]", gt=0)
+    acceptable_tol: _number("'Acceptable' overall optimality error [1, scaled problem]", gt=0)
+    acceptable_iter: _count("Successive acceptable iterates that end the solve [iterations]; "
+                            "0 disables", ge=0)
+    acceptable_constr_viol_tol: _number("Acceptable constraint violation [1, unscaled]", gt=0)
+    acceptable_dual_inf_tol: _number("Acceptable dual infeasibility [1, unscaled]", gt=0)
+    acceptable_compl_inf_tol: _number("Acceptable complementarity [1, unscaled]", gt=0)
+    acceptable_obj_change_tol: _number("Acceptable relative objective change [1]", ge=0)
+    constr_viol_tol: _number("Constraint violation at success [1, unscaled]", gt=0)
+    dual_inf_tol: _number("Dual infeasibility at success [1, unscaled]", gt=0)
+    compl_inf_tol: _number("Complementarity at success [1, unscaled]", gt=0)
+    bound_push: _number("Least absolute distance of the start from a bound [1, log of the "
+                        "tunable]", gt=0)
+    bound_frac: _number("Least relative distance of the start from a bound [1]", gt=0, le=0.5)
+    bound_relax_factor: _number("Relative relaxation of the bounds [1]; 0 disables", ge=0)
+    honor_original_bounds: Annotated[Literal["yes", "no"], Field(
+        description="Project the final point into the original bounds")]
+    max_cpu_time: _number("CPU-time limit of one IPOPT solve [s]", gt=0)
+    max_soc: _count("Second-order correction steps per iteration [count]; 0 disables", ge=0,
+                    le=100)
+    expect_infeasible_problem: Annotated[Literal["yes", "no"], Field(
+        description="Heuristics that detect an infeasible problem early")]
+    check_derivatives_for_naninf: Annotated[Literal["yes", "no"], Field(
+        description="Stop on NaN/Inf in the derivative matrices")]
+    linear_solver: Annotated[Literal["mumps"], Field(
+        description="Linear solver: MUMPS, bundled with CasADi (the HSL and Pardiso solvers "
+                    "load a library at run time and are refused)")]
+    linear_system_scaling: Annotated[Literal["none", "slack-based"], Field(
+        description="Scaling of the augmented linear system")]
+    mumps_pivtol: _number("MUMPS pivot tolerance [1]", ge=0, le=1)
+    mumps_pivtolmax: _number("Largest MUMPS pivot tolerance [1]", ge=0, le=1)
+
+
+#: IPOPT options that ``solver`` has fields for: the spec sets them there
+_SOLVER_FIELDS = {"max_iter": "max_iter", "tol": "tol", "max_wall_time": "time_limit"}
+
+
+def _unknown_ipopt_option(name: str) -> str:
+    """Why ``name`` cannot be an IPOPT option of a spec, listing the ones that can."""
+    allowed = ", ".join(sorted(IpoptOptions.__annotations__))
+    if name in _SOLVER_FIELDS:
+        return f"set it as /solver/{_SOLVER_FIELDS[name]} instead"
+    return (f"{json.dumps(name)} is not an IPOPT option a spec may set (options that name "
+            f"files or libraries, print, or that feedtune sets itself are refused); "
+            f"allowed: {allowed}")
+
+
 class SolverSpec(SpecModel):
     """IPOPT settings and multistart."""
 
@@ -62,8 +155,9 @@ class SolverSpec(SpecModel):
     expand: bool | None = Field(
         None, description="Expand the NLP to CasADi SX before solving: faster solves, slower "
                           "build; null (default) expands when step responses are short")
-    ipopt_options: dict[str, str | int | float] = Field(
-        default_factory=dict, description="Raw IPOPT options, passed through unchanged")
+    ipopt_options: IpoptOptions = Field(
+        default_factory=dict, description="Algorithmic IPOPT options (an allow-list, with "
+                                          "IPOPT's types and ranges; units per option)")
 
 
 def _camel(name: str) -> str:
@@ -113,16 +207,32 @@ ConstraintSpec = _tagged_union(tuple(_constraint_model(n, m) for n, m in METRICS
 class Spec(SpecModel):
     """A tuning problem: plant, tunables, objective, constraints, solver."""
 
-    name: str = Field(min_length=1, max_length=200, description="Name of this tuning problem")
+    name: str = Field(min_length=1, max_length=200,
+                      description="Name of this tuning problem (also names its batch result "
+                                  "file); printable characters only [text]")
     description: str = Field("", max_length=10_000, description="Free text for people")
     plant: PlantSpec
     tunables: dict[str, TunableSpec] = Field(
         default_factory=dict,
         description="Tunables by name (see `feedtune plants`); omitted ones are free within "
                     "the plant's default bounds")
-    objective: list[ObjectiveTerm] = Field(min_length=1, description="Weighted sum of metric terms to minimise (terms with goal maximize count negatively)")
-    constraints: list[ConstraintSpec] = Field(default_factory=list, description="Metric bounds that must hold")
+    objective: list[ObjectiveTerm] = Field(
+        min_length=1, max_length=MAX_OBJECTIVE_TERMS,
+        description="Weighted sum of metric terms to minimise (terms with goal maximize count "
+                    f"negatively) [at most {MAX_OBJECTIVE_TERMS} terms]")
+    constraints: list[ConstraintSpec] = Field(
+        default_factory=list, max_length=MAX_CONSTRAINTS,
+        description=f"Metric bounds that must hold [at most {MAX_CONSTRAINTS} constraints]")
     solver: SolverSpec = Field(default_factory=SolverSpec)
+
+    @field_validator("name")
+    @classmethod
+    def _printable(cls, name: str) -> str:
+        bad = _CONTROL.search(name)
+        if bad:
+            raise ValueError(f"holds the control character {json.dumps(bad.group())} (a name is "
+                             "printed in logs and names a file: printable characters only)")
+        return name
 
     def canonical_json(self) -> str:
         """Sorted, compact JSON of the spec with every default filled in."""
@@ -187,14 +297,18 @@ def _depth(value: Any, limit: int, level: int = 0) -> int:
 
 
 def load_json(data: bytes | str) -> Any:
-    """Parse strict JSON (no NaN/Infinity, no duplicate keys, UTF-8, size-limited)."""
+    """Parse strict JSON (no NaN/Infinity, no duplicate keys, UTF-8, size-limited).
+
+    A UTF-8 byte-order mark at the start is skipped (editors on Windows write one).
+    """
     if isinstance(data, bytes):
         if len(data) > MAX_SPEC_BYTES:
             raise SpecError([("", f"spec is {len(data)} bytes; the limit is {MAX_SPEC_BYTES}")])
         try:
-            data = data.decode("utf-8")
+            data = data.decode("utf-8-sig")
         except UnicodeDecodeError as exc:
             raise SpecError([("", f"spec is not UTF-8 text (byte {exc.start})")]) from None
+    data = data.removeprefix("\ufeff")
     if len(data) > MAX_SPEC_BYTES:
         raise SpecError([("", f"spec is {len(data)} characters; the limit is {MAX_SPEC_BYTES}")])
     if not data.strip():
@@ -262,76 +376,218 @@ def _errors_by_pointer(errors: list[tuple[str, str]]) -> list[tuple[str, str]]:
     return [(pointer, " or ".join(messages)) for pointer, messages in merged.items()]
 
 
-def _ipopt_option_errors(options: dict) -> list[tuple[str, str]]:
-    """Unknown IPOPT options and values of the wrong type, found by IPOPT itself."""
-    errors = []
-    for name, value in options.items():
-        reason = _ipopt_option_error(name, value)
-        if reason is not None:
-            errors.append((f"/solver/ipopt_options/{_escape(name)}", f"IPOPT rejects it: {reason}"))
-    return errors
+# -- messages in JSON's vocabulary -------------------------------------------------------
+
+def json_type(value: Any) -> str:
+    """The JSON name of a parsed value's type: null, true/false, number, string, array, object."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, dict):
+        return "an object"
+    return "a value JSON has no type for"
 
 
-@functools.lru_cache(maxsize=256, typed=True)  # typed: IPOPT tells 1, 1.0 and "1" apart
-def _ipopt_option_error(name: str, value: str | int | float) -> str | None:
-    """IPOPT's reason for rejecting ``name = value``, or None; one nlpsol per pair and process."""
-    import casadi as ca
+#: pydantic error types that name a Python type (or none), said in JSON's words instead
+_EXPECTED = {
+    "dict_type": "a valid object", "model_type": "a valid object",
+    "model_attributes_type": "a valid object", "list_type": "a valid array",
+    "bool_type": "true or false", "int_type": "a valid integer", "float_type": "a valid number",
+    "string_type": "a valid string",
+}
+_CONTAINERS = {"List": "Array", "Dictionary": "Object", "Tuple": "Array", "Set": "Array"}
 
-    x = ca.MX.sym("x")
+
+def _message(error: dict) -> str:
+    """A pydantic error's message in JSON's vocabulary (null, number, string, array, object,
+    true/false), saying what was given: never a Python type name."""
+    kind, ctx, given = error["type"], error.get("ctx") or {}, error.get("input")
+    if kind == "extra_forbidden" and error["loc"][-2:-1] == ("ipopt_options",):
+        return _unknown_ipopt_option(str(error["loc"][-1]))
+    if kind in _EXPECTED:
+        return f"Input should be {_EXPECTED[kind]}, not {json_type(given)}"
+    if kind == "literal_error":
+        return f"Input should be {ctx['expected']}, not {json.dumps(given)}"
+    if kind in ("too_long", "too_short"):
+        container = _CONTAINERS.get(ctx.get("field_type"), "Array")
+        bound = "at most" if kind == "too_long" else "at least"
+        limit = ctx.get("max_length", ctx.get("min_length"))
+        return (f"{container} should have {bound} {limit} item{'s' if limit != 1 else ''}, "
+                f"not {ctx.get('actual_length')}")
+    if kind == "union_tag_invalid" and isinstance(given, dict):
+        value = given.get(ctx["discriminator"].strip("'"))
+        if not isinstance(value, str):  # pydantic would print Python's str() of it
+            return error["msg"].replace(f"tag '{ctx['tag']}'", f"tag {json.dumps(value)}", 1)
+    return error["msg"].removeprefix("Value error, ")
+
+
+def _schema_errors(exc: ValidationError, raw: Any) -> list[tuple[str, str]]:
+    """(pointer, message) for each error of the validation of ``raw``; alternatives of a
+    union at one pointer become 'a or b'."""
+    return _errors_by_pointer([(_pointer(e["loc"], raw), _message(e)) for e in exc.errors()])
+
+
+def _merged(schema: list[tuple[str, str]], semantic: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """Schema errors, then registry errors; two at one pointer are joined by '; '."""
+    merged = dict(schema)
+    for pointer, message in semantic:
+        merged[pointer] = f"{merged[pointer]}; {message}" if pointer in merged else message
+    return list(merged.items())
+
+
+# -- checks that need the registries -----------------------------------------------------
+
+_PLANT, _TUNABLE = TypeAdapter(PlantSpec), TypeAdapter(TunableSpec)
+_TERM = {"objective": TypeAdapter(ObjectiveTerm), "constraints": TypeAdapter(ConstraintSpec)}
+
+
+def _valid(adapter: TypeAdapter, value: Any):
+    """``value`` validated (strict), or None when it does not validate."""
     try:
-        ca.nlpsol("option_check", "ipopt", {"x": x, "f": x**2},
-                  {"ipopt": {name: value, "print_level": 0, "sb": "yes"}, "print_time": False})
-    except RuntimeError as exc:
-        return str(exc).strip().splitlines()[-1].split(": ", 1)[-1]
-    return None
+        return adapter.validate_python(value, strict=True)
+    except ValidationError:
+        return None
 
 
-def _semantic_errors(spec: Spec) -> list[tuple[str, str]]:
-    """Checks that need the registries: tunable names and bounds, metric applicability."""
-    errors = _ipopt_option_errors(spec.solver.ipopt_options)
-    plant = plant_for(spec.plant)
-    tunables = plant.tunables()
-    for name, tunable in spec.tunables.items():
-        if name not in tunables:
+def _box(raw_tunables: Any, tunables: dict) -> tuple[dict, list[tuple[str, str]], bool]:
+    """((min, max) of every tunable, errors, whether every given tunable validated).
+
+    The spec's bounds where given, the plant's default bounds for what it omits; a fixed
+    tunable's box is its value.
+    """
+    given = raw_tunables if isinstance(raw_tunables, dict) else {}
+    box, errors, complete = {}, [], isinstance(raw_tunables, dict) or raw_tunables is None
+    for name, tunable in tunables.items():
+        spec = _valid(_TUNABLE, given[name]) if name in given else TunableSpec()
+        if spec is None:
+            complete = False
+            spec = TunableSpec()
+        if spec.value is not None:
+            box[name] = (spec.value, spec.value)
+            continue
+        lower = spec.min if spec.min is not None else tunable.min
+        upper = spec.max if spec.max is not None else tunable.max
+        if lower > upper:
             errors.append((f"/tunables/{_escape(name)}",
-                           f"unknown tunable for this plant; known: {', '.join(tunables)}"))
-    loop = plant.loop({n: t.max for n, t in tunables.items()},
-                      {n: (t.min, t.max) for n, t in tunables.items()})
-    optimisable = None  # names of the metrics this loop can optimise, computed when needed
-    for section in ("objective", "constraints"):
-        for i, term in enumerate(getattr(spec, section)):
-            metric = METRICS[term.metric]()
-            if not metric.supports(loop, term):
-                errors.append((f"/{section}/{i}/metric",
-                               f"metric {term.metric!r} is not defined for this plant configuration"))
-            elif not metric.optimisable(loop, term):
-                if optimisable is None:
-                    optimisable = _optimisable_metrics(loop)
-                errors.append((f"/{section}/{i}/metric",
-                               f"metric {term.metric!r} is reported only on this plant "
-                               "configuration: evaluated on the tuned design, it cannot be an "
-                               "objective term or a constraint; optimisable here: "
-                               f"{', '.join(optimisable) or 'none'}"))
-    return errors
+                           f"bounds [{lower}, {upper}] {tunable.unit} are empty (defaults "
+                           f"[{tunable.min}, {tunable.max}] fill what the spec omits)"))
+            complete = False
+            upper = lower
+        elif spec.initial is not None and not lower <= spec.initial <= upper:
+            errors.append((f"/tunables/{_escape(name)}/initial",
+                           f"{spec.initial} is outside [{lower}, {upper}]"))
+        box[name] = (lower, upper)
+    return box, errors, complete
+
+
+def _tuner_loop(plant, box: dict):
+    """The loop as the tuner builds it at step-response horizon scale 1: tunables and plant
+    numbers as symbols when any tunable is free, else a loop of numbers."""
+    if all(lower == upper for lower, upper in box.values()):
+        return plant.loop({name: ca.MX(lower) for name, (lower, _) in box.items()}, box)
+    values = {name: ca.MX.sym(name) for name in box}
+    numbers = plant.numbers() if hasattr(plant, "numbers") else {}
+    if numbers:
+        return plant.loop(values, box, numbers={name: ca.MX.sym(name) for name in numbers})
+    return plant.loop(values, box)
+
+
+def _default_options(metric):
+    """The metric's options with their defaults, or None when some have no default."""
+    try:
+        return metric.Options()
+    except ValidationError:
+        return None
+
+
+def supported_metrics(loop) -> list[str]:
+    """Metrics defined on ``loop`` (with default options, or none for metrics whose
+    options have no defaults)."""
+    return [name for name, metric in METRICS.items()
+            if metric().supports(loop, _default_options(metric()))]
 
 
 def _optimisable_metrics(loop) -> list[str]:
-    """Metrics that can be objective terms or constraints on ``loop`` (default options, or
-    none for metrics whose options have no defaults)."""
-    names = []
-    for name, metric_cls in METRICS.items():
-        metric = metric_cls()
-        try:
-            options = metric.Options()
-        except ValidationError:
-            options = None
-        if metric.supports(loop, options) and metric.optimisable(loop, options):
-            names.append(name)
-    return names
+    """Metrics that can be objective terms or constraints on ``loop`` (options as in
+    :func:`supported_metrics`)."""
+    return [name for name in supported_metrics(loop)
+            if METRICS[name]().optimisable(loop, _default_options(METRICS[name]()))]
+
+
+def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
+    """Checks that need the registries, run on every part of ``raw`` that validates by
+    itself: tunable names and bounds, metric applicability, the step-response horizon."""
+    plant_params = _valid(_PLANT, raw.get("plant"))
+    if plant_params is None:
+        return []
+    errors = []
+    plant = plant_for(plant_params)
+    tunables = plant.tunables()
+    raw_tunables = raw.get("tunables")
+    for name in raw_tunables if isinstance(raw_tunables, dict) else ():
+        if name not in tunables:
+            errors.append((f"/tunables/{_escape(name)}",
+                           f"unknown tunable for this plant; known: {', '.join(tunables)}"))
+    box, box_errors, box_complete = _box(raw_tunables, tunables)
+    errors += box_errors
+    constraints = raw.get("constraints")
+    if (getattr(plant_params, "integer_ratio", False) and isinstance(constraints, list)
+            and len(constraints) == MAX_CONSTRAINTS):
+        errors.append(("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints with "
+                                       "integer_ratio, which adds one (q = a whole number)"))
+    loop = plant.loop({n: hi for n, (lo, hi) in box.items()}, box)
+    tuner_loop = None  # built when a term sums a step response
+    supported = optimisable = None  # computed when a message needs them
+    for section, adapter in _TERM.items():
+        terms = raw.get(section)
+        limit = MAX_OBJECTIVE_TERMS if section == "objective" else MAX_CONSTRAINTS
+        for i, item in enumerate(terms[:limit] if isinstance(terms, list) else ()):
+            where = f"/{section}/{i}/metric"
+            term = _valid(adapter, item)
+            name = item.get("metric") if isinstance(item, dict) else None
+            if term is None and not (isinstance(name, str) and name in METRICS):
+                continue  # the schema errors say what is wrong with it
+            metric = METRICS[name]()
+            options = term if term is not None else _default_options(metric)
+            if options is None:
+                continue  # a term whose options did not validate and have no defaults
+            if not metric.supports(loop, options):
+                supported = supported if supported is not None else supported_metrics(loop)
+                errors.append((where, f"metric {json.dumps(name)} is not defined for this "
+                                      f"plant configuration; defined here: "
+                                      f"{', '.join(supported) or 'none'}"))
+            elif term is not None and not metric.optimisable(loop, term):
+                optimisable = optimisable if optimisable is not None else _optimisable_metrics(loop)
+                errors.append((where,
+                               f"metric {json.dumps(name)} is reported only on this plant "
+                               "configuration: evaluated on the tuned design, it cannot be an "
+                               "objective term or a constraint; optimisable here: "
+                               f"{', '.join(optimisable) or 'none'}"))
+            elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
+                  and has_exact_step(loop, term)):
+                tuner_loop = tuner_loop if tuner_loop is not None else _tuner_loop(plant, box)
+                if not hasattr(type(tuner_loop), "horizon_samples"):
+                    continue  # a continuous loop's integrals are closed-form lobe sums
+                try:
+                    tuner_loop.horizon_samples  # noqa: B018 — raises when over the limit
+                except HorizonError as exc:
+                    errors.append((where, f"{name} sums the step response sample by sample: "
+                                          f"{exc}"))
+    return errors
 
 
 def parse_spec(data: bytes | str | dict) -> Spec:
     """Validate a spec (JSON text, bytes or an already parsed dict).
+
+    Every problem is found in one pass: the schema's, and the checks that need the
+    plant and metric registries on every part that validated.
 
     Raises
     ------
@@ -340,18 +596,23 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     """
     raw = data if isinstance(data, dict) else load_json(data)
     if not isinstance(raw, dict):
-        raise SpecError([("", f"a spec is a JSON object, not {type(raw).__name__}")])
+        raise SpecError([("", f"a spec is a JSON object, not {json_type(raw)}")])
+    schema, spec = [], None
     try:
         # strict: a string is not a number, nor true a count (JSON has the types to say so)
         spec = Spec.model_validate(raw, strict=True)
     except ValidationError as exc:
-        raise SpecError(_errors_by_pointer([(_pointer(e["loc"], raw),
-                                             e["msg"].removeprefix("Value error, "))
-                                            for e in exc.errors()])) from None
-    errors = _semantic_errors(spec)
+        schema = _schema_errors(exc, raw)
+    errors = _merged(schema, _semantic_errors(raw))
     if errors:
         raise SpecError(errors)
     return spec
+
+
+def printable(text: str) -> str:
+    """``text`` with control characters escaped as in JSON (``\\n``, ``\\u001b``): what a
+    spec puts into a message (a key in a pointer) cannot start a new log line."""
+    return _CONTROL.sub(lambda m: json.dumps(m.group())[1:-1], text)
 
 
 def spec_json_schema() -> dict:

@@ -78,8 +78,12 @@ def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:
 
 
 def _errors_text(errors: list[tuple[str, str]]) -> str:
-    return "; ".join(f"{pointer}: {message}" if pointer else message
-                     for pointer, message in errors)
+    """The errors on one line (control characters in a spec's keys escaped): the batch
+    prints it in its table, where a newline could forge a CI log line."""
+    from feedtune.spec import printable
+
+    return printable("; ".join(f"{pointer}: {message}" if pointer else message
+                               for pointer, message in errors))
 
 
 def _internal(exc: BaseException, started: float, sha: str | None = None) -> Outcome:

@@ -12,6 +12,7 @@ hash and feedtune version (a ``resumed`` row) and solves the rest.
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import json
 import os
@@ -54,8 +55,20 @@ def existing_sha256(path: Path) -> str | None:
 
 @contextlib.contextmanager
 def locked(directory: Path):
-    """Hold ``directory``'s batch lock (released by the kernel even after SIGKILL)."""
-    handle = open(directory / LOCK_NAME, "a+")
+    """Hold ``directory``'s batch lock (released by the kernel even after SIGKILL).
+
+    The lock file is never opened through a symlink, which could name a file outside
+    ``directory`` to create.
+    """
+    path = directory / LOCK_NAME
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise InputError(f"{path}: is a symbolic link; the batch lock must be a plain "
+                             "file (remove the link)") from None
+        raise
+    handle = os.fdopen(fd, "a+")
     try:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -56,6 +56,15 @@ FEASIBILITY_TOL = 1e-6  # relative tolerance when reporting whether a bound hold
 RESTORATION_EVALUATIONS = 400  # loop evaluations a start may spend looking for stability
 #: frequencies the exchange method may add to one peak or crossing, per start
 EXCHANGE_POINTS = 8
+#: IPOPT options the tuner always sets, after the caller's: no output (stdout carries the
+#: result), and no options file (IPOPT otherwise reads ./ipopt.opt, which may name a
+#: library to load)
+FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
+                       "output_file": "", "file_print_level": 0}
+#: options that name a file or library, or choose one to load: refused whatever the caller
+LIBRARY_IPOPT_OPTIONS = frozenset({"hsllib", "pardisolib", "linear_solver",
+                                   "linear_system_scaling", "nlp_scaling_method"})
+SAFE_LIBRARY_CHOICES = frozenset({"mumps", "none", "slack-based", "gradient-based"})
 #: a refined peak above its bound (relative), or a dip below a crossing condition's zero
 #: (the condition is bounded, so absolute), by more than this adds its frequency
 EXCHANGE_TOL = 1e-7
@@ -125,6 +134,13 @@ class Settings:
     time_limit: float = 60.0
     expand: bool | None = None
     ipopt_options: Mapping[str, object] = field(default_factory=dict)
+
+    def __post_init__(self):
+        """Refuse IPOPT options that would load a library, whoever built the settings (a
+        spec's options are allow-listed by :mod:`feedtune.spec` before they get here)."""
+        for name, value in self.ipopt_options.items():
+            if name in LIBRARY_IPOPT_OPTIONS and value not in SAFE_LIBRARY_CHOICES:
+                raise ValueError(f"IPOPT option {name} = {value!r} would load a library")
 
 
 @dataclass
@@ -481,9 +497,9 @@ class Problem:
         self.lbg, self.ubg = np.array(lbg, dtype=float), np.array(ubg, dtype=float)
         self.slot_defaults = np.array(slot_defaults, dtype=float)
         self._options = {
-            "ipopt": {"print_level": 0, "sb": "yes", "max_iter": settings.max_iter,
-                      "tol": settings.tol, "max_wall_time": settings.time_limit,
-                      **settings.ipopt_options},
+            "ipopt": {"max_iter": settings.max_iter, "tol": settings.tol,
+                      "max_wall_time": settings.time_limit, **settings.ipopt_options,
+                      **FIXED_IPOPT_OPTIONS},
             "print_time": False,
             "error_on_fail": False,
         }

@@ -138,7 +138,7 @@ def corpus() -> list[Case]:
              "/name", "valid string"),
         Case("type-object-for-list", _edit("type-object-for-list", _set(
             ("objective",), {"metric": "radial_error", "radius": 0.008, "feed": 0.04})),
-             "/objective", "valid list"),
+             "/objective", "valid array"),
         Case("type-fraction-for-count", _edit("type-fraction-for-count",
                                               _set(("solver", "multistart"), 8.5)),
              "/solver/multistart", "valid integer"),

@@ -7,6 +7,7 @@ from __future__ import annotations
 import copy
 import itertools
 import json
+import re
 import typing
 from pathlib import Path
 from typing import Any
@@ -409,3 +410,43 @@ def test_key_named_like_the_metric_does_not_confuse_the_pointer():
         parse_spec(doc)
     for pointer, _ in info.value.errors:
         assert_pointer_names_the_input(pointer, doc)
+
+
+# -- (d) messages in JSON's words -----------------------------------------------------------
+
+#: Python's names for types (and its constants) that a message for a JSON author must not use
+PYTHON_WORDS = re.compile(r"\b(NoneType|None|True|False|dict|dictionary|list|tuple|bool|"
+                          r"boolean|int|float|str|bytes|Decimal|instance)\b")
+
+
+@SETTINGS
+@given(site=st.sampled_from(MUTATION_SITES), value=json_values)
+@example(site=(_SERVO, ("objective", 0, "weight")), value=None)
+@example(site=(_SERVO, ("objective",)), value={"metric": "iae"})
+@example(site=(_SERVO, ("plant",)), value=[1])
+@example(site=(_SERVO, ("plant", "type")), value=1.5)
+@example(site=(_SERVO, ("solver", "expand")), value="yes")
+@example(site=(_SERVO, ("solver", "ipopt_options")), value={"mu_init": None, "max_soc": True})
+@example(site=(_HYDRAULIC, ("tunables",)), value=[])
+def test_messages_name_json_types_never_python_ones(site, value):
+    """Whatever value lands on whatever field, a message says null, true/false, number,
+    string, array or object: never NoneType, dict, list, bool (issue 14)."""
+    plant, path = site
+    outcome = _outcome(replaced(PLANT_EXAMPLES[plant], path, value))
+    if isinstance(outcome, SpecError):
+        for pointer, message in outcome.errors:
+            assert not PYTHON_WORDS.search(message), (pointer, message)
+
+
+@pytest.mark.parametrize("document, given", [
+    (None, "null"), (True, "true"), (3, "a number"), ("spec", "a string"), ([], "an array")])
+def test_a_spec_that_is_not_an_object_is_named_in_json_words(document, given):
+    with pytest.raises(SpecError) as info:
+        parse_spec(json.dumps(document))
+    assert info.value.errors == [("", f"a spec is a JSON object, not {given}")]
+
+
+def test_a_utf8_byte_order_mark_is_accepted():
+    """Windows editors start UTF-8 files with a BOM; the spec is the same without it."""
+    assert parse_spec(b"\xef\xbb\xbf" + EXAMPLE_BYTES) == parse_spec(EXAMPLE_BYTES)
+    assert parse_spec("\ufeff" + EXAMPLE_BYTES.decode()) == parse_spec(EXAMPLE_BYTES)

@@ -12,7 +12,7 @@ import pytest
 
 from feedtune.plants import plant_for
 from feedtune.problem import tune
-from feedtune.spec import _ipopt_option_errors, parse_spec
+from feedtune.spec import parse_spec
 from feedtune.tuner import nlp
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -132,13 +132,3 @@ def test_plant_numbers_as_expressions_give_the_same_loop():
     got = ca.Function("lifted", [gain, *symbols.values()], outputs(lifted))(30.0, *numbers.values())
     for e, g in zip(expected, got):
         assert np.asarray(g, dtype=float) == pytest.approx(np.asarray(e, dtype=float), rel=1e-14)
-
-
-def test_ipopt_option_check_is_memoised():
-    good = {"mu_strategy": "adaptive"}
-    assert _ipopt_option_errors(good) == []
-    assert _ipopt_option_errors({"no_such_option": 1})
-    from feedtune import spec as spec_module
-    before = spec_module._ipopt_option_error.cache_info().hits
-    assert _ipopt_option_errors(good) == []
-    assert spec_module._ipopt_option_error.cache_info().hits == before + 1

@@ -6,28 +6,114 @@ from pathlib import Path
 
 import pytest
 
-from feedtune.spec import SpecError, parse_spec
+from pydantic import TypeAdapter
+
+from feedtune.spec import MAX_CONSTRAINTS, MAX_OBJECTIVE_TERMS, IpoptOptions, SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "koren-1979-sampled-data.json"
 
 
-@pytest.mark.parametrize("options, pointer, reason", [
-    ({"bogus_option": 3}, "/solver/ipopt_options/bogus_option", "No such IPOPT option"),
-    ({"max_iter": "abc"}, "/solver/ipopt_options/max_iter", "type mismatch"),
-])
-def test_ipopt_options_are_checked_by_ipopt_before_solving(options, pointer, reason):
+@pytest.mark.parametrize("name", ["output_file", "option_file_name", "hsllib", "pardisolib",
+                                  "print_level", "file_print_level", "print_options_documentation",
+                                  "bogus_option", "obj_scaling_factor"])
+def test_ipopt_options_outside_the_allow_list_are_refused_listing_the_allowed(name):
+    """Options that name a file or a library, print, or change what is optimised: refused
+    at their pointer, without asking IPOPT (which would open the file or load the library)."""
     spec = json.loads(EXAMPLE.read_text())
-    spec["solver"]["ipopt_options"] = options
+    spec["solver"]["ipopt_options"] = {name: "x", "mu_strategy": "adaptive"}
     with pytest.raises(SpecError) as info:
         parse_spec(spec)
-    assert info.value.errors[0][0] == pointer
-    assert reason in info.value.errors[0][1]
+    [(pointer, message)] = info.value.errors
+    assert pointer == f"/solver/ipopt_options/{name}"
+    allowed = message.split("allowed: ")[1].split(", ")
+    assert allowed == sorted(IpoptOptions.__annotations__) and "hessian_approximation" in allowed
 
 
-def test_valid_ipopt_options_pass():
+@pytest.mark.parametrize("name, field", [("max_iter", "max_iter"), ("tol", "tol"),
+                                         ("max_wall_time", "time_limit")])
+def test_ipopt_options_the_solver_section_sets_point_there(name, field):
     spec = json.loads(EXAMPLE.read_text())
-    spec["solver"]["ipopt_options"] = {"max_iter": 50, "mu_strategy": "adaptive"}
-    assert parse_spec(spec).solver.ipopt_options["max_iter"] == 50
+    spec["solver"]["ipopt_options"] = {name: 50}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    assert info.value.errors == [(f"/solver/ipopt_options/{name}",
+                                  f"set it as /solver/{field} instead")]
+
+
+@pytest.mark.parametrize("name, value, message", [
+    ("linear_solver", "ma27", "should be 'mumps', not \"ma27\""),
+    ("linear_solver", "pardiso", "should be 'mumps', not \"pardiso\""),
+    ("nlp_scaling_method", "equilibration-based", "should be 'none' or 'gradient-based'"),
+    ("linear_system_scaling", "mc19", "should be 'none' or 'slack-based'"),
+    ("bound_frac", 0.6, "less than or equal to 0.5"),
+    ("mu_init", 0, "greater than 0"),
+    ("mu_init", "0.1", "Input should be a valid number, not a string"),
+    ("max_soc", 2.5, "Input should be a valid integer"),
+    ("max_soc", True, "Input should be a valid integer, not true"),
+    ("limited_memory_max_history", None, "Input should be a valid integer, not null"),
+    ("hessian_approximation", ["exact"], "should be 'exact' or 'limited-memory'"),
+])
+def test_ipopt_option_values_are_checked_by_type_and_range(name, value, message):
+    spec = json.loads(EXAMPLE.read_text())
+    spec["solver"]["ipopt_options"] = {name: value}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    [(pointer, got)] = info.value.errors
+    assert pointer == f"/solver/ipopt_options/{name}"
+    assert message in got
+
+
+def _valid_value(name: str):
+    """A value inside the allow-list's type and range for option ``name``."""
+    schema = IPOPT_SCHEMA["properties"][name]
+    if "enum" in schema or "const" in schema:
+        return schema["enum"][-1] if "enum" in schema else schema["const"]
+    if schema["type"] == "integer":
+        return schema.get("minimum", 0) + 1
+    return 0.25 if schema.get("maximum", 1) <= 1 else 0.5
+
+
+IPOPT_SCHEMA = TypeAdapter(IpoptOptions).json_schema()
+
+
+def test_every_allowed_option_is_one_ipopt_takes_with_that_type():
+    """The allow-list is IPOPT 3.14's own table, checked against the IPOPT CasADi bundles:
+    every option at a value of its declared type and range solves a small NLP."""
+    import casadi as ca
+
+    options = {name: _valid_value(name) for name in IPOPT_SCHEMA["properties"]}
+    options["mumps_pivtol"], options["mumps_pivtolmax"] = 1e-6, 0.25
+    spec = json.loads(EXAMPLE.read_text())
+    spec["solver"]["ipopt_options"] = options
+    parsed = parse_spec(spec).solver.ipopt_options
+    assert parsed == options and all(type(parsed[k]) is type(options[k]) for k in options)
+    x = ca.MX.sym("x")
+    solver = ca.nlpsol("allow_list", "ipopt", {"x": x, "f": (x - 1) ** 2},
+                       {"ipopt": {**parsed, "print_level": 0, "sb": "yes", "option_file_name": ""},
+                        "print_time": False, "error_on_fail": False})
+    solver(x0=3, lbx=0, ubx=10)
+    assert solver.stats()["return_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def test_a_whole_number_for_a_real_option_reaches_ipopt_as_a_real():
+    """IPOPT refuses an integer for a Number option (type mismatch): 1 becomes 1.0."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["solver"]["ipopt_options"] = {"mu_init": 1, "max_soc": 2, "mu_strategy": "adaptive"}
+    options = parse_spec(spec).solver.ipopt_options
+    assert options == {"mu_init": 1.0, "max_soc": 2, "mu_strategy": "adaptive"}
+    assert type(options["mu_init"]) is float and type(options["max_soc"]) is int
+
+
+def test_the_tuner_refuses_library_options_whoever_builds_its_settings():
+    """Defence in depth: feedtune.tuner takes no option that loads a library, even from a
+    caller that did not go through parse_spec."""
+    from feedtune.tuner import Settings
+
+    for options in ({"hsllib": "/tmp/x.so"}, {"linear_solver": "ma27"},
+                    {"nlp_scaling_method": "equilibration-based"}):
+        with pytest.raises(ValueError, match="would load a library"):
+            Settings(ipopt_options=options)
+    assert Settings(ipopt_options={"linear_solver": "mumps"}).ipopt_options
 
 
 # -- objective goal ----------------------------------------------------------------------------
@@ -159,3 +245,137 @@ def test_compensator_tunables_need_the_compensator():
     assert pointers == ["/tunables/velocity_compensator.tau1", "/tunables/velocity_compensator.tau2",
                         "/tunables/velocity_compensator.tau12"]
     assert "unknown tunable" in info.value.errors[0][1]
+
+
+# -- all errors in one pass ----------------------------------------------------------------
+
+def test_schema_and_registry_errors_come_together():
+    """A bad weight (schema) no longer hides an unknown tunable, an unsupported metric,
+    empty bounds and a bad IPOPT option (registry checks): one SpecError has them all."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"][0]["weight"] = -1
+    spec["tunables"]["velocity_gain"] = {"min": 1, "max": 2}
+    spec["tunables"]["position_gain"] = {"min": 300, "max": 200}
+    spec["constraints"].append({"metric": "m_peak", "max": 1.3})
+    spec["solver"]["ipopt_options"] = {"output_file": "/tmp/x"}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    errors = dict(info.value.errors)
+    assert set(errors) == {"/objective/0/weight", "/tunables/velocity_gain",
+                           "/tunables/position_gain", "/constraints/1/metric",
+                           "/solver/ipopt_options/output_file"}
+    assert "unknown tunable" in errors["/tunables/velocity_gain"]
+    assert "min (300.0) is greater than max (200.0)" in errors["/tunables/position_gain"]
+
+
+def test_an_unsupported_metric_lists_the_metrics_this_plant_supports():
+    spec = json.loads(EXAMPLE.read_text())
+    spec["constraints"] = [{"metric": "bandwidth", "min": 10}]
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    [(pointer, message)] = info.value.errors
+    assert pointer == "/constraints/0/metric"
+    listed = message.split("defined here: ")[1].split(", ")
+    assert "radial_error" in listed and "damping_ratio" in listed and "bandwidth" not in listed
+
+
+def test_a_term_that_fails_the_schema_is_still_checked_against_the_plant():
+    """m_peak with a bad weight on Koren's sampled loop: both problems at once."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"].append({"metric": "m_peak", "weight": "heavy"})
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    errors = dict(info.value.errors)
+    assert set(errors) == {"/objective/1/weight", "/objective/1/metric"}
+    assert "not a string" in errors["/objective/1/weight"]
+    assert "not defined for this plant configuration" in errors["/objective/1/metric"]
+
+
+def test_empty_bounds_and_a_start_outside_them_are_spec_errors():
+    """What tune's resolve_tunables refused after validation, parse_spec refuses first."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["tunables"]["position_gain"] = {"min": 2000}  # above the default max, 1000 1/s
+    spec["tunables"]["sampling_period"] = {"min": 0.01, "max": 0.02, "initial": 0.5}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    errors = dict(info.value.errors)
+    assert set(errors) == {"/tunables/position_gain", "/tunables/sampling_period/initial"}
+    assert "are empty" in errors["/tunables/position_gain"]
+
+
+def test_the_step_response_sample_limit_is_a_spec_error_at_the_term():
+    """20·(2τ + T_max)/T_min samples, τ = 20 ms, T in [1 µs, 20 ms]: 1.2 million, over the
+    tuner's 50 000: refused by parse_spec (validate and tune alike); at T_min = 0.1 ms
+    (12 000 samples) accepted."""
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"] = [{"metric": "radial_error", "radius": 0.008, "feed": 0.04},
+                         {"metric": "iae", "weight": 0.1}]
+    spec["tunables"]["sampling_period"] = {"min": 1e-6, "max": 0.02}
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    [(pointer, message)] = info.value.errors
+    assert pointer == "/objective/1/metric"
+    assert "1200000 samples (limit 50000)" in message
+    spec["tunables"]["sampling_period"] = {"min": 1e-4, "max": 0.02}
+    assert parse_spec(spec).objective[1].metric == "iae"
+
+
+def test_objective_terms_are_bounded():
+    spec = json.loads(EXAMPLE.read_text())
+    spec["objective"] = spec["objective"] * (MAX_OBJECTIVE_TERMS + 1)
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    assert info.value.errors == [("/objective", f"Array should have at most {MAX_OBJECTIVE_TERMS} "
+                                                f"items, not {MAX_OBJECTIVE_TERMS + 1}")]
+
+
+def test_a_longer_horizon_over_the_sample_limit_keeps_the_first_result(monkeypatch):
+    """Tune lengthens the step horizon when the first NLP is inexact; a lengthened horizon
+    over the sample limit used to turn a spec validate had passed into a spec error. Now
+    the result is the shorter horizon's, and its message says why. (Koren's lightly damped
+    IAE case, delay 1, K ≥ 40 1/s, T = 1/64 s, needs a longer horizon than the first;
+    a growth of 10⁵ puts the second at 9.1 million samples.)"""
+    import feedtune.problem as problem
+
+    monkeypatch.setattr(problem, "HORIZON_GROWTH", 1e5)
+    result = problem.tune(parse_spec({
+        "name": "lightly-damped",
+        "plant": {"type": "software_servo", "technique": "sampled_data", "time_constant": 0.02,
+                  "blu": 5e-6, "max_velocity": 0.04, "computation_delay": 1},
+        "tunables": {"position_gain": {"min": 40.0, "max": 200},
+                     "sampling_period": {"value": 1 / 64}},
+        "objective": [{"metric": "iae"}],
+        "solver": {"multistart": 2}}))
+    assert result.status != "error" and result.solver.starts
+    assert "100000x longer step-response horizon is over the sample limit" in result.message
+    assert "needs 9120001 samples (limit 50000)" in result.message
+
+
+def test_integer_ratio_leaves_room_for_the_constraint_it_adds():
+    """integer_ratio solves again with one more constraint (q whole); a spec already at
+    the constraint limit would be refused by tune only, so parse_spec refuses it."""
+    spec = json.loads((EXAMPLE.parent / "sato-finish.json").read_text())
+    spec["plant"]["integer_ratio"] = True
+    spec["plant"]["interpolation"] = "linear"
+    bound = {"metric": "interpolation_ratio", "min": 1}
+    spec["constraints"] = [bound] * (MAX_CONSTRAINTS - 1)
+    assert len(parse_spec(spec).constraints) == MAX_CONSTRAINTS - 1
+    spec["constraints"] = [bound] * MAX_CONSTRAINTS
+    with pytest.raises(SpecError) as info:
+        parse_spec(spec)
+    assert info.value.errors == [("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints "
+                                                  "with integer_ratio, which adds one (q = a "
+                                                  "whole number)")]
+
+
+def test_options_that_bypass_parse_spec_end_in_a_result_not_a_traceback():
+    """A Spec built without parse_spec's checks (model_construct) and an option that loads
+    a library: the tuner refuses it, and tune says so in a result with status error."""
+    from feedtune.problem import tune
+
+    spec = parse_spec(json.loads(EXAMPLE.read_text()))
+    solver = spec.solver.model_construct(**{**dict(spec.solver), "ipopt_options": {
+        "linear_solver": "ma27", "hsllib": "/nonexistent/libhsl.so"}})
+    result = tune(spec.model_construct(**{**dict(spec), "solver": solver}))
+    assert result.status == "error" and not result.success
+    assert "would load a library" in result.message
