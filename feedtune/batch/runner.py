@@ -23,7 +23,7 @@ from typing import Callable
 from feedtune import __version__
 from feedtune.batch.inputs import InputError, Item, load_items
 from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
-from feedtune.batch.reports import BASELINE_RTOL, compare, row_ok, summary_document
+from feedtune.batch.reports import BASELINE_RTOL, compare, judge, summary_document
 from feedtune.files import remove_stale_temporaries, write_atomic
 
 SUMMARY_SECONDS = 10.0
@@ -81,8 +81,9 @@ def prepare_output(out: Path) -> None:
 def _base_row(item: Item) -> dict:
     return {"id": item.stem, "name": item.name, "input": item.label, "path": item.path,
             "line": item.line, "result": None, "status": NOT_RUN, "ok": False,
-            "success": False, "constraints_satisfied": None, "objective": None, "tuned": {},
-            "message": "not run (the batch was interrupted)", "errors": [], "time": 0.0,
+            "reason": NOT_RUN, "success": False, "constraints_satisfied": None,
+            "validation_ok": None, "validation_failures": [], "objective": None, "tuned": {},
+            "message": "not run (the batch stopped before it)", "errors": [], "time": 0.0,
             "resumed": False, "spec_sha256": None}
 
 
@@ -135,7 +136,7 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
             row.update(outcome.row, result=path.name)
         if baseline is not None:
             row["baseline"] = compare(row, baseline.get(item.stem), baseline_rtol)
-        row["ok"] = row_ok(row)
+        judge(row)
         if on_row is not None:
             on_row(row)
         if time.monotonic() - last_written[0] >= SUMMARY_SECONDS:

@@ -165,6 +165,40 @@ def test_junit_has_a_case_per_spec_failing_the_bad_ones(mixed_batch):
     assert cases["zz-bad"].get("file").endswith("zz-bad.json")
 
 
+def test_a_spec_failing_only_validation_says_metric_values_and_tolerance(tmp_path):
+    """A result whose radial error the re-simulation contradicts (its block edited, then
+    resumed): the row, the table, the JUnit failure and the annotation name the metric,
+    both values, the gap and the tolerance, in the words of `feedtune tune`'s warning."""
+    from feedtune.validate import warning_lines
+
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 2)
+    assert batch(str(specs), "--out", str(out)).returncode == 0
+    result = json.loads((out / "axis-001.json").read_text())
+    block = result["validation"]
+    entry = next(e for e in block["entries"] if e["metric"] == "radial_error")
+    entry.update(validated=entry["reported"] + 2e-9, gap=2e-9, tolerance=1e-10, ok=False)
+    block["ok"] = False
+    (out / "axis-001.json").write_text(json.dumps(result, indent=2))
+    proc = batch(str(specs), "--out", str(out), "--junit", str(tmp_path / "junit.xml"),
+                 "--format", "github")
+    assert proc.returncode == 1, proc.stderr
+    row = rows_by_id(out)["axis-001"]
+    (said,) = [line.removeprefix("warning: ") for line in warning_lines(block)]
+    assert said.startswith("validation: radial_error(radius=0.008,feed=0.04) reported ")
+    assert "tolerance 1e-10" in said and "gap 2e-09" in said
+    assert row["resumed"] and not row["ok"] and row["reason"] == "validation"
+    assert row["message"] == said and row["validation_failures"] == [said]
+    assert rows_by_id(out)["axis-000"]["ok"]
+    assert any(line.startswith("axis-001") and said in line for line in proc.stderr.splitlines())
+    case = next(c for c in ET.parse(tmp_path / "junit.xml").getroot().iter("testcase")
+                if c.get("name") == "axis-001")
+    assert case.find("failure").get("type") == "validation"
+    assert case.find("failure").get("message") == said
+    (annotation,) = proc.stdout.splitlines()
+    assert annotation.endswith("title=feedtune%3A axis-001 validation::" + said)
+
+
 def test_github_annotations_name_each_failing_spec_file(mixed_batch):
     _, _, proc = mixed_batch
     lines = proc.stdout.splitlines()
