@@ -98,6 +98,51 @@ def expand(inputs: list[str]) -> list[Path]:
     return files
 
 
+def _pattern_base(pattern: str) -> Path:
+    """The directory a glob pattern searches: its path up to the first wildcard part."""
+    base = []
+    for part in Path(pattern).parts:
+        if _is_pattern(part):
+            break
+        base.append(part)
+    return Path(*base) if base else Path(".")
+
+
+def check_output_apart(inputs: list[str], out: Path) -> None:
+    """Refuse an output directory where the inputs are read from.
+
+    A directory input, or a pattern's base (its path up to the first wildcard), is searched
+    recursively: ``out`` may be neither it nor inside it, or a result would replace a spec
+    and a rerun would read the results as specs. A file input is read alone: ``out`` may not
+    be its directory (``NAME.json`` could replace it). Paths are compared resolved, so a
+    symbolic link to an input is refused too; ``out`` need not exist yet.
+
+    Raises
+    ------
+    InputError
+        Naming ``out`` and the input it collides with.
+    """
+    target = out.resolve()
+    for text in inputs:
+        path = Path(text)
+        if path.is_file():
+            if target == path.resolve().parent:
+                raise InputError(f"--out {out} is the directory of the input {text}: a result "
+                                 "could overwrite a spec; choose a directory apart from the inputs")
+            continue
+        if path.is_dir():
+            root = path.resolve()
+        elif _is_pattern(text):
+            root = _pattern_base(text).resolve()
+        else:
+            continue  # names nothing: expand() says so
+        if target == root or root in target.parents:
+            where = "is the input" if target == root else "lies inside the input"
+            raise InputError(f"--out {out} {where} {text}: results would be read as specs "
+                             "by a rerun, or overwrite them; choose a directory apart from "
+                             "the inputs")
+
+
 def _spec_name(data: bytes | None, fallback: str) -> str:
     """The spec's ``name`` if it has a usable one, else ``fallback``."""
     if data is None:

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Callable
 
 from feedtune import __version__
-from feedtune.batch.inputs import InputError, Item, load_items
+from feedtune.batch.inputs import InputError, Item, check_output_apart, load_items
 from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
 from feedtune.batch.reports import BASELINE_RTOL, compare, judge, summary_document
 from feedtune.files import remove_stale_temporaries, write_atomic
@@ -99,9 +99,11 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
     Raises
     ------
     InputError
-        When the inputs or the output directory cannot be used.
+        When the inputs or the output directory cannot be used, or ``out`` is where the
+        inputs are read from.
     """
     started = time.perf_counter()
+    check_output_apart(inputs, out)
     items = load_items(inputs)
     if not items:
         raise InputError("the inputs hold no specs")

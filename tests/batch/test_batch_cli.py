@@ -275,6 +275,48 @@ def test_unusable_inputs_exit_two_naming_them(tmp_path, case):
     assert not (out / "summary.json").exists()
 
 
+def tree(root: Path) -> dict[str, bytes | None]:
+    """Every file (its bytes) and directory (None) below ``root``."""
+    return {str(p.relative_to(root)): p.read_bytes() if p.is_file() else None
+            for p in sorted(root.rglob("*"))}
+
+
+@pytest.mark.parametrize("case", ["out-is-input", "out-inside-input", "link-to-input",
+                                  "dir-of-file-input", "inside-pattern-base"])
+def test_an_output_directory_where_inputs_are_read_is_refused(tmp_path, case):
+    """The issue's `batch specs --out specs` (overwrote every spec, exit 0) and `--out
+    specs/results` (a rerun read its results as specs), and the same through a symbolic
+    link, a file input's directory and a pattern's base: exit 2 naming both, nothing
+    written."""
+    specs = tmp_path / "specs"
+    write_specs(specs, 2)
+    inputs, out = [str(specs)], specs
+    if case == "out-inside-input":
+        out = specs / "results"
+    elif case == "link-to-input":
+        out = tmp_path / "link"
+        out.symlink_to(specs, target_is_directory=True)
+    elif case == "dir-of-file-input":
+        inputs = [str(specs / "axis-001.json")]
+    elif case == "inside-pattern-base":
+        inputs, out = [str(specs / "**" / "*.json")], specs / "nested" / "results"
+    before = tree(tmp_path)
+    proc = batch(*inputs, "--out", str(out))
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    assert line.startswith(f"error: --out {out} ") and f" {inputs[0]}: " in line, line
+    assert tree(tmp_path) == before  # inputs untouched, no directory, lock or summary made
+
+
+def test_an_output_directory_beside_the_inputs_is_accepted(tmp_path):
+    from feedtune.batch.inputs import check_output_apart
+
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    check_output_apart([str(specs / "axis-000.json")], specs / "results")  # not read again
+    check_output_apart([str(specs), str(specs / "*.json")], tmp_path / "specs-results")
+
+
 def test_glob_patterns_and_jsonl_inputs(tmp_path):
     specs = tmp_path / "specs"
     write_specs(specs, 2)
