@@ -640,8 +640,9 @@ def examples(name: str | None, output: str | None) -> None:
 
 _BATCH_EPILOG = ("Exit status: 0 every spec solved and met its constraints (and, with "
                  "--baseline, is not worse); 1 some spec did not; 2 the inputs, the output "
-                 "directory or the baseline cannot be used; 130 interrupted by Ctrl-C or "
-                 "SIGTERM (results so far are kept; rerun to finish).")
+                 "directory, the baseline or the Dask cluster cannot be used; 130 "
+                 "interrupted by Ctrl-C or SIGTERM (results so far are kept; rerun to "
+                 "finish).")
 
 
 @main.command(epilog=_BATCH_EPILOG)
@@ -675,11 +676,16 @@ _BATCH_EPILOG = ("Exit status: 0 every spec solved and met its constraints (and,
 @click.option("--baseline-rtol", type=click.FloatRange(min=0), default=1e-6,
               show_default=True, metavar="RTOL",
               help="Relative tolerance of the baseline comparison [1].")
+@click.option("--worker-timeout", type=click.FloatRange(min=0, min_open=True), default=60.0,
+              show_default=True, metavar="SECONDS",
+              help="Dask only: stop with exit status 2 when no worker has joined the scheduler "
+                   "within this time [s]; also the time allowed to connect to it.")
 @click.option("-q", "--quiet", is_flag=True,
               help="No progress and no table on stderr (the totals line is still printed).")
 def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: str | None,
-          workers: int | None, timeout: float | None, junit: str | None,
-          output_format: str, baseline: str | None, baseline_rtol: float, quiet: bool) -> None:
+          workers: int | None, timeout: float | None, worker_timeout: float,
+          junit: str | None, output_format: str, baseline: str | None, baseline_rtol: float,
+          quiet: bool) -> None:
     """Tune many specs in parallel: one result per spec in DIR, plus DIR/summary.json.
 
     INPUT is a spec file (*.json), a JSON Lines file (*.jsonl, one spec per line), a
@@ -687,6 +693,44 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
     A spec that is invalid, fails to solve, times out or kills its worker becomes a row with
     its status and message; the others still run.
     """
+    # first, before the slow imports: from here on Ctrl-C or SIGTERM is exit 130, at any moment
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        _batch(inputs, out, executor, scheduler, workers, timeout, worker_timeout, junit,
+               output_format, baseline, baseline_rtol, quiet)
+    except KeyboardInterrupt:
+        _interrupted()
+
+
+def _interrupt(signum, frame) -> typing.NoReturn:
+    """SIGTERM (how CI cancels) stops as cleanly as Ctrl-C."""
+    raise KeyboardInterrupt
+
+
+def _interrupted() -> typing.NoReturn:
+    _err("interrupted: the results written so far are kept; rerun the same command to finish")
+    raise SystemExit(130)
+
+
+def _batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: str | None,
+           workers: int | None, timeout: float | None, worker_timeout: float,
+           junit: str | None, output_format: str, baseline: str | None, baseline_rtol: float,
+           quiet: bool) -> None:
+    """The batch command once its signal handling is in place."""
+    if scheduler is not None and executor == "local":
+        _fail("--scheduler needs the dask executor; drop --executor local")
+    kind = "dask" if scheduler is not None else (executor or "local")
+    if kind == "dask" and timeout is not None:
+        _fail("--timeout is enforced by the local executor only; with Dask, each spec's "
+              "solver.time_limit bounds its IPOPT solves")
+    if kind == "dask":
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            _fail("--executor dask and --scheduler need Dask, which is not installed: "
+                  "pip install 'feedtune[dask]'")
+    junit_path = _check_output(junit) if junit is not None else None
+
     from feedtune.batch.dask_cluster import DaskExecutor
     from feedtune.batch.inputs import InputError
     from feedtune.batch.local import LocalExecutor
@@ -695,13 +739,6 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
                                         load_baseline, table, totals_line)
     from feedtune.batch.runner import run_batch
 
-    if scheduler is not None and executor == "local":
-        _fail("--scheduler needs the dask executor; drop --executor local")
-    kind = "dask" if scheduler is not None else (executor or "local")
-    if kind == "dask" and timeout is not None:
-        _fail("--timeout is enforced by the local executor only; with Dask, each spec's "
-              "solver.time_limit bounds its IPOPT solves")
-    junit_path = _check_output(junit) if junit is not None else None
     baseline_rows = None
     if baseline is not None:
         try:
@@ -709,11 +746,7 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
         except BaselineError as exc:
             _fail(str(exc))
     if kind == "dask":
-        try:
-            import distributed  # noqa: F401
-        except ImportError:
-            _fail("the dask executor needs dask.distributed: pip install 'dask[distributed]'")
-        runner = DaskExecutor(scheduler, workers)
+        runner = DaskExecutor(scheduler, workers, worker_timeout=worker_timeout)
         header = {"executor": "dask", "scheduler": scheduler or "local cluster",
                   "workers": workers}
     else:
@@ -736,10 +769,6 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
             finally:
                 progress[0].close()
 
-    def _terminate(signum, frame):  # CI cancels with SIGTERM: stop as cleanly as Ctrl-C
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, _terminate)
     try:
         with _stdout_to_stderr():
             outcome = run_batch(list(inputs), Path(out), _Counted(runner),
@@ -749,6 +778,8 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
         _fail(str(exc))
     except OSError as exc:
         _fail(f"{out}: {exc.strerror or exc}")
+    if outcome.executor_error is not None:
+        _fail(f"{outcome.executor_error} (summary: {Path(out) / 'summary.json'})")
     rows = outcome.document["rows"]
     if not quiet:
         for line in table(rows):
@@ -760,8 +791,7 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
         for line in github_annotations(rows):
             click.echo(line)
     if outcome.interrupted:
-        _err("interrupted: the results written so far are kept; rerun the same command to finish")
-        raise SystemExit(130)
+        _interrupted()
     raise SystemExit(EXIT_OK if outcome.document["failed"] == 0 else EXIT_NOT_SUCCESS)
 
 

@@ -32,11 +32,17 @@ LOCK_NAME = ".feedtune-batch.lock"
 NOT_RUN = "not_run"
 
 
+class ExecutorError(RuntimeError):
+    """The executor itself cannot go on (e.g. no Dask workers, the scheduler lost): the
+    batch stops, keeping what finished (exit status 2)."""
+
+
 @dataclass
 class BatchOutcome:
     document: dict  # what summary.json holds
     wall: float  # [s]
     interrupted: bool
+    executor_error: str | None = None  # why the executor stopped the batch, if it did
 
 
 def existing_sha256(path: Path) -> str | None:
@@ -93,7 +99,8 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
     """Solve every spec named by ``inputs`` into ``out``.
 
     ``executor`` has ``run(tasks, on_outcome)`` (:class:`~feedtune.batch.local.LocalExecutor`
-    or :class:`~feedtune.batch.dask_cluster.DaskExecutor`); ``baseline`` maps result ids
+    or :class:`~feedtune.batch.dask_cluster.DaskExecutor`), which raises
+    :class:`ExecutorError` when it cannot go on; ``baseline`` maps result ids
     to an earlier batch's rows; ``on_row(row)`` is called as each spec finishes.
 
     Raises
@@ -153,9 +160,12 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
                                            errors=[("", item.read_error or "cannot read")]))
             else:
                 tasks.append((item.index, item.data, existing_sha256(out / f"{item.stem}.json")))
+        executor_error = None
         try:
             executor.run(tasks, finish)
         except KeyboardInterrupt:
             interrupted = True
+        except ExecutorError as exc:
+            executor_error = str(exc)
         document = write_summary()
-    return BatchOutcome(document, time.perf_counter() - started, interrupted)
+    return BatchOutcome(document, time.perf_counter() - started, interrupted, executor_error)

@@ -10,8 +10,10 @@ results from 1 worker, all cores and a local Dask cluster.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -521,3 +523,95 @@ def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
     rows = {row["id"]: row for row in outcome.document["rows"]}
     assert rows["axis-crash"]["status"] == "worker_died"
     assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
+
+
+@contextlib.contextmanager
+def dask_scheduler(workers: int):
+    """A Dask scheduler and ``workers`` single-threaded workers, each a process of its own
+    (so a test can kill the scheduler); yields (address, scheduler process)."""
+    command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+               "--port", "0", "--no-dashboard"]
+    scheduler = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    processes = [scheduler]
+    try:
+        for line in scheduler.stderr:
+            found = re.search(r"Scheduler at:\s+(\S+)", line)
+            if found:
+                break
+        else:
+            raise RuntimeError("the Dask scheduler did not start")
+        address = found.group(1)
+        processes += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                        address, "--nthreads", "1", "--no-dashboard"],
+                                       stderr=subprocess.DEVNULL) for _ in range(workers)]
+        yield address, scheduler
+    finally:
+        for process in processes:
+            process.kill()
+            process.wait()
+
+
+def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_path):
+    """The issue: exit 1, a traceback and `error` rows. Now: one line naming the
+    scheduler, exit 2, the finished results in the summary, the rest `not_run` for a rerun."""
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 12)
+    with dask_scheduler(workers=1) as (address, scheduler):
+        process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
+                                    "--out", str(out), "--scheduler", address, "-q"],
+                                   cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                   text=True)
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 3:
+            time.sleep(0.02)
+        scheduler.kill()
+        _, err = process.communicate(timeout=120)
+    assert process.returncode == 2, err
+    (line,) = err.splitlines()
+    assert line.startswith(f"error: lost the Dask scheduler at {address} mid-run"), line
+    rows = summary(out)["rows"]
+    finished = [r for r in rows if r["status"] != "not_run"]
+    assert 3 <= len(finished) < 12, "the kill should land mid-run"
+    assert all(r["ok"] and (out / r["result"]).is_file() for r in finished)
+    assert len(list(out.glob("axis-*.json"))) == len(finished)
+    assert all(r["reason"] == "not_run" for r in rows if r not in finished)
+
+
+@pytest.mark.parametrize("case", ["no-workers", "no-scheduler"])
+def test_no_dask_workers_or_scheduler_is_exit_two_after_the_worker_timeout(tmp_path, case):
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    with dask_scheduler(workers=0) as (address, _):
+        if case == "no-scheduler":
+            address = "tcp://127.0.0.1:9"  # the discard port: nothing listens
+        started = time.monotonic()
+        proc = batch(str(specs), "--out", str(tmp_path / "out"), "--scheduler", address,
+                     "--worker-timeout", "2", timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    expected = (f"error: no Dask workers connected to {address} within 2 s"
+                if case == "no-workers" else f"error: cannot connect to the Dask scheduler at {address}: ")
+    assert line.startswith(expected), line
+    assert time.monotonic() - started < 60  # the timeout, not Dask's own waits
+
+
+@pytest.mark.parametrize("args", [["--executor", "dask"], ["--scheduler", "tcp://127.0.0.1:9"],
+                                  ["-j", "1"]], ids=["dask", "scheduler", "local"])
+def test_without_dask_installed_only_the_dask_executor_is_refused(tmp_path, args):
+    """Dask is the `dask` extra: without it (its import blocked here) the local executor
+    works and the Dask one says how to install it."""
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 1)
+    blocked = ("import sys; sys.modules['distributed'] = None; "
+               "from feedtune.cli import main; main(prog_name='feedtune')")
+    proc = subprocess.run([sys.executable, "-c", blocked, "batch", str(specs), "--out",
+                           str(out), *args], capture_output=True, text=True, cwd=REPO,
+                          timeout=300)
+    if args == ["-j", "1"]:
+        assert proc.returncode == 0, proc.stderr
+        assert rows_by_id(out)["axis-000"]["ok"]
+        return
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    assert line.startswith("error: ") and "pip install 'feedtune[dask]'" in line, line
+    assert not out.exists()
