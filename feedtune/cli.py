@@ -693,21 +693,49 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
     A spec that is invalid, fails to solve, times out or kills its worker becomes a row with
     its status and message; the others still run.
     """
-    # first, before the slow imports: from here on Ctrl-C or SIGTERM is exit 130, at any moment
-    signal.signal(signal.SIGTERM, _interrupt)
+    stop = _Stop()  # first, before the slow imports: Ctrl-C or SIGTERM is exit 130 from here
     try:
         _batch(inputs, out, executor, scheduler, workers, timeout, worker_timeout, junit,
-               output_format, baseline, baseline_rtol, quiet)
+               output_format, baseline, baseline_rtol, quiet, stop)
     except KeyboardInterrupt:
         _interrupted()
 
 
-def _interrupt(signum, frame) -> typing.NoReturn:
-    """SIGTERM (how CI cancels) stops as cleanly as Ctrl-C."""
-    raise KeyboardInterrupt
+class _Stop:
+    """Ctrl-C and SIGTERM (how CI cancels) during a batch, both a KeyboardInterrupt.
+
+    While the batch loads (slow imports) a signal is only remembered: an exception raised
+    inside an import can be swallowed ("Exception ignored in ...") or, inside an extension
+    module's own Python code, make the interpreter exit by SIGINT whatever we then do.
+    :meth:`arm` raises a remembered one, then lets later signals raise at once; :meth:`check`
+    raises one that was swallowed anyway.
+    """
+
+    def __init__(self) -> None:
+        self.requested = False
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, self._remember)
+
+    def _remember(self, signum, frame) -> None:
+        self.requested = True
+
+    def _raise(self, signum, frame) -> typing.NoReturn:
+        self.requested = True
+        raise KeyboardInterrupt
+
+    def arm(self) -> None:
+        self.check()
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, self._raise)
+
+    def check(self) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
 
 
 def _interrupted() -> typing.NoReturn:
+    for signum in (signal.SIGINT, signal.SIGTERM):  # a second signal must not cut this short
+        signal.signal(signum, signal.SIG_IGN)
     _err("interrupted: the results written so far are kept; rerun the same command to finish")
     raise SystemExit(130)
 
@@ -715,8 +743,8 @@ def _interrupted() -> typing.NoReturn:
 def _batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: str | None,
            workers: int | None, timeout: float | None, worker_timeout: float,
            junit: str | None, output_format: str, baseline: str | None, baseline_rtol: float,
-           quiet: bool) -> None:
-    """The batch command once its signal handling is in place."""
+           quiet: bool, stop: _Stop) -> None:
+    """The batch command once its signal handling (``stop``) is in place."""
     if scheduler is not None and executor == "local":
         _fail("--scheduler needs the dask executor; drop --executor local")
     kind = "dask" if scheduler is not None else (executor or "local")
@@ -755,6 +783,7 @@ def _batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: s
     progress = [None]
 
     def on_row(row: dict) -> None:
+        stop.check()
         if progress[0] is not None:
             progress[0].update(row["ok"])
 
@@ -769,6 +798,7 @@ def _batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: s
             finally:
                 progress[0].close()
 
+    stop.arm()
     try:
         with _stdout_to_stderr():
             outcome = run_batch(list(inputs), Path(out), _Counted(runner),
@@ -790,7 +820,7 @@ def _batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: s
     if output_format == "github":
         for line in github_annotations(rows):
             click.echo(line)
-    if outcome.interrupted:
+    if outcome.interrupted or stop.requested:
         _interrupted()
     raise SystemExit(EXIT_OK if outcome.document["failed"] == 0 else EXIT_NOT_SUCCESS)
 

@@ -615,3 +615,25 @@ def test_without_dask_installed_only_the_dask_executor_is_refused(tmp_path, args
     (line,) = proc.stderr.splitlines()
     assert line.startswith("error: ") and "pip install 'feedtune[dask]'" in line, line
     assert not out.exists()
+
+
+@pytest.mark.parametrize("delay", [0.1, 0.3, 0.6])
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_a_signal_early_in_the_batch_is_exit_130_without_a_traceback(tmp_path, stop, delay):
+    """The issue: in the first ~0.6 s SIGINT gave "Aborted!" (exit 1) or a traceback, and
+    SIGTERM exit 143. At any moment it is 130, one clear line, and any summary whole."""
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 3)
+    process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
+                                "--out", str(out), "-j", "1"], cwd=REPO,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    time.sleep(delay)
+    process.send_signal(stop)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err and "Aborted" not in err
+    assert err.splitlines()[-1] in (  # while the command line loads / once batch runs
+        "feedtune: interrupted while starting; nothing was done",
+        "interrupted: the results written so far are kept; rerun the same command to finish")
+    if (out / "summary.json").exists():
+        assert len(summary(out)["rows"]) == 3
