@@ -664,8 +664,10 @@ _BATCH_EPILOG = ("Exit status: 0 every spec solved and met its constraints (and,
               help="Stop a spec that runs longer than this [s] (status timeout); local "
                    "executor only. Each IPOPT solve also has the spec's own solver.time_limit.")
 @click.option("--junit", "junit", metavar="FILE",
-              help="Also write JUnit XML: one test case per spec, failing when it is invalid, "
-                   "unsolved, violates a constraint or is worse than the baseline.")
+              help="Also write JUnit XML: one test case per spec (its file and line), a "
+                   "failure when it is invalid, unsolved, violates a constraint, fails the "
+                   "independent validation or is worse than the baseline, with that reason "
+                   "as its type.")
 @click.option("--format", "output_format", type=click.Choice(["text", "github"]),
               default="text", show_default=True,
               help="github: also print GitHub Actions ::error annotations on stdout, one per "
