@@ -701,6 +701,8 @@ def batch(inputs: tuple[str, ...], out: str, executor: str | None, scheduler: st
                output_format, baseline, baseline_rtol, quiet, stop)
     except KeyboardInterrupt:
         _interrupted()
+    finally:
+        stop.restore()
 
 
 class _Stop:
@@ -715,8 +717,8 @@ class _Stop:
 
     def __init__(self) -> None:
         self.requested = False
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(signum, self._remember)
+        self.previous = {signum: signal.signal(signum, self._remember)
+                         for signum in (signal.SIGINT, signal.SIGTERM)}
 
     def _remember(self, signum, frame) -> None:
         self.requested = True
@@ -733,6 +735,11 @@ class _Stop:
     def check(self) -> None:
         if self.requested:
             raise KeyboardInterrupt
+
+    def restore(self) -> None:
+        """The handlers from before, for a caller that goes on (tests calling in process)."""
+        for signum, handler in self.previous.items():
+            signal.signal(signum, handler)
 
 
 def _interrupted() -> typing.NoReturn:
