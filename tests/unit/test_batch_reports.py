@@ -114,8 +114,8 @@ def test_a_validation_failure_names_metric_values_gap_and_tolerance_as_tune_does
     assert failed["ok"] is False and failed["reason"] == "validation"
     tune_says = [line.removeprefix("warning: ") for line in warning_lines(FAILED_BLOCK)]
     assert failed["message"] == "; ".join(tune_says) and len(tune_says) == 1
-    for part in ("validation: radial_error(radius=0.005,feed=0.05)", "1.2e-15", "3.4e-15",
-                 "gap 2.2e-15", "tolerance 5e-10"):
+    for part in ("validation: radial_error(radius=0.005,feed=0.05) reported 1.2e-15",
+                 "re-simulated 3.4e-15", "2.2e-15", "tolerance 5e-10"):
         assert part in failed["message"]
     assert "damping_ratio" not in failed["message"]  # within its tolerance
     (annotation,) = github_annotations([failed])
