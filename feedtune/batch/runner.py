@@ -110,10 +110,10 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
         inputs are read from.
     """
     started = time.perf_counter()
-    check_output_apart(inputs, out)
     items = load_items(inputs)
     if not items:
         raise InputError("the inputs hold no specs")
+    check_output_apart(inputs, out)
     prepare_output(out)
     header = {"feedtune": __version__, **(header or {})}
     rows = [_base_row(item) for item in items]

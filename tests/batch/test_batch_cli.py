@@ -284,7 +284,7 @@ def tree(root: Path) -> dict[str, bytes | None]:
 
 
 @pytest.mark.parametrize("case", ["out-is-input", "out-inside-input", "link-to-input",
-                                  "dir-of-file-input", "inside-pattern-base"])
+                                  "dir-of-file-input", "matched-by-pattern"])
 def test_an_output_directory_where_inputs_are_read_is_refused(tmp_path, case):
     """The issue's `batch specs --out specs` (overwrote every spec, exit 0) and `--out
     specs/results` (a rerun read its results as specs), and the same through a symbolic
@@ -300,7 +300,7 @@ def test_an_output_directory_where_inputs_are_read_is_refused(tmp_path, case):
         out.symlink_to(specs, target_is_directory=True)
     elif case == "dir-of-file-input":
         inputs = [str(specs / "axis-001.json")]
-    elif case == "inside-pattern-base":
+    elif case == "matched-by-pattern":
         inputs, out = [str(specs / "**" / "*.json")], specs / "nested" / "results"
     before = tree(tmp_path)
     proc = batch(*inputs, "--out", str(out))
@@ -317,6 +317,27 @@ def test_an_output_directory_beside_the_inputs_is_accepted(tmp_path):
     write_specs(specs, 1)
     check_output_apart([str(specs / "axis-000.json")], specs / "results")  # not read again
     check_output_apart([str(specs), str(specs / "*.json")], tmp_path / "specs-results")
+
+
+@pytest.mark.parametrize("pattern, out, refused", [
+    ("specs/*.json", "specs", True),
+    ("specs/*.json", "specs/results", False),  # one level too deep for the pattern
+    ("*/*.json", "results", True),  # results/NAME.json would match on a rerun
+    ("specs/**/*.json", "specs/a/b", True),
+    ("specs/*/x.json", "specs", False),
+    ("specs/a*/*.json", "specs/b", False),
+    ("other/*.json", "specs", False),
+])
+def test_a_pattern_refuses_an_output_directory_whose_files_it_would_match(
+        tmp_path, monkeypatch, pattern, out, refused):
+    from feedtune.batch.inputs import InputError, check_output_apart
+
+    monkeypatch.chdir(tmp_path)
+    if refused:
+        with pytest.raises(InputError, match=f"--out {out} holds files matched by the input"):
+            check_output_apart([pattern], Path(out))
+    else:
+        check_output_apart([pattern], Path(out))
 
 
 def test_glob_patterns_and_jsonl_inputs(tmp_path):
