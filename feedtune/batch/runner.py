@@ -15,6 +15,7 @@ import contextlib
 import fcntl
 import json
 import os
+import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,6 +74,23 @@ def locked(directory: Path):
         handle.close()
 
 
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold Ctrl-C and SIGTERM back meanwhile and raise them again at the end (to whatever
+    handled them before), so an interrupt lands between two specs' bookkeeping, never inside
+    one: a result file written and its summary row saying so. Main thread only."""
+    caught: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum))
+                for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        for signum in dict.fromkeys(caught):
+            signal.raise_signal(signum)
+
+
 def prepare_output(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a directory")
@@ -127,6 +145,15 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
         return document
 
     def finish(index: int, outcome: Outcome) -> None:
+        with signals_deferred():
+            record(index, outcome)
+        if on_row is not None:
+            on_row(rows[index])
+        if time.monotonic() - last_written[0] >= SUMMARY_SECONDS:
+            write_summary()
+
+    def record(index: int, outcome: Outcome) -> None:
+        """Write the spec's result file and fill its summary row."""
         item, row = items[index], rows[index]
         path = out / f"{item.stem}.json"
         row.update(status=outcome.status, message=outcome.message, time=outcome.time,
@@ -146,10 +173,6 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
         if baseline is not None:
             row["baseline"] = compare(row, baseline.get(item.stem), baseline_rtol)
         judge(row)
-        if on_row is not None:
-            on_row(row)
-        if time.monotonic() - last_written[0] >= SUMMARY_SECONDS:
-            write_summary()
 
     with locked(out):
         remove_stale_temporaries(out)

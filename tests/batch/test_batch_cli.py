@@ -674,6 +674,37 @@ def test_a_signal_early_in_the_batch_is_exit_130_without_a_traceback(tmp_path, s
         assert len(summary(out)["rows"]) == 3
 
 
+def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path, monkeypatch):
+    """A Ctrl-C landing inside one spec's bookkeeping (here: as its result is written) is
+    held until the file and its summary row are both done, then stops the batch."""
+    import feedtune.batch.runner as runner
+    from feedtune.batch.job import Outcome
+
+    write_atomic = runner.write_atomic
+
+    def interrupted_write(path: Path, data: bytes) -> None:
+        if path.name != "summary.json":
+            os.kill(os.getpid(), signal.SIGINT)
+        write_atomic(path, data)
+
+    class OneSpec:
+        def run(self, tasks, on_outcome):
+            index = tasks[0][0]
+            on_outcome(index, Outcome("optimal", "fine", spec_sha256="0" * 64, result=b"{}\n",
+                                      row={"status": "optimal", "success": True,
+                                           "constraints_satisfied": True, "objective": 1.0}))
+            raise AssertionError("the Ctrl-C should have stopped the batch by now")
+
+    write_specs(tmp_path / "specs", 2)
+    monkeypatch.setattr(runner, "write_atomic", interrupted_write)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out", OneSpec())
+    assert outcome.interrupted
+    row = outcome.document["rows"][0]
+    assert row["status"] == "optimal" and row["result"] == "axis-000.json" and row["ok"]
+    assert (tmp_path / "out" / "axis-000.json").read_bytes() == b"{}\n"
+    assert outcome.document["rows"][1]["status"] == "not_run"
+
+
 def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_them(tmp_path):
     from click.testing import CliRunner
 
