@@ -411,6 +411,16 @@ def test_a_spec_over_the_time_limit_is_stopped_and_the_rest_complete(tmp_path):
     assert time.monotonic() - started < 50  # not the 60 s the job sleeps
 
 
+def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(tmp_path):
+    """--timeout charges a spec its own time, not its worker's start (loading CasADi took
+    over the test's 3 s limit on a loaded machine: every spec timed out)."""
+    write_specs(tmp_path / "specs", 2)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(2, job=batch_jobs.tuner_loaded))
+    assert [row["message"] for row in outcome.document["rows"]] == [
+        "tuner loaded before the spec: True"] * 2
+
+
 def test_a_spec_over_its_own_ipopt_time_limit_is_a_row_and_the_rest_complete(tmp_path):
     write_specs(tmp_path / "specs", 2)
     slow = example("koren-1979-min-iae-radius")  # builds and solves for ≈ 0.7 s
