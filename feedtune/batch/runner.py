@@ -16,6 +16,7 @@ import fcntl
 import json
 import os
 import signal
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -78,7 +79,11 @@ def locked(directory: Path):
 def signals_deferred():
     """Hold Ctrl-C and SIGTERM back meanwhile and raise them again at the end (to whatever
     handled them before), so an interrupt lands between two specs' bookkeeping, never inside
-    one: a result file written and its summary row saying so. Main thread only."""
+    one: a result file written and its summary row saying so. Signals are the main
+    thread's: elsewhere (a library caller's thread) nothing is held."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
     caught: list[int] = []
     previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum))
                 for signum in (signal.SIGINT, signal.SIGTERM)}

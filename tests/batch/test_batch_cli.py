@@ -715,6 +715,28 @@ def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path
     assert outcome.document["rows"][1]["status"] == "not_run"
 
 
+def test_run_batch_works_from_a_thread_other_than_the_main_one(tmp_path):
+    """Holding signals back is the main thread's business; a library caller's thread
+    cannot touch them, and need not."""
+    import threading
+
+    from feedtune.batch.job import Outcome
+
+    class Instant:
+        def run(self, tasks, on_outcome):
+            for index, _, _ in tasks:
+                on_outcome(index, Outcome("error", "not solved here"))
+
+    write_specs(tmp_path / "specs", 2)
+    outcomes = []
+    thread = threading.Thread(target=lambda: outcomes.append(
+        run_batch([str(tmp_path / "specs")], tmp_path / "out", Instant())))
+    thread.start()
+    thread.join(timeout=60)
+    (outcome,) = outcomes
+    assert [row["reason"] for row in outcome.document["rows"]] == ["error", "error"]
+
+
 def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_them(tmp_path):
     from click.testing import CliRunner
 
