@@ -9,92 +9,134 @@ on the same worker. Those suspects run again at the end, one at a time, so only 
 that kills its worker when alone is charged ``worker_died``. Workers keep their solver
 cache between tasks, as local workers do. At most ``WINDOW`` tasks per worker are in
 flight, so a batch of a million specs does not sit in the scheduler's memory at once.
+
+A cluster that cannot be used stops the batch with :class:`~feedtune.batch.runner.ExecutorError`
+(exit status 2), keeping every result that finished: no connection to the scheduler, or no
+worker, within ``worker_timeout``; or the scheduler lost mid-run (Dask then cancels every
+task in flight: those specs stay ``not_run`` for a rerun, not ``error``).
 """
 
 from __future__ import annotations
 
+import logging
+from concurrent.futures import CancelledError
 from typing import Callable
 
 from feedtune.batch.job import WORKER_DIED, Outcome, solve
+from feedtune.batch.runner import ExecutorError
 
 WINDOW = 64
+#: default wait for the scheduler's connection and its first worker [s]
+WORKER_TIMEOUT = 60.0
 
 
 class DaskExecutor:
-    """Run tasks ``(index, spec bytes, existing sha256)`` on a Dask cluster."""
+    """Run tasks ``(index, spec bytes, existing sha256)`` on a Dask cluster.
+
+    ``address``: a running scheduler's, or None for a local cluster of ``workers``
+    processes; ``worker_timeout`` [s]: how long to wait for the connection and for a first
+    worker before giving up (:class:`~feedtune.batch.runner.ExecutorError`).
+    """
 
     name = "dask"
 
     def __init__(self, address: str | None = None, workers: int | None = None,
-                 job: Callable = solve):
+                 job: Callable = solve, worker_timeout: float = WORKER_TIMEOUT):
         self.address = address
         self.workers = workers
         self.job = job
+        self.worker_timeout = worker_timeout
 
     def run(self, tasks: list[tuple[int, bytes, str | None]],
             on_outcome: Callable[[int, Outcome], None]) -> None:
-        from distributed import Client, LocalCluster, as_completed
-        from distributed.scheduler import KilledWorker
+        from distributed import Client, LocalCluster
 
         from feedtune.batch.local import default_workers
 
-        cluster = None
-        if self.address is None:
-            cluster = LocalCluster(n_workers=self.workers or default_workers(),
-                                   threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
-            client = Client(cluster)
-        else:
-            client = Client(self.address)
+        where = self.address or "the local Dask cluster"
+        # its "failed to reconnect" log would be a second message beside our ExecutorError
+        client_log = logging.getLogger("distributed.client")
+        client_level = client_log.level
+        client_log.setLevel(logging.CRITICAL)
+        cluster = client = None
         try:
-            width = max(1, len(client.scheduler_info()["workers"])) * WINDOW
-            pending = iter(tasks)
-            futures = as_completed()
-            submitted = {}
-
-            def submit_next() -> bool:
-                task = next(pending, None)
-                if task is None:
-                    return False
-                index, data, existing = task
-                future = client.submit(self.job, data, existing, pure=False,
-                                       key=f"feedtune-spec-{index}")
-                submitted[future.key] = index
-                futures.add(future)
-                return True
-
-            for _ in range(width):
-                if not submit_next():
-                    break
-            suspects = []  # tasks on a worker that died: the culprit, or only beside it
-            for future in futures:
-                index = submitted.pop(future.key)
+            if self.address is None:
+                cluster = LocalCluster(n_workers=self.workers or default_workers(),
+                                       threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+                client = Client(cluster)
+            else:
                 try:
-                    outcome = future.result()
-                except KilledWorker:
-                    suspects.append(index)
-                    outcome = None
-                except Exception as exc:  # noqa: BLE001 — e.g. the spec did not pickle
-                    outcome = Outcome("error", f"Dask task failed: {type(exc).__name__}: {exc}")
-                if outcome is not None:
-                    on_outcome(index, outcome)
-                future.release()
-                submit_next()
-            by_index = {task[0]: task for task in tasks}
-            for index in suspects:  # again, alone on the cluster: only the culprit dies again
-                _, data, existing = by_index[index]
-                future = client.submit(self.job, data, existing, pure=False,
-                                       key=f"feedtune-spec-{index}-alone")
-                try:
-                    outcome = future.result()
-                except KilledWorker as exc:
-                    outcome = Outcome(WORKER_DIED, "the Dask worker running this spec died, "
-                                                   f"also when it ran alone ({exc})")
-                except Exception as exc:  # noqa: BLE001
-                    outcome = Outcome("error", f"Dask task failed: {type(exc).__name__}: {exc}")
-                on_outcome(index, outcome)
-                future.release()
+                    client = Client(self.address, timeout=self.worker_timeout)
+                except OSError as exc:
+                    raise ExecutorError(f"cannot connect to the Dask scheduler at {where}: "
+                                        f"{exc}") from None
+            try:
+                client.wait_for_workers(1, timeout=self.worker_timeout)
+            except TimeoutError:
+                raise ExecutorError(f"no Dask workers connected to {where} within "
+                                    f"{self.worker_timeout:g} s") from None
+            self._run(client, tasks, on_outcome, where)
         finally:
-            client.close()
+            if client is not None:
+                client.close()
             if cluster is not None:
                 cluster.close()
+            client_log.setLevel(client_level)
+
+    def _run(self, client, tasks, on_outcome, where: str) -> None:
+        """Submit ``tasks`` in a window, pass each outcome on; suspects of a death again."""
+        from distributed import as_completed
+        from distributed.scheduler import KilledWorker
+
+        def result(future) -> Outcome | None:
+            """The outcome, or None when the task's worker died (KilledWorker)."""
+            try:
+                return future.result()
+            except KilledWorker:
+                return None
+            except CancelledError:  # we cancel nothing: the scheduler is gone
+                raise ExecutorError(f"lost the Dask scheduler at {where} mid-run; the "
+                                    "results that finished are kept, rerun to finish") from None
+            except Exception as exc:  # noqa: BLE001 — e.g. the spec did not pickle
+                return Outcome("error", f"Dask task failed: {type(exc).__name__}: {exc}")
+
+        width = max(1, len(client.scheduler_info()["workers"])) * WINDOW
+        pending = iter(tasks)
+        futures = as_completed()
+        submitted = {}
+
+        def submit_next() -> bool:
+            task = next(pending, None)
+            if task is None:
+                return False
+            index, data, existing = task
+            future = client.submit(self.job, data, existing, pure=False,
+                                   key=f"feedtune-spec-{index}")
+            submitted[future.key] = index
+            futures.add(future)
+            return True
+
+        for _ in range(width):
+            if not submit_next():
+                break
+        suspects = []  # tasks on a worker that died: the culprit, or only beside it
+        for future in futures:
+            index = submitted.pop(future.key)
+            outcome = result(future)
+            if outcome is None:
+                suspects.append(index)
+            else:
+                on_outcome(index, outcome)
+            future.release()
+            submit_next()
+        by_index = {task[0]: task for task in tasks}
+        for index in suspects:  # again, alone on the cluster: only the culprit dies again
+            _, data, existing = by_index[index]
+            future = client.submit(self.job, data, existing, pure=False,
+                                   key=f"feedtune-spec-{index}-alone")
+            outcome = result(future)
+            on_outcome(index, outcome or Outcome(
+                WORKER_DIED, "the Dask worker running this spec died, also when it ran "
+                             "alone"))
+            future.release()

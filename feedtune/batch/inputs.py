@@ -9,6 +9,7 @@ path, a pattern that matches nothing) raise :class:`InputError`.
 
 from __future__ import annotations
 
+import fnmatch
 import glob
 import json
 import re
@@ -96,6 +97,63 @@ def expand(inputs: list[str]) -> list[Path]:
         else:
             raise InputError(f"{text}: no such file or directory")
     return files
+
+
+def _pattern_base(pattern: str) -> Path:
+    """The directory a glob pattern searches: its path up to the first wildcard part."""
+    base = []
+    for part in Path(pattern).parts:
+        if _is_pattern(part):
+            break
+        base.append(part)
+    return Path(*base) if base else Path(".")
+
+
+def _pattern_reaches(pattern: str, target: Path) -> bool:
+    """Whether files directly in ``target`` could match ``pattern``: it lies below the
+    pattern's base and, unless the pattern is recursive (``**``), at the depth the pattern
+    matches files, through directories its parts match."""
+    base = _pattern_base(pattern)
+    parts = Path(pattern).parts[len(base.parts):]
+    try:
+        inside = target.relative_to(base.resolve()).parts
+    except ValueError:
+        return False
+    if any("**" in part for part in parts):
+        return True
+    return (len(parts) == len(inside) + 1
+            and all(fnmatch.fnmatchcase(name, part) for name, part in zip(inside, parts)))
+
+
+def check_output_apart(inputs: list[str], out: Path) -> None:
+    """Refuse an output directory where the inputs are read from.
+
+    Results must not replace a spec nor be read as specs by a rerun: ``out`` may be neither
+    a directory input nor inside one (searched recursively), nor hold files a pattern input
+    matches, nor be a spec file's own directory. Paths are compared resolved, so a symbolic
+    link to an input is refused too; ``out`` need not exist yet.
+
+    Raises
+    ------
+    InputError
+        Naming ``out`` and the input it collides with.
+    """
+    target = out.resolve()
+    for text in inputs:
+        path = Path(text)
+        if path.is_file():
+            clash = "is the directory of the input" if target == path.resolve().parent else None
+        elif path.is_dir():
+            root = path.resolve()
+            clash = ("is the input" if target == root else
+                     "lies inside the input" if root in target.parents else None)
+        elif _is_pattern(text):
+            clash = "holds files matched by the input" if _pattern_reaches(text, target) else None
+        else:
+            clash = None  # names nothing: expand() says so
+        if clash:
+            raise InputError(f"--out {out} {clash} {text}: results would replace specs or be "
+                             "read as specs by a rerun; choose a directory apart from the inputs")
 
 
 def _spec_name(data: bytes | None, fallback: str) -> str:

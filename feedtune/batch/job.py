@@ -36,6 +36,9 @@ class Outcome:
 
 def summary_fields(result) -> dict:
     """The summary row's view of a TuneResult: objective, tuned values, verdicts."""
+    from feedtune.validate import warning_lines
+
+    validation = result.validation or {}
     return {
         "status": result.status,
         "success": result.success,
@@ -44,7 +47,11 @@ def summary_fields(result) -> dict:
         "tuned": {name: tuned.value for name, tuned in result.tuned.items()},
         "message": result.message,
         # None: not validated (a plant the validator does not cover, an older result)
-        "validation_ok": (result.validation or {}).get("ok"),
+        "validation_ok": validation.get("ok"),
+        # each gap beyond tolerance, worded as `feedtune tune` warns of it
+        "validation_failures": ([line.removeprefix("warning: ")
+                                 for line in warning_lines(validation)]
+                                if validation.get("ok") is False else []),
     }
 
 

@@ -60,6 +60,9 @@ def _worker_main(connection, job: Callable) -> None:
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # solver chatter must not reach the batch's stdout
     os.close(devnull)
+    # load the tuner (CasADi: 1.5 s, more under load) before any spec's clock starts, so
+    # --timeout measures the spec, not this worker's start
+    import feedtune.problem  # noqa: F401
     while True:
         try:
             chunk = connection.recv()

@@ -1,5 +1,12 @@
 """What a batch tells people and CI: the summary file, a table, JUnit XML, GitHub
-annotations, and the comparison with a baseline batch."""
+annotations, and the comparison with a baseline batch.
+
+A spec that is not ok has a ``reason``, which is also its JUnit failure ``type`` and its
+GitHub annotation's title: its status when that is not a solved one (``invalid``,
+``infeasible``, ``iteration_limit``, ``time_limit``, ``error``, ``timeout``,
+``worker_died``, ``not_run``), else the first of ``unsuccessful``,
+``constraint_violated``, ``validation``, ``worse_than_baseline`` that applies.
+"""
 
 from __future__ import annotations
 
@@ -12,30 +19,60 @@ from feedtune.tuner.nlp import SOLVED
 
 #: objective worse than the baseline's by more than this, relative, fails the spec
 BASELINE_RTOL = 1e-6
+#: reasons of a solved spec that is still not ok (see the module docstring)
+UNSUCCESSFUL, CONSTRAINT_VIOLATED, VALIDATION, WORSE_THAN_BASELINE = (
+    "unsuccessful", "constraint_violated", "validation", "worse_than_baseline")
+
+
+def failure(row: dict) -> tuple[str, str] | None:
+    """``(reason, message)`` for a row that is not ok, None for one that is.
+
+    Not ok: not solved (the reason is the status, the message the solver's or the job's),
+    solved without ``success`` (not a feasible, stable optimum), a constraint violated, the
+    independent re-simulation beyond tolerance (``validation_ok`` False; the message names
+    each metric, both values, the gap and the tolerance, as ``feedtune tune`` warns), or an
+    objective worse than the baseline's.
+    """
+    if row["status"] not in SOLVED:
+        return row["status"], row["message"]
+    if not row.get("success"):
+        return UNSUCCESSFUL, f"solved, but not a feasible, stable optimum: {row['message']}"
+    if row.get("constraints_satisfied") is False:
+        return CONSTRAINT_VIOLATED, f"a constraint is violated: {row['message']}"
+    if row.get("validation_ok") is False:
+        return VALIDATION, ("; ".join(row.get("validation_failures") or ())
+                            or "the independent re-simulation (feedtune.validate) differs from "
+                               "the reported metrics beyond tolerance; see the result's "
+                               "validation block")
+    baseline = row.get("baseline") or {}
+    if baseline.get("verdict") == "worse":
+        return WORSE_THAN_BASELINE, (
+            f"objective {_g(row['objective'])} is worse than the baseline's "
+            f"{_g(baseline['objective'])} (relative tolerance {baseline['rtol']:g})")
+    return None
 
 
 def row_ok(row: dict) -> bool:
     """Solved, stable and feasible (``success``), every constraint met, the independent
     re-simulation within its tolerances (``validation_ok`` not False), not worse than the
-    baseline."""
-    return (row["status"] in SOLVED and bool(row.get("success"))
-            and row.get("constraints_satisfied") is not False
-            and row.get("validation_ok") is not False
-            and (row.get("baseline") or {}).get("verdict") != "worse")
+    baseline: no :func:`failure`."""
+    return failure(row) is None
 
 
 def why_failed(row: dict) -> str:
-    """One sentence for people on why ``row`` is not ok."""
-    baseline = row.get("baseline") or {}
-    if baseline.get("verdict") == "worse" and row["status"] in SOLVED and row.get("success"):
-        return (f"objective {_g(row['objective'])} is worse than the baseline's "
-                f"{_g(baseline['objective'])} (relative tolerance {baseline['rtol']:g})")
-    if row["status"] in SOLVED and row.get("constraints_satisfied") is False:
-        return f"a constraint is violated: {row['message']}"
-    if row["status"] in SOLVED and row.get("success") and row.get("validation_ok") is False:
-        return ("the independent re-simulation (feedtune.validate) differs from the reported "
-                "metrics beyond tolerance; see the result's validation block")
-    return f"{row['status']}: {row['message']}"
+    """One sentence for people on why ``row`` is not ok (empty when it is)."""
+    found = failure(row)
+    return found[1] if found else ""
+
+
+def judge(row: dict) -> None:
+    """Set ``ok`` and ``reason`` (None when ok) and, for a row not ok, its ``message`` to
+    :func:`failure`'s."""
+    found = failure(row)
+    row["ok"] = found is None
+    row["reason"] = None
+    if found is not None:
+        row["reason"], row["message"] = found
 
 
 def _g(value) -> str:
@@ -107,7 +144,7 @@ def table(rows: list[dict], limit: int = 100) -> list[str]:
         lines.append(f"{'spec':<{name_w}}  {'status':<{status_w}}  {'objective':>12}  "
                      f"{'time [s]':>8}  verdict")
         for r in shown:
-            verdict = "ok" if r["ok"] else "FAIL: " + why_failed(r)
+            verdict = "ok" if r["ok"] else f"FAIL: {r['message']}"
             if r.get("resumed"):
                 verdict += " (resumed)"
             lines.append(f"{r['id'][:name_w]:<{name_w}}  {r['status']:<{status_w}}  "
@@ -126,7 +163,8 @@ def totals_line(document: dict, wall: float) -> str:
 # -- CI formats --------------------------------------------------------------------------
 
 def junit_xml(rows: list[dict], wall: float) -> bytes:
-    """JUnit XML: one test case per spec, a failure for each spec not ok."""
+    """JUnit XML: one test case per spec (``file`` its path, ``line`` its JSON Lines line),
+    a failure for each spec not ok, its ``type`` the row's ``reason``."""
     failures = sum(1 for r in rows if not r["ok"])
     suites = ET.Element("testsuites", name="feedtune batch", tests=str(len(rows)),
                         failures=str(failures), errors="0", time=f"{wall:.3f}")
@@ -134,12 +172,15 @@ def junit_xml(rows: list[dict], wall: float) -> bytes:
                           failures=str(failures), errors="0", skipped="0", time=f"{wall:.3f}")
     for r in rows:
         case = ET.SubElement(suite, "testcase", classname="feedtune.batch", name=r["id"],
-                             file=r["input"], time=f"{r['time']:.3f}")
+                             file=r["path"], time=f"{r['time']:.3f}")
+        if r.get("line"):
+            case.set("line", str(r["line"]))
         if not r["ok"]:
-            failure = ET.SubElement(case, "failure", type=r["status"], message=why_failed(r))
-            failure.text = json.dumps({k: r.get(k) for k in
-                                       ("input", "status", "message", "errors", "objective",
-                                        "baseline")}, indent=2)
+            failed = ET.SubElement(case, "failure", type=r["reason"], message=r["message"])
+            failed.text = json.dumps({k: r.get(k) for k in
+                                      ("input", "status", "reason", "message", "errors",
+                                       "validation_failures", "objective", "baseline")},
+                                     indent=2)
         else:
             out = ET.SubElement(case, "system-out")
             out.text = f"objective {_g(r['objective'])}; tuned " + json.dumps(r["tuned"])
@@ -156,7 +197,8 @@ def _escape_property(text: str) -> str:
 
 
 def github_annotations(rows: list[dict]) -> list[str]:
-    """GitHub Actions ``::error`` workflow commands, one per spec not ok, naming its file."""
+    """GitHub Actions ``::error`` workflow commands, one per spec not ok, naming its file, its
+    line (JSON Lines), its ``reason`` in the title and its ``message``."""
     lines = []
     for r in rows:
         if r["ok"]:
@@ -164,6 +206,6 @@ def github_annotations(rows: list[dict]) -> list[str]:
         location = f"file={_escape_property(r['path'])}"
         if r.get("line"):
             location += f",line={r['line']}"
-        title = _escape_property(f"feedtune: {r['id']} {r['status']}")
-        lines.append(f"::error {location},title={title}::{_escape_data(why_failed(r))}")
+        title = _escape_property(f"feedtune: {r['id']} {r['reason']}")
+        lines.append(f"::error {location},title={title}::{_escape_data(r['message'])}")
     return lines

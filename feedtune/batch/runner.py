@@ -16,15 +16,17 @@ import errno
 import fcntl
 import json
 import os
+import signal
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 from feedtune import __version__
-from feedtune.batch.inputs import InputError, Item, load_items
+from feedtune.batch.inputs import InputError, Item, check_output_apart, load_items
 from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
-from feedtune.batch.reports import BASELINE_RTOL, compare, row_ok, summary_document
+from feedtune.batch.reports import BASELINE_RTOL, compare, judge, summary_document
 from feedtune.files import remove_stale_temporaries, write_atomic
 
 SUMMARY_SECONDS = 10.0
@@ -33,11 +35,17 @@ LOCK_NAME = ".feedtune-batch.lock"
 NOT_RUN = "not_run"
 
 
+class ExecutorError(RuntimeError):
+    """The executor itself cannot go on (e.g. no Dask workers, the scheduler lost): the
+    batch stops, keeping what finished (exit status 2)."""
+
+
 @dataclass
 class BatchOutcome:
     document: dict  # what summary.json holds
     wall: float  # [s]
     interrupted: bool
+    executor_error: str | None = None  # why the executor stopped the batch, if it did
 
 
 def existing_sha256(path: Path) -> str | None:
@@ -80,6 +88,27 @@ def locked(directory: Path):
         handle.close()
 
 
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold Ctrl-C and SIGTERM back meanwhile and raise them again at the end (to whatever
+    handled them before), so an interrupt lands between two specs' bookkeeping, never inside
+    one: a result file written and its summary row saying so. Signals are the main
+    thread's: elsewhere (a library caller's thread) nothing is held."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum))
+                for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        for signum in dict.fromkeys(caught):
+            signal.raise_signal(signum)
+
+
 def prepare_output(out: Path) -> None:
     if out.exists() and not out.is_dir():
         raise InputError(f"{out}: exists and is not a directory")
@@ -94,8 +123,9 @@ def prepare_output(out: Path) -> None:
 def _base_row(item: Item) -> dict:
     return {"id": item.stem, "name": item.name, "input": item.label, "path": item.path,
             "line": item.line, "result": None, "status": NOT_RUN, "ok": False,
-            "success": False, "constraints_satisfied": None, "objective": None, "tuned": {},
-            "message": "not run (the batch was interrupted)", "errors": [], "time": 0.0,
+            "reason": NOT_RUN, "success": False, "constraints_satisfied": None,
+            "validation_ok": None, "validation_failures": [], "objective": None, "tuned": {},
+            "message": "not run (the batch stopped before it)", "errors": [], "time": 0.0,
             "resumed": False, "spec_sha256": None}
 
 
@@ -105,18 +135,21 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
     """Solve every spec named by ``inputs`` into ``out``.
 
     ``executor`` has ``run(tasks, on_outcome)`` (:class:`~feedtune.batch.local.LocalExecutor`
-    or :class:`~feedtune.batch.dask_cluster.DaskExecutor`); ``baseline`` maps result ids
+    or :class:`~feedtune.batch.dask_cluster.DaskExecutor`), which raises
+    :class:`ExecutorError` when it cannot go on; ``baseline`` maps result ids
     to an earlier batch's rows; ``on_row(row)`` is called as each spec finishes.
 
     Raises
     ------
     InputError
-        When the inputs or the output directory cannot be used.
+        When the inputs or the output directory cannot be used, or ``out`` is where the
+        inputs are read from.
     """
     started = time.perf_counter()
     items = load_items(inputs)
     if not items:
         raise InputError("the inputs hold no specs")
+    check_output_apart(inputs, out)
     prepare_output(out)
     header = {"feedtune": __version__, **(header or {})}
     rows = [_base_row(item) for item in items]
@@ -130,6 +163,15 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
         return document
 
     def finish(index: int, outcome: Outcome) -> None:
+        with signals_deferred():
+            record(index, outcome)
+        if on_row is not None:
+            on_row(rows[index])
+        if time.monotonic() - last_written[0] >= SUMMARY_SECONDS:
+            write_summary()
+
+    def record(index: int, outcome: Outcome) -> None:
+        """Write the spec's result file and fill its summary row."""
         item, row = items[index], rows[index]
         path = out / f"{item.stem}.json"
         row.update(status=outcome.status, message=outcome.message, time=outcome.time,
@@ -148,11 +190,7 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
             row.update(outcome.row, result=path.name)
         if baseline is not None:
             row["baseline"] = compare(row, baseline.get(item.stem), baseline_rtol)
-        row["ok"] = row_ok(row)
-        if on_row is not None:
-            on_row(row)
-        if time.monotonic() - last_written[0] >= SUMMARY_SECONDS:
-            write_summary()
+        judge(row)
 
     with locked(out):
         remove_stale_temporaries(out)
@@ -163,9 +201,12 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
                                            errors=[("", item.read_error or "cannot read")]))
             else:
                 tasks.append((item.index, item.data, existing_sha256(out / f"{item.stem}.json")))
+        executor_error = None
         try:
             executor.run(tasks, finish)
         except KeyboardInterrupt:
             interrupted = True
+        except ExecutorError as exc:
+            executor_error = str(exc)
         document = write_summary()
-    return BatchOutcome(document, time.perf_counter() - started, interrupted)
+    return BatchOutcome(document, time.perf_counter() - started, interrupted, executor_error)

@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import time
 
-from feedtune.batch.job import solve
+from feedtune.batch.job import Outcome, solve
 
 CRASH_MARK = b"crash-me"
 SLEEP_MARK = b"sleep-me"
@@ -27,3 +28,8 @@ def sleeping(data: bytes, existing):
     if SLEEP_MARK in data:
         time.sleep(60)
     return solve(data, existing)
+
+
+def tuner_loaded(data: bytes, existing):
+    """Say whether the worker had loaded the tuner before this spec's clock started."""
+    return Outcome("error", f"tuner loaded before the spec: {'feedtune.problem' in sys.modules}")

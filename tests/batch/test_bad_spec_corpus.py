@@ -251,9 +251,11 @@ def _annotations(batch: Batch, path: str, line: int | None = None) -> list[str]:
             if a.startswith(f"::error {location},") or a.startswith(f"::error {location}::")]
 
 
-def _failures(batch: Batch, label: str) -> list[ET.Element]:
-    cases = [c for c in batch.junit.iter("testcase") if c.get("file") == label]
-    assert len(cases) == 1, label
+def _failures(batch: Batch, path: str, line: int | None = None) -> list[ET.Element]:
+    """The JUnit failures of the spec at ``path`` (``line`` of a JSON Lines file)."""
+    cases = [c for c in batch.junit.iter("testcase")
+             if c.get("file") == path and c.get("line") == (str(line) if line else None)]
+    assert len(cases) == 1, (path, line)
     return cases[0].findall("failure")
 
 
@@ -282,7 +284,7 @@ def test_the_valid_specs_are_solved_with_result_files(batch):
         assert row["result"] == f"{stem}.json" and (batch.out / row["result"]).is_file()
         assert row["errors"] == [] and 1 < row["tuned"]["position_gain"] < 200
         assert not _annotations(batch, row["path"], row["line"])
-        assert not _failures(batch, row["input"])
+        assert not _failures(batch, row["path"], row["line"])
 
 
 def test_only_the_valid_specs_are_ok(batch):
@@ -316,7 +318,7 @@ def _assert_invalid(batch: Batch, row: dict, pointer: str, says: str,
     assert len(annotations) == 1, (row["path"], batch.annotations)
     if error["pointer"]:
         assert f"{error['pointer']}: " in annotations[0]
-    failures = _failures(batch, row["input"])
+    failures = _failures(batch, row["path"], line)
     assert len(failures) == 1 and failures[0].get("type") == "invalid"
     assert says in failures[0].get("message")
 

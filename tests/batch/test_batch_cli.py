@@ -10,8 +10,10 @@ results from 1 worker, all cores and a local Dask cluster.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -165,6 +167,40 @@ def test_junit_has_a_case_per_spec_failing_the_bad_ones(mixed_batch):
     assert cases["zz-bad"].get("file").endswith("zz-bad.json")
 
 
+def test_a_spec_failing_only_validation_says_metric_values_and_tolerance(tmp_path):
+    """A result whose radial error the re-simulation contradicts (its block edited, then
+    resumed): the row, the table, the JUnit failure and the annotation name the metric,
+    both values, the gap and the tolerance, in the words of `feedtune tune`'s warning."""
+    from feedtune.validate import warning_lines
+
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 2)
+    assert batch(str(specs), "--out", str(out)).returncode == 0
+    result = json.loads((out / "axis-001.json").read_text())
+    block = result["validation"]
+    entry = next(e for e in block["entries"] if e["metric"] == "radial_error")
+    entry.update(validated=entry["reported"] + 2e-9, gap=2e-9, tolerance=1e-10, ok=False)
+    block["ok"] = False
+    (out / "axis-001.json").write_text(json.dumps(result, indent=2))
+    proc = batch(str(specs), "--out", str(out), "--junit", str(tmp_path / "junit.xml"),
+                 "--format", "github")
+    assert proc.returncode == 1, proc.stderr
+    row = rows_by_id(out)["axis-001"]
+    (said,) = [line.removeprefix("warning: ") for line in warning_lines(block)]
+    assert said.startswith("validation: radial_error(radius=0.008,feed=0.04) reported ")
+    assert "re-simulated" in said and "2e-09" in said and "tolerance 1e-10" in said
+    assert row["resumed"] and not row["ok"] and row["reason"] == "validation"
+    assert row["message"] == said and row["validation_failures"] == [said]
+    assert rows_by_id(out)["axis-000"]["ok"]
+    assert any(line.startswith("axis-001") and said in line for line in proc.stderr.splitlines())
+    case = next(c for c in ET.parse(tmp_path / "junit.xml").getroot().iter("testcase")
+                if c.get("name") == "axis-001")
+    assert case.find("failure").get("type") == "validation"
+    assert case.find("failure").get("message") == said
+    (annotation,) = proc.stdout.splitlines()
+    assert annotation.endswith("title=feedtune%3A axis-001 validation::" + said)
+
+
 def test_github_annotations_name_each_failing_spec_file(mixed_batch):
     _, _, proc = mixed_batch
     lines = proc.stdout.splitlines()
@@ -241,6 +277,69 @@ def test_unusable_inputs_exit_two_naming_them(tmp_path, case):
     assert not (out / "summary.json").exists()
 
 
+def tree(root: Path) -> dict[str, bytes | None]:
+    """Every file (its bytes) and directory (None) below ``root``."""
+    return {str(p.relative_to(root)): p.read_bytes() if p.is_file() else None
+            for p in sorted(root.rglob("*"))}
+
+
+@pytest.mark.parametrize("case", ["out-is-input", "out-inside-input", "link-to-input",
+                                  "dir-of-file-input", "matched-by-pattern"])
+def test_an_output_directory_where_inputs_are_read_is_refused(tmp_path, case):
+    """The issue's `batch specs --out specs` (overwrote every spec, exit 0) and `--out
+    specs/results` (a rerun read its results as specs), and the same through a symbolic
+    link, a file input's directory and a pattern's base: exit 2 naming both, nothing
+    written."""
+    specs = tmp_path / "specs"
+    write_specs(specs, 2)
+    inputs, out = [str(specs)], specs
+    if case == "out-inside-input":
+        out = specs / "results"
+    elif case == "link-to-input":
+        out = tmp_path / "link"
+        out.symlink_to(specs, target_is_directory=True)
+    elif case == "dir-of-file-input":
+        inputs = [str(specs / "axis-001.json")]
+    elif case == "matched-by-pattern":
+        inputs, out = [str(specs / "**" / "*.json")], specs / "nested" / "results"
+    before = tree(tmp_path)
+    proc = batch(*inputs, "--out", str(out))
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    assert line.startswith(f"error: --out {out} ") and f" {inputs[0]}: " in line, line
+    assert tree(tmp_path) == before  # inputs untouched, no directory, lock or summary made
+
+
+def test_an_output_directory_beside_the_inputs_is_accepted(tmp_path):
+    from feedtune.batch.inputs import check_output_apart
+
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    check_output_apart([str(specs / "axis-000.json")], specs / "results")  # not read again
+    check_output_apart([str(specs), str(specs / "*.json")], tmp_path / "specs-results")
+
+
+@pytest.mark.parametrize("pattern, out, refused", [
+    ("specs/*.json", "specs", True),
+    ("specs/*.json", "specs/results", False),  # one level too deep for the pattern
+    ("*/*.json", "results", True),  # results/NAME.json would match on a rerun
+    ("specs/**/*.json", "specs/a/b", True),
+    ("specs/*/x.json", "specs", False),
+    ("specs/a*/*.json", "specs/b", False),
+    ("other/*.json", "specs", False),
+])
+def test_a_pattern_refuses_an_output_directory_whose_files_it_would_match(
+        tmp_path, monkeypatch, pattern, out, refused):
+    from feedtune.batch.inputs import InputError, check_output_apart
+
+    monkeypatch.chdir(tmp_path)
+    if refused:
+        with pytest.raises(InputError, match=f"--out {out} holds files matched by the input"):
+            check_output_apart([pattern], Path(out))
+    else:
+        check_output_apart([pattern], Path(out))
+
+
 def test_glob_patterns_and_jsonl_inputs(tmp_path):
     specs = tmp_path / "specs"
     write_specs(specs, 2)
@@ -310,6 +409,16 @@ def test_a_spec_over_the_time_limit_is_stopped_and_the_rest_complete(tmp_path):
     assert rows["axis-hang"]["status"] == "timeout"
     assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
     assert time.monotonic() - started < 50  # not the 60 s the job sleeps
+
+
+def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(tmp_path):
+    """--timeout charges a spec its own time, not its worker's start (loading CasADi took
+    over the test's 3 s limit on a loaded machine: every spec timed out)."""
+    write_specs(tmp_path / "specs", 2)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(2, job=batch_jobs.tuner_loaded))
+    assert [row["message"] for row in outcome.document["rows"]] == [
+        "tuner loaded before the spec: True"] * 2
 
 
 def test_a_spec_over_its_own_ipopt_time_limit_is_a_row_and_the_rest_complete(tmp_path):
@@ -445,3 +554,196 @@ def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
     rows = {row["id"]: row for row in outcome.document["rows"]}
     assert rows["axis-crash"]["status"] == "worker_died"
     assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
+
+
+@contextlib.contextmanager
+def dask_scheduler(workers: int):
+    """A Dask scheduler and ``workers`` single-threaded workers, each a process of its own
+    (so a test can kill the scheduler); yields (address, scheduler process)."""
+    command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+               "--port", "0", "--no-dashboard"]
+    scheduler = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    processes = [scheduler]
+    try:
+        for line in scheduler.stderr:
+            found = re.search(r"Scheduler at:\s+(\S+)", line)
+            if found:
+                break
+        else:
+            raise RuntimeError("the Dask scheduler did not start")
+        address = found.group(1)
+        processes += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
+                                        address, "--nthreads", "1", "--no-dashboard"],
+                                       stderr=subprocess.DEVNULL) for _ in range(workers)]
+        yield address, scheduler
+    finally:
+        for process in processes:
+            process.kill()
+            process.wait()
+
+
+def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_path):
+    """The issue: exit 1, a traceback and `error` rows. Now: one line naming the
+    scheduler, exit 2, the finished results in the summary, the rest `not_run` for a rerun."""
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 12)
+    with dask_scheduler(workers=1) as (address, scheduler):
+        process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
+                                    "--out", str(out), "--scheduler", address, "-q"],
+                                   cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                   text=True)
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 3:
+            time.sleep(0.02)
+        scheduler.kill()
+        _, err = process.communicate(timeout=120)
+    assert process.returncode == 2, err
+    (line,) = err.splitlines()
+    assert line.startswith(f"error: lost the Dask scheduler at {address} mid-run"), line
+    rows = summary(out)["rows"]
+    finished = [r for r in rows if r["status"] != "not_run"]
+    assert 3 <= len(finished) < 12, "the kill should land mid-run"
+    assert all(r["ok"] and (out / r["result"]).is_file() for r in finished)
+    assert len(list(out.glob("axis-*.json"))) == len(finished)
+    assert all(r["reason"] == "not_run" for r in rows if r not in finished)
+
+
+@pytest.mark.parametrize("case", ["no-workers", "no-scheduler"])
+def test_no_dask_workers_or_scheduler_is_exit_two_after_the_worker_timeout(tmp_path, case):
+    specs = tmp_path / "specs"
+    write_specs(specs, 1)
+    with dask_scheduler(workers=0) as (address, _):
+        if case == "no-scheduler":
+            address = "tcp://127.0.0.1:9"  # the discard port: nothing listens
+        started = time.monotonic()
+        proc = batch(str(specs), "--out", str(tmp_path / "out"), "--scheduler", address,
+                     "--worker-timeout", "2", timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    expected = (f"error: no Dask workers connected to {address} within 2 s"
+                if case == "no-workers" else f"error: cannot connect to the Dask scheduler at {address}: ")
+    assert line.startswith(expected), line
+    assert time.monotonic() - started < 60  # the timeout, not Dask's own waits
+
+
+@pytest.mark.parametrize("args", [["--executor", "dask"], ["--scheduler", "tcp://127.0.0.1:9"],
+                                  ["-j", "1"]], ids=["dask", "scheduler", "local"])
+def test_without_dask_installed_only_the_dask_executor_is_refused(tmp_path, args):
+    """Dask is the `dask` extra: without it (its import blocked here) the local executor
+    works and the Dask one says how to install it."""
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 1)
+    blocked = ("import sys; sys.modules['distributed'] = None; "
+               "from feedtune.cli import main; main(prog_name='feedtune')")
+    proc = subprocess.run([sys.executable, "-c", blocked, "batch", str(specs), "--out",
+                           str(out), *args], capture_output=True, text=True, cwd=REPO,
+                          timeout=300)
+    if args == ["-j", "1"]:
+        assert proc.returncode == 0, proc.stderr
+        assert rows_by_id(out)["axis-000"]["ok"]
+        return
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    assert line.startswith("error: ") and "pip install 'feedtune[dask]'" in line, line
+    assert not out.exists()
+
+
+def catches(pid: int, signum: int) -> bool:
+    """Whether process ``pid`` has a handler for ``signum`` (Linux: SigCgt in /proc)."""
+    with open(f"/proc/{pid}/status") as status:
+        mask = next(line for line in status if line.startswith("SigCgt:")).split()[1]
+    return bool(int(mask, 16) >> (signum - 1) & 1)
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="reads /proc (Linux)")
+@pytest.mark.parametrize("delay", [0.1, 0.3, 0.6])
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_a_signal_early_in_the_batch_is_exit_130_without_a_traceback(tmp_path, stop, delay):
+    """The issue: in the first ~0.6 s SIGINT gave "Aborted!" (exit 1) or a traceback, and
+    SIGTERM exit 143. At any moment it is 130, one clear line, and any summary whole.
+
+    ``delay`` counts from the interpreter's signal set-up (its SIGINT handler seen in
+    /proc), not from the fork: under load the interpreter's own start can take 0.1 s."""
+    specs, out = tmp_path / "specs", tmp_path / "out"
+    write_specs(specs, 3)
+    process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
+                                "--out", str(out), "-j", "1"], cwd=REPO,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 30
+    while not catches(process.pid, signal.SIGINT) and time.monotonic() < deadline:
+        time.sleep(0.001)
+    time.sleep(delay)
+    process.send_signal(stop)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err and "Aborted" not in err
+    assert err.splitlines()[-1] in (  # while the command line loads / once batch runs
+        "feedtune: interrupted while starting; nothing was done",
+        "interrupted: the results written so far are kept; rerun the same command to finish")
+    if (out / "summary.json").exists():
+        assert len(summary(out)["rows"]) == 3
+
+
+def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path, monkeypatch):
+    """A Ctrl-C landing inside one spec's bookkeeping (here: as its result is written) is
+    held until the file and its summary row are both done, then stops the batch."""
+    import feedtune.batch.runner as runner
+    from feedtune.batch.job import Outcome
+
+    write_atomic = runner.write_atomic
+
+    def interrupted_write(path: Path, data: bytes) -> None:
+        if path.name != "summary.json":
+            os.kill(os.getpid(), signal.SIGINT)
+        write_atomic(path, data)
+
+    class OneSpec:
+        def run(self, tasks, on_outcome):
+            index = tasks[0][0]
+            on_outcome(index, Outcome("optimal", "fine", spec_sha256="0" * 64, result=b"{}\n",
+                                      row={"status": "optimal", "success": True,
+                                           "constraints_satisfied": True, "objective": 1.0}))
+            raise AssertionError("the Ctrl-C should have stopped the batch by now")
+
+    write_specs(tmp_path / "specs", 2)
+    monkeypatch.setattr(runner, "write_atomic", interrupted_write)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out", OneSpec())
+    assert outcome.interrupted
+    row = outcome.document["rows"][0]
+    assert row["status"] == "optimal" and row["result"] == "axis-000.json" and row["ok"]
+    assert (tmp_path / "out" / "axis-000.json").read_bytes() == b"{}\n"
+    assert outcome.document["rows"][1]["status"] == "not_run"
+
+
+def test_run_batch_works_from_a_thread_other_than_the_main_one(tmp_path):
+    """Holding signals back is the main thread's business; a library caller's thread
+    cannot touch them, and need not."""
+    import threading
+
+    from feedtune.batch.job import Outcome
+
+    class Instant:
+        def run(self, tasks, on_outcome):
+            for index, _, _ in tasks:
+                on_outcome(index, Outcome("error", "not solved here"))
+
+    write_specs(tmp_path / "specs", 2)
+    outcomes = []
+    thread = threading.Thread(target=lambda: outcomes.append(
+        run_batch([str(tmp_path / "specs")], tmp_path / "out", Instant())))
+    thread.start()
+    thread.join(timeout=60)
+    (outcome,) = outcomes
+    assert [row["reason"] for row in outcome.document["rows"]] == ["error", "error"]
+
+
+def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_them(tmp_path):
+    from click.testing import CliRunner
+
+    from feedtune.cli import main
+
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    result = CliRunner().invoke(main, ["batch", str(tmp_path / "nope.json"), "--out",
+                                       str(tmp_path / "out")])
+    assert result.exit_code == 2 and "nope.json: no such file" in result.output
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
