@@ -52,7 +52,21 @@ def summary_fields(result) -> dict:
         "validation_failures": ([line.removeprefix("warning: ")
                                  for line in warning_lines(validation)]
                                 if validation.get("ok") is False else []),
+        # not failures: a non-unique optimum (False) and implausibilities, said alongside
+        "optimum_unique": result.optimum.unique if result.optimum is not None else None,
+        "notes": notes(result),
     }
+
+
+def notes(result) -> list[str]:
+    """What a CI should see of a result that is not a failure: a non-unique optimum (which
+    tunables the objective does not decide) and each plausibility warning."""
+    found = []
+    optimum = result.optimum
+    if optimum is not None and optimum.unique is False:
+        undecided = ", ".join(dict.fromkeys([*optimum.flat, *optimum.spread]))
+        found.append(f"optimum not unique: the objective does not decide {undecided}")
+    return found + [f"implausible: {w}" for w in result.warnings]
 
 
 def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:

@@ -145,6 +145,8 @@ def table(rows: list[dict], limit: int = 100) -> list[str]:
                      f"{'time [s]':>8}  verdict")
         for r in shown:
             verdict = "ok" if r["ok"] else f"FAIL: {r['message']}"
+            if r.get("notes"):
+                verdict += "; " + "; ".join(r["notes"])
             if r.get("resumed"):
                 verdict += " (resumed)"
             lines.append(f"{r['id'][:name_w]:<{name_w}}  {r['status']:<{status_w}}  "
@@ -179,11 +181,12 @@ def junit_xml(rows: list[dict], wall: float) -> bytes:
             failed = ET.SubElement(case, "failure", type=r["reason"], message=r["message"])
             failed.text = json.dumps({k: r.get(k) for k in
                                       ("input", "status", "reason", "message", "errors",
-                                       "validation_failures", "objective", "baseline")},
+                                       "validation_failures", "notes", "objective", "baseline")},
                                      indent=2)
         else:
             out = ET.SubElement(case, "system-out")
-            out.text = f"objective {_g(r['objective'])}; tuned " + json.dumps(r["tuned"])
+            out.text = (f"objective {_g(r['objective'])}; tuned " + json.dumps(r["tuned"])
+                        + "".join(f"\n{note}" for note in r.get("notes") or ()))
     ET.indent(suites)
     return ET.tostring(suites, encoding="utf-8", xml_declaration=True) + b"\n"
 
@@ -198,14 +201,17 @@ def _escape_property(text: str) -> str:
 
 def github_annotations(rows: list[dict]) -> list[str]:
     """GitHub Actions ``::error`` workflow commands, one per spec not ok, naming its file, its
-    line (JSON Lines), its ``reason`` in the title and its ``message``."""
+    line (JSON Lines), its ``reason`` in the title and its ``message``; and a ``::warning``
+    per note (a non-unique optimum, an implausible design), which fails nothing."""
     lines = []
     for r in rows:
-        if r["ok"]:
-            continue
         location = f"file={_escape_property(r['path'])}"
         if r.get("line"):
             location += f",line={r['line']}"
-        title = _escape_property(f"feedtune: {r['id']} {r['reason']}")
-        lines.append(f"::error {location},title={title}::{_escape_data(r['message'])}")
+        if not r["ok"]:
+            title = _escape_property(f"feedtune: {r['id']} {r['reason']}")
+            lines.append(f"::error {location},title={title}::{_escape_data(r['message'])}")
+        for note in r.get("notes") or ():
+            title = _escape_property(f"feedtune: {r['id']} note")
+            lines.append(f"::warning {location},title={title}::{_escape_data(note)}")
     return lines

@@ -124,7 +124,8 @@ def _base_row(item: Item) -> dict:
     return {"id": item.stem, "name": item.name, "input": item.label, "path": item.path,
             "line": item.line, "result": None, "status": NOT_RUN, "ok": False,
             "reason": NOT_RUN, "success": False, "constraints_satisfied": None,
-            "validation_ok": None, "validation_failures": [], "objective": None, "tuned": {},
+            "validation_ok": None, "validation_failures": [], "optimum_unique": None, "notes": [],
+            "objective": None, "tuned": {},
             "message": "not run (the batch stopped before it)", "errors": [], "time": 0.0,
             "resumed": False, "spec_sha256": None}
 

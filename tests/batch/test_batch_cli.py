@@ -747,3 +747,30 @@ def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_the
                                        str(tmp_path / "out")])
     assert result.exit_code == 2 and "nope.json: no such file" in result.output
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+
+
+def test_a_non_unique_optimum_and_an_implausible_design_are_said_but_fail_nothing(tmp_path):
+    """Issue 14 items 4 and 5 in the batch: the row, the table, the JUnit case and a GitHub
+    ``::warning`` say them; the spec is still ok (exit 0)."""
+    spec = example("koren-1979-sampled-data")
+    spec["name"] = "flat"
+    spec["tunables"] = {"position_gain": {"min": 1, "max": 200},
+                        "sampling_period": {"min": 0.001, "max": 0.02}}
+    spec["constraints"] = []
+    spec["objective"][0]["radius"] = 0.005  # below the loop's minimum radius at V_m
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "specs" / "flat.json").write_text(json.dumps(spec))
+    proc = batch(str(tmp_path / "specs"), "--out", str(tmp_path / "out"), "--format", "github",
+                 "--junit", str(tmp_path / "junit.xml"))
+    assert proc.returncode == 0, proc.stderr
+    (row,) = json.loads((tmp_path / "out" / "summary.json").read_text())["rows"]
+    assert row["ok"] is True and row["optimum_unique"] is False
+    assert row["notes"][0] == ("optimum not unique: the objective does not decide "
+                               "position_gain, sampling_period")
+    assert any(n.startswith("implausible: min_radius") for n in row["notes"])
+    assert "optimum not unique" in proc.stderr  # the table
+    warnings = [line for line in proc.stdout.splitlines() if line.startswith("::warning ")]
+    assert len(warnings) == len(row["notes"]) and not any(
+        line.startswith("::error") for line in proc.stdout.splitlines())
+    junit = (tmp_path / "junit.xml").read_text()
+    assert "optimum not unique" in junit and "<failure" not in junit

@@ -146,3 +146,25 @@ def test_junit_names_file_and_line_apart_and_the_reason_as_failure_type():
     assert cases["c"].find("failure").get("type") == "worse_than_baseline"
     assert cases["b"].find("failure") is None and suite.get("failures") == "2"
     assert json.loads(cases["a"].find("failure").text)["input"] == "specs/more.jsonl:3"
+
+
+def test_notes_are_annotated_as_warnings_and_fail_nothing():
+    r = judged(notes=["optimum not unique: the objective does not decide position_gain"])
+    assert r["ok"] is True
+    (line,) = github_annotations([r])
+    assert line.startswith("::warning file=specs/x.json,title=feedtune%3A x note::optimum not unique")
+    case = ET.fromstring(junit_xml([r], 1.0)).find(".//testcase")
+    assert case.find("failure") is None
+    assert "optimum not unique" in case.find("system-out").text
+
+
+def test_summary_fields_carry_uniqueness_and_plausibility():
+    optimum = SimpleNamespace(unique=False, flat=["position_gain"], spread={"sampling_period": 0})
+    result = SimpleNamespace(status="optimal", success=True, constraints=[], objective=0.0,
+                             tuned={}, message="m", validation={"ok": True}, optimum=optimum,
+                             warnings=["/plant/blu: 1 m is far outside"])
+    fields = summary_fields(result)
+    assert fields["optimum_unique"] is False
+    assert fields["notes"] == ["optimum not unique: the objective does not decide "
+                               "position_gain, sampling_period",
+                               "implausible: /plant/blu: 1 m is far outside"]
