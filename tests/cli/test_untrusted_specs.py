@@ -284,5 +284,5 @@ def test_a_key_cannot_forge_a_log_line_in_the_batch_table(tmp_path):
     proc, row = batch_row(tmp_path, write(tmp_path / "spec.json", doc), quiet=False)
     assert proc.returncode == 1, text(proc)
     assert row["status"] == "invalid" and "x\\n::error::forged" in row["message"]
-    assert "FAIL: invalid: /tunables/x\\n::error::forged: unknown tunable" in proc.stderr.decode()
+    assert "FAIL: /tunables/x\\n::error::forged: unknown tunable" in proc.stderr.decode()
     assert not any(line.startswith("::") for line in proc.stderr.decode().splitlines())

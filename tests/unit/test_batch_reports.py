@@ -40,7 +40,7 @@ def validated_result(block: dict) -> SimpleNamespace:
     """The fields of a solved TuneResult that the summary row reads."""
     return SimpleNamespace(status="optimal", success=True, constraints=[], objective=2.0,
                            tuned={}, message="start 1 of 8 gave the best feasible optimum",
-                           validation=block)
+                           validation=block, optimum=None, warnings=[])
 
 
 @pytest.mark.parametrize("now, before, verdict", [
