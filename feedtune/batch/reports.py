@@ -59,12 +59,6 @@ def row_ok(row: dict) -> bool:
     return failure(row) is None
 
 
-def why_failed(row: dict) -> str:
-    """One sentence for people on why ``row`` is not ok (empty when it is)."""
-    found = failure(row)
-    return found[1] if found else ""
-
-
 def judge(row: dict) -> None:
     """Set ``ok`` and ``reason`` (None when ok) and, for a row not ok, its ``message`` to
     :func:`failure`'s."""

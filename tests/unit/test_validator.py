@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pytest
 
-from feedtune.batch.reports import row_ok, why_failed
+from feedtune.batch.reports import failure, row_ok
 from feedtune.plants.software_servo import koren_step_response
 from feedtune.validate import validate_result, warning_lines
 from feedtune.validate.software_servo import CIRCLE_SUBSTEPS, ServoModel
@@ -229,7 +229,8 @@ def test_batch_row_fails_on_a_validation_gap():
     assert row_ok(base)  # rows of older summaries
     failed = {**base, "validation_ok": False}
     assert not row_ok(failed)
-    assert "re-simulation" in why_failed(failed)
+    reason, message = failure(failed)
+    assert reason == "validation" and "re-simulation" in message
 
 
 # -- Sato eq 7: decrease in radius of the interpolated circle -------------------------------
