@@ -75,8 +75,6 @@ from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 
 import numpy as np
-from scipy.linalg import matrix_balance, schur, solve_continuous_lyapunov, solve_sylvester
-from scipy.optimize import brentq
 
 DECAY = 1e-12  # a mode is followed until it has decayed to this fraction of its largest size
 #: a mode's contribution is dropped once below this fraction of its largest size (far below
@@ -151,6 +149,8 @@ def _clusters_of(poles: np.ndarray) -> list[list[int]]:
 
 def _block_diagonalise(a: np.ndarray, poles: np.ndarray, groups: list[list[int]]):
     """(W, blocks): a = W diag(blocks) W⁻¹, one complex triangular block per group."""
+    from scipy.linalg import schur, solve_sylvester  # 0.2 s of every command: when used
+
     n = a.shape[0]
     w = np.eye(n, dtype=complex)
     m = a.astype(complex)
@@ -254,6 +254,8 @@ def _cluster_end(value: np.ndarray, mu: complex, life: float, fraction: float) -
         lo, hi = life, 2 * life
         while log_envelope(hi) > target:
             lo, hi = hi, 2 * hi
+    from scipy.optimize import brentq  # 0.11 s of every command: imported when used
+
     return float(brentq(lambda t: float(log_envelope(t)) - target, lo, hi,
                         xtol=1e-300, rtol=1e-12))
 
@@ -265,6 +267,8 @@ class Transient:
     """
 
     def __init__(self, numerator: np.ndarray, denominator: np.ndarray):
+        from scipy.linalg import matrix_balance  # 0.2 s of every command: when used
+
         n = len(denominator) - 1
         self.order = n
         self.clusters: list[_Cluster] = []
@@ -386,6 +390,8 @@ class Transient:
     def _root(self, kind: str, lo: float, hi: float, offset: float = 0.0) -> float:
         """The zero of (value or derivative) − offset bracketed by [lo, hi], by Brent's method."""
         f = self._scalar(kind)
+        from scipy.optimize import brentq  # imported when used (see above)
+
         return brentq(lambda t: f(t) - offset, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps)
 
     @cached_property
@@ -438,6 +444,8 @@ class Transient:
     @cached_property
     def ise(self) -> float:
         """∫_0^∞ y_tr² dt = C W Cᵀ, A W + W Aᵀ + B Bᵀ = 0 (controllability Gramian)."""
+        from scipy.linalg import solve_continuous_lyapunov  # 0.2 s of every command: when used
+
         if self._realisation is None:
             return 0.0
         a, column, row = self._realisation

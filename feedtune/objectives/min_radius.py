@@ -4,7 +4,6 @@ import math
 
 import casadi as ca
 import numpy as np
-from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import radius_gain_excess
@@ -88,6 +87,8 @@ def _exact(excess, low: float) -> float:
     radius r fails; ``low`` = ln(V_m/C_v). The scan grows by SPAN decades while its last
     radius fails (a slow loop), up to _EXTENSIONS times, then +∞; NaN
     (reported as null) when even V_m/C_v passes (f_m/C_v of a few units: not a CNC axis)."""
+    from scipy.optimize import brentq, minimize_scalar  # 0.11 s: only for a number
+
     u = low + np.arange(PER_DECADE_EXACT * SPAN + 1) * math.log(10) / PER_DECADE_EXACT
     values = excess(u)
     for _ in range(_EXTENSIONS):  # a slow loop: SPAN more decades, until a circle passes
