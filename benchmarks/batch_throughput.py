@@ -19,6 +19,9 @@ b. the batch, ``feedtune.batch.runner.run_batch`` with ``LocalExecutor(workers=W
    each W of ``--workers`` (default: 1 and all cores), each into a fresh directory — the
    whole of it: reading the specs, spawning workers (imports, solver builds), IPC,
    writing each result and the summary;
+   then the largest worker count again with one BLAS thread per worker, as the
+   ``feedtune`` command sets it (``feedtune.__main__.pin_blas_threads``), side by side
+   with the BLAS libraries' default (one thread per core) in the rows above;
 c. a resumed rerun of the last batch's directory (every result already there: each spec
    is parsed and hashed, nothing is solved).
 
@@ -51,6 +54,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from feedtune.__main__ import BLAS_THREADS, pin_blas_threads  # noqa: E402
 from feedtune.batch.local import LocalExecutor, default_workers  # noqa: E402
 from feedtune.batch.runner import run_batch  # noqa: E402
 from feedtune.problem import tune  # noqa: E402
@@ -229,10 +233,19 @@ def main(argv: list[str] | None = None) -> int:
         single_per = single["wall"] / single["count"]
         print(f"single solves done ({single['count']}, {single['wall']:.1f} s)", file=sys.stderr)
         runs = {}
+        # workers inherit this environment at spawn: first with the BLAS libraries' own
+        # thread count (all cores), then with one thread as the `feedtune` command sets it
+        saved = {name: os.environ.pop(name, None) for name in BLAS_THREADS}
         for w in workers:
             runs[w] = batch(spec_dir, root / f"out-{w}", w)
             print(f"batch with {w} worker(s) done ({runs[w]['wall']:.1f} s)", file=sys.stderr)
         last = workers[-1]
+        pin_blas_threads()
+        pinned = batch(spec_dir, root / f"out-{last}-pinned", last)
+        for name, value in saved.items():
+            os.environ.pop(name, None)
+            if value is not None:
+                os.environ[name] = value
         resumed = batch(spec_dir, root / f"out-{last}", last)
         load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
@@ -250,6 +263,8 @@ def main(argv: list[str] | None = None) -> int:
         for w in workers:
             print(_row(f"batch, {w} worker{'s' if w > 1 else ''}", runs[w], single_per,
                        one if w != 1 else None))
+        print(_row(f"batch, {last} worker{'s' if last > 1 else ''}, one BLAS thread each "
+                   "(as the `feedtune` command sets it)", pinned, single_per, one))
         print(_row(f"resumed rerun, {last} worker{'s' if last > 1 else ''} (nothing solved)",
                    resumed, None, one))
         print()

@@ -168,3 +168,12 @@ def test_summary_fields_carry_uniqueness_and_plausibility():
     assert fields["notes"] == ["optimum not unique: the objective does not decide "
                                "position_gain, sampling_period",
                                "implausible: /plant/blu: 1 m is far outside"]
+
+
+def test_the_command_pins_blas_to_one_thread_unless_the_user_chose():
+    from feedtune.__main__ import BLAS_THREADS, pin_blas_threads
+
+    environ = {"MKL_NUM_THREADS": "4", "PATH": "/bin"}
+    pin_blas_threads(environ)
+    assert environ == {"MKL_NUM_THREADS": "4", "PATH": "/bin",
+                       **{name: "1" for name in BLAS_THREADS if name != "MKL_NUM_THREADS"}}
