@@ -76,31 +76,33 @@ def _metric_warnings(spec, metrics: Mapping) -> list[str]:
     return warnings
 
 
+#: hydraulic_rotary's given constants and what implies them (App. A2): (field, symbol, unit,
+#: the params' method computing it when the field is omitted, the data that method needs)
+_HYDRAULIC_IMPLIED = (
+    ("hydraulic_natural_frequency", "ω_n", " rad/s", "natural_frequency",
+     ("bulk_modulus", "total_volume", "inertia", "displacement")),
+    ("hydraulic_damping", "ξ", "", "damping",
+     ("leakage_coefficient", "viscous_damping", "bulk_modulus", "total_volume", "inertia",
+      "displacement")),
+)
+
+
 def _hydraulic_warnings(plant) -> list[str]:
     """ω_n and ξ given together with the data that imply them (the plant's own formulas,
     App. A2), where the two differ by more than HYDRAULIC_MISMATCH."""
     if getattr(plant, "type", None) != "hydraulic_rotary":
         return []
-    implied = plant.model_copy(update={"hydraulic_natural_frequency": None,
-                                       "hydraulic_damping": None})
+    implied = plant.model_copy(update={field: None for field, *_ in _HYDRAULIC_IMPLIED})
     warnings = []
-    given_wn = plant.hydraulic_natural_frequency
-    if given_wn is not None and None not in (plant.bulk_modulus, plant.total_volume, plant.inertia):
-        implied_wn = implied.natural_frequency()
-        if abs(given_wn - implied_wn) > HYDRAULIC_MISMATCH * given_wn:
-            warnings.append(
-                f"/plant/hydraulic_natural_frequency: given ω_n = {given_wn:.4g} rad/s, but "
-                f"bulk_modulus, total_volume, inertia and displacement imply "
-                f"√(4β_e D_m²/(V_t J_t)) = {implied_wn:.4g} rad/s; the given value is used")
-    given_xi = plant.hydraulic_damping
-    if given_xi is not None and None not in (plant.bulk_modulus, plant.total_volume,
-                                             plant.inertia, plant.leakage_coefficient):
-        implied_xi = implied.damping()
-        if abs(given_xi - implied_xi) > HYDRAULIC_MISMATCH * given_xi:
-            warnings.append(
-                f"/plant/hydraulic_damping: given ξ = {given_xi:.4g}, but leakage_coefficient, "
-                f"viscous_damping, bulk_modulus, total_volume, inertia and displacement imply "
-                f"ξ = {implied_xi:.4g}; the given value is used")
+    for field, symbol, unit, formula, data in _HYDRAULIC_IMPLIED:
+        given = getattr(plant, field)
+        if given is None or any(getattr(plant, name) is None for name in data):
+            continue
+        value = getattr(implied, formula)()
+        if abs(given - value) > HYDRAULIC_MISMATCH * given:
+            warnings.append(f"/plant/{field}: given {symbol} = {given:.4g}{unit}, but "
+                            f"{', '.join(data)} imply {symbol} = {value:.4g}{unit}; the given "
+                            "value is used")
     return warnings
 
 

@@ -14,7 +14,7 @@ from feedtune.plants import plant_for
 from feedtune.plausibility import plausibility_warnings
 from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult, SpreadValue,
                              StartResult, TunedValue, TuneResult, provenance)
-from feedtune.spec import Spec, SpecError, parse_spec
+from feedtune.spec import Spec, SpecError, parse_spec, tunable_box
 from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import problem_class
 
@@ -35,31 +35,18 @@ def build_plant(spec: Spec):
 
 
 def resolve_tunables(spec: Spec, plant) -> tuple[list[Variable], dict[str, float], dict]:
-    """Free variables, fixed values and the (min, max) box of every tunable."""
-    variables, fixed, box, errors = [], {}, {}, []
-    for name, tunable in plant.tunables().items():
-        given = spec.tunables.get(name)
-        if given is not None and given.value is not None:
-            fixed[name] = given.value
-            box[name] = (given.value, given.value)
-            continue
-        lower = given.min if given and given.min is not None else tunable.min
-        upper = given.max if given and given.max is not None else tunable.max
-        initial = given.initial if given else None
-        if lower > upper:
-            errors.append((f"/tunables/{name}",
-                           f"bounds [{lower}, {upper}] {tunable.unit} are empty (defaults "
-                           f"[{tunable.min}, {tunable.max}] fill what the spec omits)"))
-            continue
-        if initial is not None and not lower <= initial <= upper:
-            errors.append((f"/tunables/{name}/initial", f"{initial} is outside [{lower}, {upper}]"))
-        box[name] = (lower, upper)
+    """Free variables, fixed values and the (min, max) box of every tunable
+    (:func:`feedtune.spec.tunable_box`)."""
+    box, errors, _ = tunable_box(spec.tunables, plant.tunables())
+    if errors:  # only for a Spec built without parse_spec, which refuses these
+        raise SpecError(errors)
+    variables, fixed = [], {}
+    for name, (lower, upper) in box.items():
         if lower == upper:
             fixed[name] = lower
         else:
-            variables.append(Variable(name, lower, upper, initial))
-    if errors:
-        raise SpecError(errors)
+            given = spec.tunables.get(name)
+            variables.append(Variable(name, lower, upper, given.initial if given else None))
     return variables, fixed, box
 
 

@@ -456,11 +456,12 @@ def _valid(adapter: TypeAdapter, value: Any):
         return None
 
 
-def _box(raw_tunables: Any, tunables: dict) -> tuple[dict, list[tuple[str, str]], bool]:
+def tunable_box(raw_tunables: Any, tunables: dict) -> tuple[dict, list[tuple[str, str]], bool]:
     """((min, max) of every tunable, errors, whether every given tunable validated).
 
     The spec's bounds where given, the plant's default bounds for what it omits; a fixed
-    tunable's box is its value.
+    tunable's box is its value. ``raw_tunables`` may be the parsed JSON or a Spec's
+    ``tunables``: the registry checks and the tuner read the box from here alike.
     """
     given = raw_tunables if isinstance(raw_tunables, dict) else {}
     box, errors, complete = {}, [], isinstance(raw_tunables, dict) or raw_tunables is None
@@ -535,7 +536,7 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
         if name not in tunables:
             errors.append((f"/tunables/{_escape(name)}",
                            f"unknown tunable for this plant; known: {', '.join(tunables)}"))
-    box, box_errors, box_complete = _box(raw_tunables, tunables)
+    box, box_errors, box_complete = tunable_box(raw_tunables, tunables)
     errors += box_errors
     constraints = raw.get("constraints")
     if (getattr(plant_params, "integer_ratio", False) and isinstance(constraints, list)

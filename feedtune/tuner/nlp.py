@@ -595,9 +595,9 @@ class Problem:
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
             if self.has_nlp:
-                z_opt, return_status, iterations, exchanged = self._solve_from(z0, started)
+                z_opt, return_status, iterations, exchanged, kkt[index] = self._solve_from(
+                    z0, started)
                 status = _STATUS.get(return_status, "error")
-                kkt[index] = self._kkt
             else:
                 z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
                 exchanged = 0
@@ -712,18 +712,18 @@ class Problem:
         return [(i, {v.name: float(math.exp(z[k])) for k, v in enumerate(self.variables)})
                 for _, i, z in equal]
 
-    def _solve_from(self, start: np.ndarray, started: float) -> tuple[np.ndarray, str, int, int]:
+    def _solve_from(self, start: np.ndarray, started: float) -> tuple:
         """One start: IPOPT, then exchange rounds while a refined peak or dip violates its bound.
 
         Returns the tunables' logarithms, IPOPT's last return status, the iterations of
-        every round and the number of exchange points added. A round that does not solve
+        every round, the number of exchange points added and the last round's solution
+        with its multipliers and bounds (see :meth:`_flat_tunables`; None if none ran). A round that does not solve
         ends the start with its status; so do the start's time limit (``time_limit``),
         running out of exchange points, and a start that restoration cannot make stable.
         """
-        self._kkt = None
         z0 = self._stable_start(start)
         if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)
-            return start, "No_Stable_Start", 0, 0
+            return start, "No_Stable_Start", 0, 0, None
         solver = self._nlpsol
         slots = self.slot_defaults.copy()
         lbg, ubg = self.lbg.copy(), self.ubg.copy()
@@ -737,7 +737,7 @@ class Problem:
             iterations += min(max(int(stats.get("iter_count", 0)), 0), self.settings.max_iter)
             return_status = stats.get("return_status", "unknown")
             x0 = np.asarray(solution["x"], dtype=float).ravel()
-            self._kkt = (x0, np.concatenate([[p_scale], slots, self.param_values]),
+            kkt = (x0, np.concatenate([[p_scale], slots, self.param_values]),
                          np.asarray(solution["lam_g"], dtype=float).ravel(),
                          np.asarray(solution["lam_x"], dtype=float).ravel(), lbg.copy(), ubg.copy())
             if _STATUS.get(return_status) not in SOLVED:
@@ -751,7 +751,7 @@ class Problem:
             if time.perf_counter() - started > self.settings.time_limit:
                 return_status = "Maximum_WallTime_Exceeded"
                 break
-        return x0[:self.n_z], return_status, iterations, sum(used)
+        return x0[:self.n_z], return_status, iterations, sum(used), kkt
 
     def _add_exchange_points(self, x, slots, lbg, ubg, used) -> bool | None:
         """Switch on a constraint row at every violated refined peak/dip of solution ``x``.
