@@ -6,8 +6,11 @@ not a traceback or status 143; once loaded, each command handles signals itself
 (``batch``: 130, the results so far kept).
 """
 
+import atexit
 import os
 import signal
+import sys
+import threading
 
 _STARTING = (signal.SIGINT, signal.SIGTERM)
 #: thread-count variables of the BLAS libraries numpy and scipy may load
@@ -42,7 +45,37 @@ def main() -> None:
 
     for signum, handler in previous.items():
         signal.signal(signum, handler)
-    command_line(prog_name="feedtune")
+    try:
+        command_line(prog_name="feedtune")
+    except SystemExit as stop:
+        exit_without_teardown(stop.code)
+    exit_without_teardown(0)
+
+
+def exit_without_teardown(code) -> None:
+    """End the process with ``code`` (as ``sys.exit`` would) without the interpreter's
+    teardown, once the command is over.
+
+    Freeing every module and CasADi graph at exit took 0.45 s after a Koren tuning
+    (measured side by side with ``os._exit``: 2.68 → 2.22 s wall), longer than most
+    tunings' solve. Everything the process still owes is done first: atexit handlers run,
+    stdout and stderr are flushed. A process with other non-daemon threads still running
+    exits the normal way (``sys.exit``), which waits for them.
+    """
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):
+        print(code, file=sys.stderr)
+        code = 1
+    if any(t is not threading.main_thread() and not t.daemon for t in threading.enumerate()):
+        sys.exit(code)
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (`feedtune ... | head`)
+            code = code or 1
+    os._exit(code)
 
 
 if __name__ == "__main__":
