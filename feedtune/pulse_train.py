@@ -142,6 +142,10 @@ class PulseResponse:
         """End of each period [s] (when the counter reads ``counter[i]``)."""
         return (np.arange(len(self.pulses)) + 1.0) / self.frequency
 
+    def end_of(self, period: int) -> float:
+        """End of period ``period`` [s]: ``time[period]`` without the whole array."""
+        return (period + 1.0) / self.frequency
+
     @property
     def position(self) -> np.ndarray:
         """Actual position δ·n_i [unit]."""
@@ -160,7 +164,10 @@ class PulseResponse:
     def commanded_acceleration(self) -> np.ndarray:
         """a_i = (v_i − v_{i−1}) f [unit/s²], from rest (v_{−1} = 0)."""
         v = self.commanded_velocity
-        return np.diff(v, prepend=0.0) * self.frequency
+        a = v.copy()  # v_0 − 0
+        np.subtract(v[1:], v[:-1], out=a[1:])
+        a *= self.frequency
+        return a
 
     @property
     def commanded_rate(self) -> np.ndarray:
@@ -274,7 +281,9 @@ def _step(target: int, count: int, value: float, step_limit: float | None) -> tu
             at_rest = True
             break
         if e == previous:
-            # a saturated run: e stays ±value and every period sends a pulse
+            # a saturated run: e stays ±value and every period sends a pulse; the sum is
+            # unchanged, exactly: the period before (e = ±value too) already rounded
+            # acc ± value onto value's grid, so acc ± value ∓ value is acc again
             if e == value and acc >= 0.0 and raw > value + 1:
                 run = min(int(math.floor(raw - value)), count - i)
                 pulses[i:i + run] = 1
@@ -404,18 +413,30 @@ class MotorCharacteristic:
         return np.interp(rate, self.rates, self.accelerations)
 
     def margin(self, response: PulseResponse) -> float:
-        """min over periods of 1 − |a_i|/a_motor(rate), and 1 − (max rate)/(motor's max rate)
+        """min over periods of 1 − |a_i|/a_motor(rate_i), and 1 − (max rate)/(motor's max rate)
         [1]: ≥ 0 iff the commanded acceleration stays within the characteristic at the
         pulse rate of each period (the higher of the rates before and after it) and the
-        pulse rate within the table."""
-        rate = response.commanded_rate
-        rate = np.maximum(rate, np.concatenate([[0.0], rate[:-1]]))
-        capacity = self.acceleration(rate)
-        accel = np.abs(response.commanded_acceleration)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(accel > 0, accel / capacity, 0.0)
-        top = float(rate.max()) if len(rate) else 0.0
-        return float(min(1.0 - float(ratio.max(initial=0.0)), 1.0 - top / self.max_rate))
+        pulse rate within the table.
+
+        Only the periods with a ≠ 0 can bind, so the ratio is formed there alone (most
+        periods of a step run saturated or coast at constant e); the highest rate is the
+        rate of the highest |v| (rate is |v|/δ, monotone): the same numbers as over every
+        period."""
+        velocity = response.commanded_velocity
+        acceleration = response.commanded_acceleration
+        delta = response.pulse_equivalent
+        moving = np.flatnonzero(acceleration)
+        worst = 0.0
+        if moving.size:
+            rate = np.abs(velocity[moving]) / delta
+            before = np.abs(velocity[moving - 1]) / delta
+            if moving[0] == 0:
+                before[0] = 0.0  # from rest
+            capacity = self.acceleration(np.maximum(rate, before))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                worst = float((np.abs(acceleration[moving]) / capacity).max())
+        top = float(np.abs(velocity).max(initial=0.0)) / delta
+        return float(min(1.0 - worst, 1.0 - top / self.max_rate))
 
 
 @dataclass(frozen=True, eq=False)
