@@ -26,11 +26,18 @@ in the controller parameters, which is why :mod:`feedtune.tuner.search` tunes it
 derivative-free search on this simulation (see docs/tian.md).
 
 Speed. The recursion is sequential (the accumulator and the clip depend on the previous
-period), so it cannot be vectorised over time; it runs as a tight scalar loop, with two
-exact short cuts for a constant command (a step after t = 0): a run of saturated periods
-(e = value, sum ≥ 0: one pulse per period, sum unchanged) is jumped over in one step, and
-the simulation stops once the axis is at rest (counter on target, e = 0: nothing changes
-any more). Tian's 10 rad step at 140 kHz (5 200 periods to rest) takes ≈5 ms.
+period), and its float64 roundings decide real ties (the law's ramps are arithmetic
+progressions whose sums land on multiples of value), so it is not vectorised over time:
+it runs as a scalar loop with three exact short cuts for a constant command (a step after
+t = 0): a run of saturated periods (e = value, sum ≥ 0: one pulse per period, sum
+unchanged) is jumped over in one step; coasting at e = raw (the law not binding, the
+accumulator on value's float grid) jumps to the period of the next pulse, the partial sums
+being exact there; and the simulation stops once the axis is at rest (counter on target,
+e = 0: nothing changes any more). A step allocates nothing horizon-long that it keeps: the
+command is one number, and the response holds copies of the periods to rest. Tian's
+10 rad step at 140 kHz (5 206 periods to rest) takes ≈0.5 ms, the search's typical
+point ≈0.4 ms (benchmarks/tian_speed.py). The result is bit for bit the validator's plain
+recursion (tests/unit/test_validator_pulse.py).
 
 References
 ----------
