@@ -26,11 +26,18 @@ in the controller parameters, which is why :mod:`feedtune.tuner.search` tunes it
 derivative-free search on this simulation (see docs/tian.md).
 
 Speed. The recursion is sequential (the accumulator and the clip depend on the previous
-period), so it cannot be vectorised over time; it runs as a tight scalar loop, with two
-exact short cuts for a constant command (a step after t = 0): a run of saturated periods
-(e = value, sum ≥ 0: one pulse per period, sum unchanged) is jumped over in one step, and
-the simulation stops once the axis is at rest (counter on target, e = 0: nothing changes
-any more). Tian's 10 rad step at 140 kHz (5 200 periods to rest) takes ≈5 ms.
+period), and its float64 roundings decide real ties (the law's ramps are arithmetic
+progressions whose sums land on multiples of value), so it is not vectorised over time:
+it runs as a scalar loop with three exact short cuts for a constant command (a step after
+t = 0): a run of saturated periods (e = value, sum ≥ 0: one pulse per period, sum
+unchanged) is jumped over in one step; coasting at e = raw (the law not binding, the
+accumulator on value's float grid) jumps to the period of the next pulse, the partial sums
+being exact there; and the simulation stops once the axis is at rest (counter on target,
+e = 0: nothing changes any more). A step allocates nothing horizon-long that it keeps: the
+command is one number, and the response holds copies of the periods to rest. Tian's
+10 rad step at 140 kHz (5 206 periods to rest) takes ≈0.5 ms, the search's typical
+point ≈0.4 ms (benchmarks/tian_speed.py). The result is bit for bit the validator's plain
+recursion (tests/unit/test_validator_pulse.py).
 
 References
 ----------
@@ -142,6 +149,10 @@ class PulseResponse:
         """End of each period [s] (when the counter reads ``counter[i]``)."""
         return (np.arange(len(self.pulses)) + 1.0) / self.frequency
 
+    def end_of(self, period: int) -> float:
+        """End of period ``period`` [s]: ``time[period]`` without the whole array."""
+        return (period + 1.0) / self.frequency
+
     @property
     def position(self) -> np.ndarray:
         """Actual position δ·n_i [unit]."""
@@ -160,7 +171,10 @@ class PulseResponse:
     def commanded_acceleration(self) -> np.ndarray:
         """a_i = (v_i − v_{i−1}) f [unit/s²], from rest (v_{−1} = 0)."""
         v = self.commanded_velocity
-        return np.diff(v, prepend=0.0) * self.frequency
+        a = v.copy()  # v_0 − 0
+        np.subtract(v[1:], v[:-1], out=a[1:])
+        a *= self.frequency
+        return a
 
     @property
     def commanded_rate(self) -> np.ndarray:
@@ -183,51 +197,135 @@ class PulseResponse:
         return (v[periods:] - v[:-periods]) * self.frequency / periods
 
 
-def _simulate(reference: np.ndarray, value: float, step_limit: float | None,
-              constant_after: int | None) -> tuple[np.ndarray, np.ndarray, bool]:
-    """The V-F transformation period by period (all quantities in pulses).
-
-    ``constant_after``: from this period on the command no longer changes (a step), which
-    enables the exact short cuts of the module docstring.
-    """
+def _track(reference: np.ndarray, value: float, step_limit: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The V-F transformation period by period for a moving command (all in pulses)."""
     count = len(reference)
     pulses = np.zeros(count, dtype=np.int8)
-    errors = np.zeros(count)
-    ref = reference.tolist()
-    limit = step_limit if step_limit is not None else math.inf
+    errors = np.empty(count)
+    limit = math.inf if step_limit is None else step_limit
+    n = 0
+    acc = 0.0
+    previous = 0.0
+    for i, r in enumerate(reference.tolist()):
+        raw = r - n
+        e = value if raw > value else (-value if raw < -value else float(raw))
+        delta = e - previous
+        if delta > limit:
+            e = previous + limit
+        elif delta < -limit:
+            e = previous - limit
+        acc += e
+        if acc >= value:
+            acc -= value
+            n += 1
+            pulses[i] = 1
+        elif acc <= -value:
+            acc += value
+            n -= 1
+            pulses[i] = -1
+        errors[i] = e
+        previous = e
+    return pulses, errors
+
+
+def _step(target: int, count: int, value: float, step_limit: float | None) -> tuple[np.ndarray, np.ndarray, bool]:
+    """The V-F transformation after a step to ``target`` pulses at t = 0, over at most
+    ``count`` periods (all in pulses), with the exact short cuts of the module docstring.
+
+    Returns the pulse train and the errors up to the period where the axis came to rest
+    (or to ``count``; copies, so no horizon-long buffer stays referenced) and whether it did.
+    """
+    pulses = np.zeros(count, dtype=np.int8)
+    errors = np.empty(count)
+    limit = math.inf if step_limit is None else step_limit
+    # multiples of ulp(value) below 2·value in magnitude are floats: sums of an integer
+    # error and such an accumulator are exact there (the coast short cut needs it)
+    grid = math.ulp(value)
+    coast = grid <= 1.0
+    ramp: list[float] = []
     n = 0
     acc = 0.0
     previous = 0.0
     i = 0
     at_rest = False
     while i < count:
-        r = ref[i]
-        raw = r - n
-        e = value if raw > value else (-value if raw < -value else float(raw))
-        if step_limit is not None:
-            delta = e - previous
-            if delta > limit:
-                e = previous + limit
-            elif delta < -limit:
-                e = previous - limit
-        if constant_after is not None and i >= constant_after:
-            if raw == 0 and e == 0.0:
-                at_rest = True
-                break
-            # a saturated run: e stays ±value and every period sends a pulse
-            if e == value and previous == value and acc >= 0.0 and raw > value + 1:
+        raw = target - n
+        c = value if raw > value else (-value if raw < -value else float(raw))
+        delta = c - previous
+        if delta > limit or delta < -limit:
+            # the acceleration law binds: e moves by ±limit a period (never to 0, so the
+            # axis is not at rest) until the clipped error is within reach again
+            up = delta > limit
+            start = i
+            while True:
+                e = previous + limit if up else previous - limit
+                acc += e
+                if acc >= value:
+                    acc -= value
+                    n += 1
+                    pulses[i] = 1
+                    raw = target - n
+                    c = value if raw > value else (-value if raw < -value else float(raw))
+                elif acc <= -value:
+                    acc += value
+                    n -= 1
+                    pulses[i] = -1
+                    raw = target - n
+                    c = value if raw > value else (-value if raw < -value else float(raw))
+                ramp.append(e)
+                previous = e
+                i += 1
+                if i >= count:
+                    break
+                delta = c - previous
+                if not (delta > limit if up else delta < -limit):
+                    break
+            errors[start:i] = ramp
+            ramp.clear()
+            continue
+        e = c
+        if raw == 0 and e == 0.0:
+            at_rest = True
+            break
+        if e == previous:
+            # a saturated run: e stays ±value and every period sends a pulse; the sum is
+            # unchanged, exactly: the period before (e = ±value too) already rounded
+            # acc ± value onto value's grid, so acc ± value ∓ value is acc again
+            if e == value and acc >= 0.0 and raw > value + 1:
                 run = min(int(math.floor(raw - value)), count - i)
                 pulses[i:i + run] = 1
                 errors[i:i + run] = value
                 n += run
                 i += run
                 continue
-            if e == -value and previous == -value and acc <= 0.0 and raw < -value - 1:
+            if e == -value and acc <= 0.0 and raw < -value - 1:
                 run = min(int(math.floor(-raw - value)), count - i)
                 pulses[i:i + run] = -1
                 errors[i:i + run] = -value
                 n -= run
                 i += run
+                continue
+            # coasting: e = raw stays until the next pulse, m periods from now; every
+            # partial sum acc + j·e (j < m) lies strictly inside ±value on the grid, so
+            # it is exact, as the period-by-period sums would be
+            if coast and e == raw and (acc / grid).is_integer():
+                sign = 1 if e > 0 else -1
+                gap = value - acc if sign > 0 else -value - acc
+                m = max(1, math.ceil(gap / e))
+                while m > 1 and ((acc + (m - 1) * e >= value) if sign > 0 else (acc + (m - 1) * e <= -value)):
+                    m -= 1
+                while (acc + m * e < value) if sign > 0 else (acc + m * e > -value):
+                    m += 1
+                if i + m > count:
+                    errors[i:count] = e
+                    i = count
+                    break
+                errors[i:i + m] = e
+                acc = (acc + (m - 1) * e) + e
+                acc = acc - value if sign > 0 else acc + value
+                n += sign
+                pulses[i + m - 1] = sign
+                i += m
                 continue
         acc += e
         if acc >= value:
@@ -241,9 +339,7 @@ def _simulate(reference: np.ndarray, value: float, step_limit: float | None,
         errors[i] = e
         previous = e
         i += 1
-    if at_rest:
-        pulses, errors = pulses[:i], errors[:i]
-    return pulses, errors, at_rest
+    return pulses[:i].copy(), errors[:i].copy(), at_rest
 
 
 def simulate(pulse_equivalent: float, frequency: float, error_limit: float,
@@ -269,14 +365,19 @@ def simulate(pulse_equivalent: float, frequency: float, error_limit: float,
         raise ValueError(f"{count} periods to simulate (horizon {horizon:g} s at {frequency:g} Hz); "
                          f"at most {MAX_PERIODS}")
     count = max(count, 1)
-    t = np.arange(count) / frequency
-    reference = np.rint(command.position(t) / pulse_equivalent).astype(np.int64)
     value = error_limit / pulse_equivalent
     step_limit = None if acceleration_ratio is None else value / acceleration_ratio
-    pulses, errors, at_rest = _simulate(reference, value, step_limit,
-                                        0 if command.kind == "step" else None)
+    if command.kind == "step":
+        target = int(np.rint(command.amplitude / pulse_equivalent))
+        pulses, errors, at_rest = _step(target, count, value, step_limit)
+        reference = np.full(len(pulses), target, dtype=np.int64)
+    else:
+        t = np.arange(count) / frequency
+        reference = np.rint(command.position(t) / pulse_equivalent).astype(np.int64)
+        pulses, errors = _track(reference, value, step_limit)
+        at_rest = False
     return PulseResponse(frequency=frequency, pulse_equivalent=pulse_equivalent,
-                         error_limit=error_limit, reference=reference[:len(pulses)],
+                         error_limit=error_limit, reference=reference,
                          pulses=pulses, error=errors, at_rest=at_rest, horizon=horizon)
 
 
@@ -319,18 +420,30 @@ class MotorCharacteristic:
         return np.interp(rate, self.rates, self.accelerations)
 
     def margin(self, response: PulseResponse) -> float:
-        """min over periods of 1 − |a_i|/a_motor(rate), and 1 − (max rate)/(motor's max rate)
+        """min over periods of 1 − |a_i|/a_motor(rate_i), and 1 − (max rate)/(motor's max rate)
         [1]: ≥ 0 iff the commanded acceleration stays within the characteristic at the
         pulse rate of each period (the higher of the rates before and after it) and the
-        pulse rate within the table."""
-        rate = response.commanded_rate
-        rate = np.maximum(rate, np.concatenate([[0.0], rate[:-1]]))
-        capacity = self.acceleration(rate)
-        accel = np.abs(response.commanded_acceleration)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(accel > 0, accel / capacity, 0.0)
-        top = float(rate.max()) if len(rate) else 0.0
-        return float(min(1.0 - float(ratio.max(initial=0.0)), 1.0 - top / self.max_rate))
+        pulse rate within the table.
+
+        Only the periods with a ≠ 0 can bind, so the ratio is formed there alone (most
+        periods of a step run saturated or coast at constant e); the highest rate is the
+        rate of the highest |v| (rate is |v|/δ, monotone): the same numbers as over every
+        period."""
+        velocity = response.commanded_velocity
+        acceleration = response.commanded_acceleration
+        delta = response.pulse_equivalent
+        moving = np.flatnonzero(acceleration)
+        worst = 0.0
+        if moving.size:
+            rate = np.abs(velocity[moving]) / delta
+            before = np.abs(velocity[moving - 1]) / delta
+            if moving[0] == 0:
+                before[0] = 0.0  # from rest
+            capacity = self.acceleration(np.maximum(rate, before))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                worst = float((np.abs(acceleration[moving]) / capacity).max())
+        top = float(np.abs(velocity).max(initial=0.0)) / delta
+        return float(min(1.0 - worst, 1.0 - top / self.max_rate))
 
 
 @dataclass(frozen=True, eq=False)

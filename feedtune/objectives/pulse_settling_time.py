@@ -30,4 +30,4 @@ class PulseSettlingTime(PulseMetric):
         if not len(outside):
             return 0.0
         # at rest means the last counter is on target, so a period follows the last outside
-        return float(r.time[outside[-1] + 1])
+        return r.end_of(int(outside[-1]) + 1)

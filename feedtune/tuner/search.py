@@ -80,22 +80,30 @@ class SearchProblem:
         values.update(self.fixed)
         return values
 
+    def measure(self, values: Mapping[str, float]):
+        """(loop, objective or None, constraint values, stable) at ``values``, simulated now."""
+        loop = self.make_loop(dict(values))
+        objective = 0.0
+        for term in self.objective:
+            value = _value(term.value(loop))
+            objective = None if value is None or objective is None else objective + term.weight * value
+        bounds = [_value(b.value(loop)) for b in self.bounds]
+        stable = bool(loop.stability()["stable"])
+        return loop, objective, bounds, stable
+
     def evaluate(self, values: Mapping[str, float]):
-        """(loop, objective or None, constraint values, stable) at ``values``."""
+        """(objective or None, constraint values, stable) at ``values``, each point simulated
+        once. The cache keeps these numbers only, not the loop: a loop holds its whole
+        simulated response, and a search visits thousands of points."""
         key = tuple(sorted(values.items()))
-        if key not in self._cache:
+        numbers = self._cache.get(key)
+        if numbers is None:
             self.evaluations += 1
-            loop = self.make_loop(dict(values))
-            objective = 0.0
-            for term in self.objective:
-                value = _value(term.value(loop))
-                objective = None if value is None or objective is None else objective + term.weight * value
-            bounds = [_value(b.value(loop)) for b in self.bounds]
-            stable = bool(loop.stability()["stable"])
+            numbers = self.measure(values)[1:]
             if len(self._cache) > 10000:
                 self._cache.clear()
-            self._cache[key] = (loop, objective, bounds, stable)
-        return self._cache[key]
+            self._cache[key] = numbers
+        return numbers
 
     def _violation(self, bounds, stable) -> float:
         total = 0.0 if stable else 1.0
@@ -110,7 +118,7 @@ class SearchProblem:
         return total
 
     def _score(self, z: np.ndarray) -> float:
-        _, objective, bounds, stable = self.evaluate(self._values(z))
+        objective, bounds, stable = self.evaluate(self._values(z))
         feasible = stable and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
         if feasible and objective is not None:
             return objective
@@ -155,7 +163,7 @@ class SearchProblem:
                 z, return_status, status, iterations = self._start(index, deadline)
             else:
                 z, return_status, status, iterations = np.zeros(0), "No_Free_Tunables", "optimal", 0
-            _, objective, bounds, stable = self.evaluate(self._values(z))
+            objective, bounds, stable = self.evaluate(self._values(z))
             feasible = stable and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
                                        time.perf_counter() - started, feasible))
@@ -172,7 +180,7 @@ class SearchProblem:
         key, index, z, return_status, status = best
         started = time.perf_counter()
         values = self._values(z)
-        loop, objective, bounds, stable = self.evaluate(values)
+        loop, objective, bounds, stable = self.measure(values)  # the same numbers, simulated again
         reports = {name: _value(fn(loop)) for name, fn in self.reports.items()}
         stability = loop.stability()
         feasible = key[0] < 2

@@ -1,8 +1,8 @@
 """The validator's pulse generator (Tian's V-F transformation run plainly, period by period)
 against Tian's closed forms and against the tuner's simulation with its short cuts
-(feedtune/pulse_train.py jumps over saturated runs): both must give the same pulse train.
-The arithmetic is the same integers on both sides, so agreement is exact (tolerance 1e-9
-only absorbs the float sum of errors).
+(feedtune/pulse_train.py jumps over saturated runs and coasts to the next pulse): both must
+give the same pulse train and the same errors, bit for bit (the same float operations in
+the same order).
 """
 
 from __future__ import annotations
@@ -62,7 +62,28 @@ def test_plain_run_equals_the_tuners_short_cut_simulation(amplitude, value_pulse
     ours = m.simulate()
     assert ours["at_rest"] == theirs.at_rest
     assert np.array_equal(ours["pulses"], theirs.pulses)
-    assert np.allclose(ours["error"], theirs.error, rtol=0, atol=1e-9)
+    assert np.array_equal(ours["error"], theirs.error)
+
+
+@settings(max_examples=40, deadline=None)
+@given(value=st.floats(0.05, 5.0), ratio=st.floats(100.0, 5000.0),
+       frequency=st.floats(5e4, 2e5), amplitude=st.sampled_from([10.0, -10.0, 2.5]))
+def test_plain_run_equals_the_short_cuts_over_the_tian_example_box(value, ratio, frequency,
+                                                                   amplitude):
+    """Over the example's box (error limit 0.05–5 rad, k 100–5000, f 50–200 kHz, δ = 430/140 000
+    rad): long law ramps, saturated runs and coasting to the next pulse, bit for bit the
+    plain recursion (pulses, every e_i, the stop at rest), on the automatic horizon."""
+    from feedtune.pulse_train import automatic_horizon
+
+    delta = 430.0 / 140e3
+    command = PulseInput("step", amplitude=amplitude)
+    horizon = automatic_horizon(delta, frequency, value, ratio, command)
+    theirs = simulate(delta, frequency, value, ratio, command, horizon)
+    ours = model(amplitude, delta, frequency, value, ratio, horizon).simulate()
+    assert ours["at_rest"] == theirs.at_rest
+    assert np.array_equal(ours["pulses"], theirs.pulses)
+    assert np.array_equal(ours["error"], theirs.error)
+    assert np.array_equal(ours["reference"], theirs.reference)
 
 
 def test_tian_example_result_validates_exactly():
