@@ -1,7 +1,8 @@
 """What the quick commands load (issue 15: `feedtune --help` and `feedtune validate` start in
 under 0.3 s; benchmarks/startup.py measures the time). These tests hold the import set, not
-the time: each command runs through the real entry point (``feedtune.__main__.main``) in a
-fresh interpreter, which then lists the heavy packages it holds in ``sys.modules``."""
+the time: commands run through the real entry point (``feedtune.__main__.main``) in a fresh
+interpreter, which lists after each command the heavy packages it then holds in
+``sys.modules`` (a package loaded by one command stays listed after the later ones)."""
 
 from __future__ import annotations
 
@@ -15,42 +16,49 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((REPO / "examples").glob("*.json"))
 
-#: run ``feedtune ARGS`` in this interpreter, then print the loaded heavy packages on stderr
+#: run each ``feedtune ARGS`` of argv[1] in this interpreter; after each, print on stderr its
+#: exit status and which packages of argv[2] (or their submodules) are loaded
 _PROBE = """
 import json, sys
-args, packages = json.loads(sys.argv[1]), json.loads(sys.argv[2])
-sys.argv = ["feedtune", *args]
+commands, packages = json.loads(sys.argv[1]), json.loads(sys.argv[2])
 from feedtune.__main__ import main
-try:
-    main()
-except SystemExit as exc:
-    status = exc.code
-heavy = [package for package in packages
-         if any(name == package or name.startswith(package + ".") for name in sys.modules)]
-print("\\nloaded: " + json.dumps({"status": status, "heavy": heavy}), file=sys.stderr)
+for args in commands:
+    sys.argv = ["feedtune", *args]
+    try:
+        main()
+    except SystemExit as exc:
+        status = exc.code
+    heavy = [package for package in packages
+             if any(name == package or name.startswith(package + ".") for name in sys.modules)]
+    print("\\nloaded: " + json.dumps({"status": status, "heavy": heavy}), file=sys.stderr)
 """
 
 
-def loaded(args: list[str], packages: tuple[str, ...]) -> tuple[int, list[str]]:
-    """(exit status, which of ``packages`` (or their submodules) are in sys.modules) after
-    ``feedtune ARGS``."""
-    proc = subprocess.run([sys.executable, "-c", _PROBE, json.dumps(args), json.dumps(packages)],
+def loaded(commands: list[list[str]], packages: tuple[str, ...]) -> list[tuple[int, list[str]]]:
+    """(exit status, which of ``packages`` are loaded) after each of ``feedtune ARGS...``,
+    run one after the other in one fresh interpreter."""
+    proc = subprocess.run([sys.executable, "-c", _PROBE, json.dumps(commands),
+                           json.dumps(packages)],
                           capture_output=True, text=True, cwd=REPO, timeout=120, check=True)
-    report = json.loads(proc.stderr.rsplit("loaded: ", 1)[1])
-    return report["status"], report["heavy"]
+    reports = [json.loads(line.removeprefix("loaded: "))
+               for line in proc.stderr.splitlines() if line.startswith("loaded: ")]
+    assert len(reports) == len(commands), proc.stderr
+    return [(report["status"], report["heavy"]) for report in reports]
 
 
 def test_help_loads_no_spec_model_or_numerical_package():
-    status, heavy = loaded(["--help"], ("pydantic", "numpy", "casadi", "scipy", "matplotlib"))
+    [(status, heavy)] = loaded([["--help"]], ("pydantic", "numpy", "casadi", "scipy",
+                                              "matplotlib"))
     assert status == 0
     assert heavy == []
 
 
-@pytest.mark.parametrize("example", EXAMPLES, ids=[p.stem for p in EXAMPLES])
-def test_validate_loads_neither_scipy_nor_matplotlib(example):
-    status, heavy = loaded(["validate", str(example)], ("scipy", "matplotlib", "feedtune.tuner"))
-    assert status == 0
-    assert heavy == []
+def test_validate_loads_neither_scipy_nor_matplotlib_nor_the_tuner():
+    """Every bundled example, one after the other: the first to load one is named."""
+    reports = loaded([["validate", str(path)] for path in EXAMPLES],
+                     ("scipy", "matplotlib", "feedtune.tuner"))
+    assert {path.stem: report for path, report in zip(EXAMPLES, reports)} == {
+        path.stem: (0, []) for path in EXAMPLES}
 
 
 @pytest.mark.xfail(strict=True, reason=(
@@ -58,7 +66,7 @@ def test_validate_loads_neither_scipy_nor_matplotlib(example):
     "feedtune.linalg, feedtune.signals, feedtune.frequency, the plant modules and most metric "
     "modules import casadi at their top; see benchmarks/README.md"))
 def test_validate_loads_no_casadi():
-    status, heavy = loaded(["validate", str(REPO / "examples" / "koren-1979-sampled-data.json")],
-                           ("casadi",))
+    [(status, heavy)] = loaded(
+        [["validate", str(REPO / "examples" / "koren-1979-sampled-data.json")]], ("casadi",))
     assert status == 0
     assert heavy == []
