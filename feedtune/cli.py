@@ -21,14 +21,15 @@ import sys
 import traceback
 import typing
 from pathlib import Path
-from typing import Any, Iterator
+from typing import TYPE_CHECKING, Any, Iterator
 
 import click
-from pydantic.fields import FieldInfo
-from pydantic_core import PydanticUndefined, to_jsonable_python
 
 from feedtune import __version__
 from feedtune.files import write_atomic
+
+if TYPE_CHECKING:  # pydantic is imported by the commands that read specs, not by --help
+    from pydantic.fields import FieldInfo
 
 #: exit statuses, also listed in ``feedtune --help``
 EXIT_OK, EXIT_NOT_SUCCESS, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
@@ -274,6 +275,8 @@ def _limits(info: FieldInfo) -> list[str]:
 
 def _default(info: FieldInfo) -> tuple[bool, Any]:
     """(required, default as JSON-able value)."""
+    from pydantic_core import PydanticUndefined, to_jsonable_python
+
     if info.is_required():
         return True, None
     if info.default_factory is not None:
