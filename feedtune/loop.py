@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import casadi as ca
 import numpy as np
@@ -35,6 +35,63 @@ SETTLE_FRACTION = 1e-4  # a symbolic loop's modes must decay this far within its
 
 class HorizonError(ValueError):
     """A step response would need more samples than MAX_HORIZON_SAMPLES."""
+
+
+class StepIntegrals:
+    """IAE [m·s], ISE [m²·s] and ITAE [m·s²] of a step response, each built when first read.
+
+    ``build(name)`` returns the integral named ``iae``, ``ise`` or ``itae``. Reads and
+    iterates like :class:`~feedtune.signals.ErrorIntegrals` (iae, ise, itae).
+    """
+
+    _NAMES = ErrorIntegrals._fields
+
+    def __init__(self, build):
+        self._build = build
+        self._values = {}
+
+    def _get(self, name):
+        if name not in self._values:
+            self._values[name] = self._build(name)
+        return self._values[name]
+
+    iae = property(lambda self: self._get("iae"))
+    ise = property(lambda self: self._get("ise"))
+    itae = property(lambda self: self._get("itae"))
+
+    def __iter__(self):
+        return (self._get(name) for name in self._NAMES)
+
+
+@lru_cache(maxsize=None)
+def _sample_step(order: int, name: str) -> ca.Function:
+    """One sample of a sampled loop with an integrator-lag plant, accumulating one integral.
+
+    ``step(state, Φ, Γ, k_x, k_r, T, τ)`` with state [plant and buffer states (``order``),
+    ∫ so far, t] returns the state one sample later; the integral is ``name`` (iae, ise or
+    itae) of the error α + βs + γe^{−s} over the sample (:func:`sample_error_integrals`).
+    Built once per process: the same Function serves every loop, so graphs of equal
+    structure serialize alike (the tuner's solver cache) and no loop pays for the build.
+    """
+    n = order
+    tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
+    state = ca.SX.sym("state", n + 2)  # [x, v, buffer..., integral, t]
+    phi_s = ca.SX.sym("phi", n, n)
+    gamma_s = ca.SX.sym("gamma", n)
+    kx_s = ca.SX.sym("kx", 1, n)
+    kr_s = ca.SX.sym("kr")
+    period_s = ca.SX.sym("period")
+    xi = state[:n]
+    u = ca.mtimes(kx_s, xi) + kr_s
+    position, velocity = xi[0], xi[1]
+    alpha = 1 - position - (velocity - u) * tau
+    beta = -u * tau
+    gamma = (velocity - u) * tau
+    pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 1])
+    nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s, state[n] + getattr(pieces, name),
+                     state[n + 1] + period_s)
+    return ca.Function(f"sample_{name}", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
+                       [nxt])
 
 
 @dataclass(frozen=True)
@@ -437,45 +494,39 @@ class SampledLoop(_LoopBase):
         return samples
 
     @cached_property
-    def step_error_integrals(self) -> ErrorIntegrals:
+    def step_error_integrals(self) -> StepIntegrals:
         """IAE/ISE/ITAE after a 1 m position step, intersample included.
 
-        Summed sample by sample over ``horizon_samples`` with a CasADi fold; inside each
-        sample the error is α + βs + γe^{−s}, s = σ/τ, integrated in closed form. The rest,
-        from the horizon to infinity, is summed in closed form too (:meth:`_tail`): exact for
-        ISE, and exact for IAE and ITAE once the error no longer changes sign.
+        Each integral is summed sample by sample over ``horizon_samples`` with a CasADi fold
+        of its own (:func:`_sample_step`), built when a metric first reads it: an IAE term
+        carries no ISE or ITAE in its graph. Inside each sample the error is
+        α + βs + γe^{−s}, s = σ/τ, integrated in closed form. The rest, from the horizon to
+        infinity, is summed in closed form too (:meth:`_tail`): exact for ISE, and exact for
+        IAE and ITAE once the error no longer changes sign. A loop of numbers is summed on
+        numbers (no graph is built).
         """
         radius = self._numeric_spectral_radius
         if radius is not None and radius >= 1:
-            return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
-        n = self.order
-        tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
-        state = ca.SX.sym("state", n + 4)  # [x, v, buffer..., iae, ise, itae, t]
-        phi_s = ca.SX.sym("phi", n, n)
-        gamma_s = ca.SX.sym("gamma", n)
-        kx_s = ca.SX.sym("kx", 1, n)
-        kr_s = ca.SX.sym("kr")
-        period_s = ca.SX.sym("period")
-        xi = state[:n]
-        u = ca.mtimes(kx_s, xi) + kr_s
-        position, velocity = xi[0], xi[1]
-        alpha = 1 - position - (velocity - u) * tau
-        beta = -u * tau
-        gamma = (velocity - u) * tau
-        pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 3])
-        nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s,
-                         state[n] + pieces.iae, state[n + 1] + pieces.ise,
-                         state[n + 2] + pieces.itae, state[n + 3] + period_s)
-        step = ca.Function("sample_step", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
-                           [nxt])
+            return StepIntegrals(lambda name: math.inf)  # unstable: never settles
+        samples = self.horizon_samples  # raises HorizonError before any metric is built
         phi, gamma_cl, kx, kr = self._matrices
-        final = step.fold(self.horizon_samples)(ca.DM.zeros(n + 4), phi, gamma_cl, kx, kr,
-                                                 self.period, self.plant.time_constant)
-        tail = self._tail(final[:n], final[n + 3])
-        return ErrorIntegrals(final[n] + ca.fabs(tail.iae), final[n + 1] + tail.ise,
-                              final[n + 2] + ca.fabs(tail.itae))
+        period, tau = self.period, self.plant.time_constant
+        if radius is not None:  # numbers: evaluate the small matrices once, sum on DM
+            phi, gamma_cl, kx, kr, period, tau = (
+                ca.evalf(ca.MX(m)) for m in (phi, gamma_cl, kx, kr, period, tau))
+        n = self.order
 
-    def _tail(self, state, start_time) -> ErrorIntegrals:
+        def integral(name):
+            final = _sample_step(n, name).fold(samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx,
+                                                         kr, period, tau)
+            tail = self._tail(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
+            if name == "ise":
+                return final[n] + tail.ise
+            return final[n] + ca.fabs(getattr(tail, name))
+
+        return StepIntegrals(integral)
+
+    def _tail(self, state, start_time, phi, gamma_cl, kx, period, tau) -> ErrorIntegrals:
         """∫e, ∫e², ∫t·e from sample state ``state`` at ``start_time`` [s] to infinity.
 
         With δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are
@@ -484,8 +535,6 @@ class SampledLoop(_LoopBase):
         equation. Returned in an ErrorIntegrals whose iae/itae are the signed ∫e, ∫t·e.
         """
         n = self.order
-        tau = self.plant.time_constant
-        phi, gamma_cl, kx, _ = self._matrices
         eye = ca.DM.eye(n)
         delta = state - linalg.solve(eye - phi, gamma_cl)
         e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
@@ -494,13 +543,13 @@ class SampledLoop(_LoopBase):
         a_row = -e_x - tau * (e_v - kx)
         b_row = -tau * kx
         g_row = tau * (e_v - kx)
-        c1, c2, q = sample_moments(a_row, b_row, g_row, self.period / tau, tau)
+        c1, c2, q = sample_moments(a_row, b_row, g_row, period / tau, tau)
         geometric = linalg.solve(eye - phi, eye)  # Σ Φ^k
         weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
         lyapunov = linalg.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
         p = ca.reshape(lyapunov, n, n)
         sum_e = ca.mtimes([c1, geometric, delta])
-        sum_te = (start_time * sum_e + self.period * ca.mtimes([c1, weighted, delta])
+        sum_te = (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
                   + ca.mtimes([c2, geometric, delta]))
         return ErrorIntegrals(sum_e, ca.mtimes([delta.T, p, delta]), sum_te)
 

@@ -474,3 +474,16 @@ def test_sampled_step_integrals_have_finite_exact_derivatives(gain, period, dela
             assert all(math.isfinite(v) for v in values), values
             numeric = (float(fn(math.log(gain) + 1e-6)[0]) - float(fn(math.log(gain) - 1e-6)[0])) / 2e-6
             assert values[1] == pytest.approx(numeric, rel=1e-5, abs=1e-12)
+
+
+def test_step_integrals_of_a_loop_of_numbers_are_numbers():
+    """A loop of numbers sums its samples on numbers (ca.DM), not through a symbolic graph
+    evaluated afterwards, and reads each integral alone; the values are those of the brute
+    force simulation (as in test_sampled_step_error_integrals_match_simulation)."""
+    gain, period = 18.0, 1 / 64
+    loop = SampledLoop(IntegratorLag(TAU), gain, period, horizon=1.0, period_min=period)
+    assert isinstance(loop.step_error_integrals.itae, ca.DM)
+    assert isinstance(loop.step_error_integrals.iae, ca.DM)
+    phi_ref, _ = _closed_loop(TAU, gain, period, 0)
+    expected = _brute_force_integrals(TAU, gain, period, 0, _samples_to_settle(phi_ref))
+    np.testing.assert_allclose([float(v) for v in loop.step_error_integrals], expected, rtol=2e-8)
