@@ -94,6 +94,76 @@ def _sample_step(order: int, name: str) -> ca.Function:
                        [nxt])
 
 
+@lru_cache(maxsize=None)
+def _tail(order: int) -> ca.Function:
+    """∫e, ∫e², ∫t·e of a sampled integrator-lag loop from a sample to infinity.
+
+    ``tail(state, t, Φ, Γ, k_x, T, τ)`` at sample state ``state`` and time ``t`` [s]. With
+    δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are linear in δ
+    (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing over δ(k) = Φ^k δ
+    gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov equation. Returns the signed
+    ∫e [m·s], ∫e² [m²·s] and the signed ∫t·e [m·s²]. Built once per process, as
+    :func:`_sample_step`.
+    """
+    n = order
+    state, start_time = ca.SX.sym("state", n), ca.SX.sym("t")
+    phi, gamma_cl = ca.SX.sym("phi", n, n), ca.SX.sym("gamma", n)
+    kx, period, tau = ca.SX.sym("kx", 1, n), ca.SX.sym("period"), ca.SX.sym("tau")
+    eye = ca.DM.eye(n)
+    delta = state - ca.solve(eye - phi, gamma_cl)
+    e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
+    e_v = ca.horzcat(0, 1, ca.DM.zeros(1, n - 2))
+    # α, β, γ of the intersample error as rows acting on δ (zero at the settled state)
+    a_row = -e_x - tau * (e_v - kx)
+    b_row = -tau * kx
+    g_row = tau * (e_v - kx)
+    c1, c2, q = sample_moments(a_row, b_row, g_row, period / tau, tau)
+    geometric = ca.solve(eye - phi, ca.SX(eye))  # Σ Φ^k
+    weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
+    lyapunov = ca.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
+    p = ca.reshape(lyapunov, n, n)
+    sum_e = ca.mtimes([c1, geometric, delta])
+    sum_te = (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
+              + ca.mtimes([c2, geometric, delta]))
+    return ca.Function("step_tail", [state, start_time, phi, gamma_cl, kx, period, tau],
+                       [sum_e, ca.mtimes([delta.T, p, delta]), sum_te])
+
+
+@lru_cache(maxsize=None)
+def _pole_pair() -> ca.Function:
+    """(ζ, ω_n·T) of the pole pair of z² + c1·z + c0, mapped by s = ln(z)/T.
+
+    Complex pair a·e^{±jθ}: ζ = −ln a/√(ln²a + θ²), ω_nT = √(ln²a + θ²) (Koren eqs
+    17–19). Positive real pair: the overdamped second order with s_i = ln z_i/T,
+    ζ = −(ln z1 + ln z2)/(2√(ln z1 ln z2)) ≥ 1. A negative real pole rings at the
+    Nyquist frequency: the principal branch ln|z| ± jπ of the most negative pole (the
+    least damped one) gives ζ and ω_n. Built once per process, as :func:`_sample_step`,
+    so a loop of numbers evaluates it without building a graph.
+    """
+    c1, c0 = ca.SX.sym("c1"), ca.SX.sym("c0")
+    tiny = 1e-300
+    discriminant = c1**2 - 4 * c0
+    a = ca.sqrt(ca.fmax(c0, tiny))
+    cosine = ca.fmin(ca.fmax(-c1 / (2 * a), -1), 1)
+    # θ = acos(cosine), written so that no derivative is infinite at cosine = ±1 (a branch
+    # not taken still multiplies its derivatives by zero in reverse mode: 0·∞ is NaN)
+    theta = ca.atan2(ca.sqrt(ca.fmax(1 - cosine**2, tiny)), cosine)
+    complex_wn = ca.sqrt(ca.log(a) ** 2 + theta**2)
+    complex_zeta = -ca.log(a) / complex_wn
+    root = ca.sqrt(ca.fmax(discriminant, tiny))  # tiny, not 0: keeps d√ finite
+    z1, z2 = (-c1 + root) / 2, (-c1 - root) / 2  # z1 ≥ z2
+    ln1, ln2 = ca.log(ca.fmax(z1, tiny)), ca.log(ca.fmax(z2, tiny))
+    real_wn = ca.sqrt(ln1 * ln2)
+    real_zeta = -(ln1 + ln2) / (2 * real_wn)
+    ln_abs = ca.log(ca.fmax(ca.fabs(z2), tiny))
+    nyquist_wn = ca.sqrt(ln_abs**2 + ca.pi**2)
+    nyquist_zeta = -ln_abs / nyquist_wn
+    zeta = ca.if_else(discriminant < 0, complex_zeta,
+                      ca.if_else(z2 > 0, real_zeta, nyquist_zeta))
+    wn = ca.if_else(discriminant < 0, complex_wn, ca.if_else(z2 > 0, real_wn, nyquist_wn))
+    return ca.Function("pole_pair", [c1, c0], [zeta, wn])
+
+
 @dataclass(frozen=True)
 class Drive:
     """Physical data of the axis that some metrics need, beyond the loop dynamics.
@@ -400,42 +470,19 @@ class SampledLoop(_LoopBase):
         d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
         return d_re * re[0] - d_im * im[0], d_re * im[0] + d_im * re[0]
 
+    @cached_property
     def _equivalent_poles(self):
-        """(ζ, ω_n·T) of the closed-loop pole pair mapped by s = ln(z)/T; order-2 loops.
-
-        Complex pair a·e^{±jθ}: ζ = −ln a/√(ln²a + θ²), ω_nT = √(ln²a + θ²) (Koren eqs
-        17–19). Positive real pair: the overdamped second order with s_i = ln z_i/T,
-        ζ = −(ln z1 + ln z2)/(2√(ln z1 ln z2)) ≥ 1. A negative real pole rings at the
-        Nyquist frequency: the principal branch ln|z| ± jπ of the most negative pole (the
-        least damped one) gives ζ and ω_n.
-        """
+        """(ζ, ω_n·T) of the closed-loop pole pair (:func:`_pole_pair`); order-2 loops."""
         _, c1, c0 = self.characteristic_polynomial
-        tiny = 1e-300
-        discriminant = c1**2 - 4 * c0
-        a = ca.sqrt(ca.fmax(c0, tiny))
-        theta = ca.acos(ca.fmin(ca.fmax(-c1 / (2 * a), -1), 1))
-        complex_wn = ca.sqrt(ca.log(a) ** 2 + theta**2)
-        complex_zeta = -ca.log(a) / complex_wn
-        root = ca.sqrt(ca.fmax(discriminant, tiny))  # tiny, not 0: keeps d√ finite
-        z1, z2 = (-c1 + root) / 2, (-c1 - root) / 2  # z1 ≥ z2
-        ln1, ln2 = ca.log(ca.fmax(z1, tiny)), ca.log(ca.fmax(z2, tiny))
-        real_wn = ca.sqrt(ln1 * ln2)
-        real_zeta = -(ln1 + ln2) / (2 * real_wn)
-        ln_abs = ca.log(ca.fmax(ca.fabs(z2), tiny))
-        nyquist_wn = ca.sqrt(ln_abs**2 + ca.pi**2)
-        nyquist_zeta = -ln_abs / nyquist_wn
-        zeta = ca.if_else(discriminant < 0, complex_zeta,
-                          ca.if_else(z2 > 0, real_zeta, nyquist_zeta))
-        wn = ca.if_else(discriminant < 0, complex_wn, ca.if_else(z2 > 0, real_wn, nyquist_wn))
-        return zeta, wn
+        return _pole_pair()(c1, c0)
 
     def natural_frequency(self):
         """ω_n [rad/s] of the equivalent s-plane poles s = ln(z)/T (Koren eqs 17–19)."""
-        return self._equivalent_poles()[1] / self.period
+        return self._equivalent_poles[1] / self.period
 
     def damping_ratio(self):
         """ζ = αT / √((αT)² + (ωT)²), Koren eq 19, extended to real pole pairs."""
-        return self._equivalent_poles()[0]
+        return self._equivalent_poles[0]
 
     @property
     def has_exact_step_error(self) -> bool:
@@ -519,39 +566,11 @@ class SampledLoop(_LoopBase):
         def integral(name):
             final = _sample_step(n, name).fold(samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx,
                                                          kr, period, tau)
-            tail = self._tail(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
-            if name == "ise":
-                return final[n] + tail.ise
-            return final[n] + ca.fabs(getattr(tail, name))
+            tail = _tail(n)(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
+            index = ErrorIntegrals._fields.index(name)
+            return final[n] + (tail[index] if name == "ise" else ca.fabs(tail[index]))
 
         return StepIntegrals(integral)
-
-    def _tail(self, state, start_time, phi, gamma_cl, kx, period, tau) -> ErrorIntegrals:
-        """∫e, ∫e², ∫t·e from sample state ``state`` at ``start_time`` [s] to infinity.
-
-        With δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are
-        linear in δ (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing
-        over δ(k) = Φ^k δ gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov
-        equation. Returned in an ErrorIntegrals whose iae/itae are the signed ∫e, ∫t·e.
-        """
-        n = self.order
-        eye = ca.DM.eye(n)
-        delta = state - linalg.solve(eye - phi, gamma_cl)
-        e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
-        e_v = ca.horzcat(0, 1, ca.DM.zeros(1, n - 2))
-        # α, β, γ of the intersample error as rows acting on δ (zero at the settled state)
-        a_row = -e_x - tau * (e_v - kx)
-        b_row = -tau * kx
-        g_row = tau * (e_v - kx)
-        c1, c2, q = sample_moments(a_row, b_row, g_row, period / tau, tau)
-        geometric = linalg.solve(eye - phi, eye)  # Σ Φ^k
-        weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
-        lyapunov = linalg.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
-        p = ca.reshape(lyapunov, n, n)
-        sum_e = ca.mtimes([c1, geometric, delta])
-        sum_te = (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
-                  + ca.mtimes([c2, geometric, delta]))
-        return ErrorIntegrals(sum_e, ca.mtimes([delta.T, p, delta]), sum_te)
 
 
 @dataclass(frozen=True, eq=False)

@@ -487,3 +487,20 @@ def test_step_integrals_of_a_loop_of_numbers_are_numbers():
     phi_ref, _ = _closed_loop(TAU, gain, period, 0)
     expected = _brute_force_integrals(TAU, gain, period, 0, _samples_to_settle(phi_ref))
     np.testing.assert_allclose([float(v) for v in loop.step_error_integrals], expected, rtol=2e-8)
+
+
+@pytest.mark.parametrize("gain, period", [(18.0, 1 / 64), (2.0, 1 / 64), (33.5767, 0.0986735)],
+                         ids=["complex", "real-positive", "real-negative"])
+def test_sampled_damping_reverse_mode_derivative_is_finite(gain, period):
+    """Reverse mode (what a gradient through a Function call uses) multiplies the adjoint of
+    the branch not taken, zero, by that branch's derivatives: acos' infinite slope at a
+    clipped ±1 once made it 0·∞ = NaN for real poles. Checked against a central difference."""
+    z = ca.MX.sym("z")
+    loop = SampledLoop(IntegratorLag(TAU), ca.exp(z), ca.MX(period))
+    for expr in (loop.damping_ratio(), loop.natural_frequency()):
+        f = ca.Function("f", [z], [expr])
+        adjoint = f.reverse(1)
+        slope = float(adjoint(math.log(gain), f(math.log(gain)), 1.0))
+        step = 1e-6
+        numeric = (float(f(math.log(gain) + step)) - float(f(math.log(gain) - step))) / (2 * step)
+        assert slope == pytest.approx(numeric, rel=1e-5, abs=1e-9)
