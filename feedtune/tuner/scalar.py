@@ -1,0 +1,260 @@
+"""One free tunable: a bracketing search on the NLP's own functions instead of IPOPT.
+
+With a single free tunable and nothing else to decide (no epigraph slack, no crossing
+variable, no exchange points), the NLP is a one-dimensional minimisation on a box. IPOPT
+solves it, but pays for what a line does not need: building the solver expands the graph
+to SX and differentiates it twice (Koren's sampled-data IAE: a 47k-instruction objective
+and a 333k-instruction Hessian, 0.27 s of a 0.54 s tuning), and each of its ~10
+iterations evaluates that Hessian. Here the objective and the feasibility conditions are
+evaluated as they are (the problem's ``check`` and ``settling`` Functions, not expanded,
+0.15 ms a point on that example), and
+
+1. every start and both ends of the box form a grid in ln(tunable); its feasible points
+   (stability and settling conditions positive, constraints within their bounds, a finite
+   objective) and their local minima are found in one evaluation of the grid;
+2. each grid minimum is one start: its bracket (the neighbouring grid points, or the
+   feasibility boundary between a neighbour and it, located by bisection) is searched by
+   Brent's method (``scipy.optimize.minimize_scalar``, bounded);
+3. a grid with one local minimum is unimodal on the grid: one refinement, not one per
+   start. Several minima are refined each (at most ``multistart``), and the starts that
+   reach the same objective show in the result as IPOPT's multistart would.
+
+Uniqueness: the curvature of the objective (divided by its value where the refinement
+began) in ln(tunable) at an interior optimum, by a central second difference, against the
+tuner's FLAT_CURVATURE; an optimum on a bound or a feasibility boundary is a vertex and is
+unique.
+
+The search sees only the problem's Functions and numbers (duck-typed: ``has_nlp``,
+``n_z``, ``lbw``, ``ubw``, ``starts``, ``bounds``, ``check``, ``settling``,
+``param_values``, ``f_scale`` and ``_exchange`` of :class:`feedtune.tuner.nlp.Problem`),
+never a plant or a metric.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+#: Brent's tolerance in ln(tunable) [1]: a relative change of the tunable of 1e-10. Brent
+#: itself stops at about √ε·|ln x| (≈ 5e-8 for x ≈ 30), the resolution of a smooth minimum
+#: from values alone; the objective there is within ~1e-15 (relative) of its minimum.
+BRENT_XTOL = 1e-10
+BRENT_MAXITER = 200
+#: a feasibility boundary is bisected until its bracket is this narrow in ln(tunable) [1]
+#: (a relative 1e-10 of the tunable), the feasible end kept: IPOPT holds a constraint to
+#: its tol 1e-9 (relative), the same order
+BOUNDARY_XTOL = 1e-10
+#: step [1] in ln(tunable) (0.1 % of the tunable) of the central second difference that
+#: measures curvature at the optimum: rounding (values to ~1e-15 relative) then contributes
+#: 4·1e-15/h² ≈ 4e-9 to a curvature compared with FLAT_CURVATURE = 1e-6
+CURVATURE_STEP = 1e-3
+
+
+def applies(problem) -> bool:
+    """A problem the scalar search solves: one free tunable and no other NLP variable or
+    exchange point (a peak or crossing needs IPOPT's exchange rounds)."""
+    return bool(problem.has_nlp and problem.n_z == 1 and len(problem.lbw) == 1
+                and not problem._exchange)
+
+
+@dataclass
+class Refined:
+    """One refined grid minimum: what IPOPT's ``_solve_from`` returns for a start."""
+
+    z: np.ndarray  # [ln tunable]
+    status: str
+    iterations: int
+    vertex: bool  # on a bound of the box or a feasibility boundary
+    reference: float = 1.0  # the objective where the search began (its scale)
+
+
+@dataclass
+class ScalarSearch:
+    """Grid, bracketing and Brent on a problem with one free tunable (see module docstring).
+
+    ``evaluate(zs)`` returns (objective, violation) arrays at the points ``zs`` [ln
+    tunable]: a point is feasible when its violation is ≤ 0 and its objective finite.
+    """
+
+    evaluate: object
+    lower: float
+    upper: float
+    starts: np.ndarray
+    count: int  # at most this many grid minima are refined (the spec's multistart)
+    grid: np.ndarray = field(init=False)
+    values: np.ndarray = field(init=False)
+    feasible: np.ndarray = field(init=False)
+    evaluations: int = field(init=False, default=0)
+    refined: dict = field(init=False, default_factory=dict)  # z of an optimum → Refined
+
+    def __post_init__(self):
+        self.grid = np.unique(np.concatenate([[self.lower, self.upper],
+                                              np.clip(self.starts, self.lower, self.upper)]))
+        self.values, self.feasible = self._classify(self.grid)
+
+    @classmethod
+    def for_problem(cls, problem, check, settling) -> "ScalarSearch | None":
+        """The search for ``problem`` on its ``check`` and ``settling`` Functions, or None
+        when :func:`applies` says it does not."""
+        if not applies(problem):
+            return None
+        z, p = ca.MX.sym("z"), ca.MX.sym("p", problem.param_values.size)
+        objective, bounds, conditions, *_ = check(z, p)
+        point = ca.Function("scalar_point", [z, p], [objective, bounds, conditions,
+                                                     settling(z, p)])
+
+        def evaluate(zs):
+            # point by point: a map Function costs more to build than a few calls
+            columns = [[np.asarray(v, dtype=float).ravel() for v in point(z, problem.param_values)]
+                       for z in np.atleast_1d(np.asarray(zs, dtype=float))]
+            values = [np.column_stack([c[k] for c in columns]) for k in range(4)]
+            return values[0].ravel(), violation(*values[1:], problem.bounds)
+
+        return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
+                   np.asarray(problem.starts, dtype=float)[:, 0], problem.settings.multistart)
+
+    # -- grid --------------------------------------------------------------------------
+
+    def _classify(self, zs):
+        values, violations = self.evaluate(zs)
+        self.evaluations += len(np.atleast_1d(zs))
+        feasible = (violations <= 0) & np.isfinite(values)
+        return values, feasible
+
+    def minima(self) -> list[int]:
+        """Grid indices of the feasible local minima, the lowest first, at most ``count``.
+
+        A neighbour that is infeasible, or beyond the box, counts as higher.
+        """
+        v = np.where(self.feasible, self.values, np.inf)
+        padded = np.concatenate([[np.inf], v, [np.inf]])
+        local = [i for i in range(len(v)) if self.feasible[i]
+                 and v[i] <= padded[i] and v[i] <= padded[i + 2]]
+        # a flat run of equal values is one minimum: keep its first point
+        local = [i for i in local if not (i > 0 and i - 1 in local and v[i - 1] == v[i])]
+        return sorted(local, key=lambda i: (v[i], i))[:max(self.count, 1)]
+
+    def start_points(self) -> np.ndarray:
+        """The grid minima as starts (rows of one ln tunable), or the first start when no
+        grid point is feasible (its search then reports that nothing was found)."""
+        minima = self.minima()
+        if not minima:
+            return self.starts[:1].reshape(-1, 1)
+        return self.grid[minima].reshape(-1, 1)
+
+    # -- one start ---------------------------------------------------------------------
+
+    def _is_feasible(self, z) -> bool:
+        return bool(self._classify(np.array([z]))[1][0])
+
+    def _bracket_end(self, center: int, neighbour: int) -> tuple[float, bool]:
+        """(end, on a feasibility boundary) of the bracket of grid point ``center`` towards
+        its infeasible ``neighbour``, by bisection: the first feasible midpoint whose
+        objective is no lower than the center's ends the bracket (the minimum lies inside);
+        else the bracket narrows to BOUNDARY_XTOL and its feasible end is the boundary."""
+        inside, outside = float(self.grid[center]), float(self.grid[neighbour])
+        while abs(outside - inside) > BOUNDARY_XTOL:
+            middle = 0.5 * (inside + outside)
+            values, feasible = self._classify(np.array([middle]))
+            if not feasible[0]:
+                outside = middle
+            elif values[0] >= self.values[center]:
+                return middle, False
+            else:
+                inside = middle
+        return inside, True
+
+    def refine(self, z0: float) -> Refined:
+        """Brent's method in the bracket of the grid point ``z0`` (see module docstring)."""
+        from scipy import optimize  # imported when used (start-up time)
+
+        index = int(np.argmin(np.abs(self.grid - z0)))
+        if not self.feasible[index]:
+            return Refined(np.array([z0]), "No_Stable_Start", 0, False)
+        ends = []
+        for neighbour in (index - 1, index + 1):
+            if 0 <= neighbour < len(self.grid):
+                if self.feasible[neighbour]:
+                    ends.append((float(self.grid[neighbour]), False))
+                else:
+                    ends.append(self._bracket_end(index, neighbour))
+            else:
+                ends.append((float(self.grid[index]), False))  # the box's own end
+        (a, a_boundary), (c, c_boundary) = ends
+        scale = float(abs(self.values[index])) or 1.0
+        worst = float(np.max(np.abs(self.values[self.feasible]))) / scale
+
+        def objective(z):
+            value, violation = self.evaluate(np.array([z]))
+            self.evaluations += 1
+            if violation[0] > 0 or not np.isfinite(value[0]):
+                return 2 * worst + 1.0  # above every feasible value of the grid
+            return float(value[0]) / scale
+
+        result = optimize.minimize_scalar(objective, bounds=(a, c), method="bounded",
+                                          options={"xatol": BRENT_XTOL,
+                                                   "maxiter": BRENT_MAXITER})
+        z = float(result.x)
+        best = min(((z, result.fun), (a, objective(a)), (c, objective(c))), key=lambda p: p[1])
+        z = best[0]
+        if not self._is_feasible(z):
+            return Refined(np.array([z]), "Search_Failed", int(result.nit), False, scale)
+        near = BOUNDARY_XTOL + 4 * BRENT_XTOL + 1e-7 * max(1.0, abs(z))
+        vertex = ((abs(z - a) <= near and (a_boundary or a <= self.lower))
+                  or (abs(z - c) <= near and (c_boundary or c >= self.upper)))
+        status = "Solve_Succeeded" if result.success else "Maximum_Iterations_Exceeded"
+        return Refined(np.array([z]), status, int(result.nit), vertex, scale)
+
+    def solve_from(self, start: np.ndarray, started: float = 0.0):
+        """What ``Problem._solve_from`` returns, for the scalar search: (z, return status,
+        iterations, exchange points added (0), None: no IPOPT multipliers)."""
+        refined = self.refine(float(start[0]))
+        self.refined[float(refined.z[0])] = refined
+        return refined.z, refined.status, refined.iterations, 0, None
+
+    def flat_tunables(self, z: np.ndarray, name: str) -> list[str]:
+        """[name] when the optimum ``z`` (one of :meth:`solve_from`'s) is interior and the
+        objective's curvature there, divided by the objective where its search began, is
+        below the tuner's FLAT_CURVATURE; else []."""
+        from feedtune.tuner.nlp import FLAT_CURVATURE
+
+        near = [k for k in self.refined if abs(k - float(z[0])) <= BOUNDARY_XTOL]
+        if not near:
+            return []
+        refined = self.refined[near[0]]
+        if refined.vertex:
+            return []
+        return [name] if self.curvature(float(z[0]), refined.reference) < FLAT_CURVATURE else []
+
+    def curvature(self, z: float, reference: float) -> float:
+        """d²(f/|reference|)/d(ln x)² at ``z`` by a central second difference
+        (CURVATURE_STEP); +inf where a neighbour is infeasible."""
+        h = CURVATURE_STEP
+        values, violations = self.evaluate(np.array([z - h, z, z + h]))
+        self.evaluations += 3
+        if np.any(violations > 0) or not np.all(np.isfinite(values)):
+            return math.inf
+        return float((values[0] - 2 * values[1] + values[2]) / h**2 / (abs(reference) or 1.0))
+
+
+def violation(bounds, conditions, settling, constraints) -> np.ndarray:
+    """Largest violation per point (columns): > 0 when a stability or settling condition is
+    not positive or a constraint leaves its bounds (relative to max(1, |bound|), as the
+    tuner reports violations); ≤ 0 when everything holds."""
+    n = conditions.shape[1] if conditions.size else bounds.shape[1] if bounds.size else settling.shape[1]
+    rows = [np.full(n, -np.inf)]
+    if conditions.size:
+        rows.append(np.max(-conditions, axis=0))
+    if settling.size:
+        rows.append(np.max(-settling, axis=0))
+    for values, bound in zip(bounds, constraints):
+        scale = max(1.0, abs(bound.lower or 0), abs(bound.upper or 0))
+        if bound.lower is not None:
+            rows.append((bound.lower - values) / scale)
+        if bound.upper is not None:
+            rows.append((values - bound.upper) / scale)
+    worst = np.max(np.vstack(rows), axis=0)
+    return np.where(np.isnan(worst), np.inf, worst)
