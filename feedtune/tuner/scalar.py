@@ -24,6 +24,26 @@ began) in ln(tunable) at an interior optimum, by a central second difference, ag
 tuner's FLAT_CURVATURE; an optimum on a bound or a feasibility boundary is a vertex and is
 unique.
 
+Hook (to be added to :class:`feedtune.tuner.nlp.Problem`; until then the search is
+called directly, by tests/unit/test_scalar_search.py and benchmarks/koren_iae_speed.py)::
+
+    # __init__, instead of  entry = _cached_build(functions, probe, self._options, expand,
+    #                                             self.has_nlp)
+    self.scalar = ScalarSearch.for_problem(self, functions["check"], functions["settling"])
+    entry = _cached_build(functions, probe, self._options, expand,
+                          self.has_nlp and self.scalar is None)
+    if self.scalar is not None:
+        self.starts = self.scalar.start_points()
+    # solve(), where each start is solved
+    solve_from = self.scalar.solve_from if self.scalar is not None else self._solve_from
+    z_opt, return_status, iterations, exchanged, kkt[index] = solve_from(z0, started)
+    # solve(), the flat directions of the best start
+    flat = (self.scalar.flat_tunables(z_opt, self.variables[0].name)
+            if self.scalar is not None
+            else self._flat_tunables(*kkt[index]) if kkt.get(index) else None)
+    # solve(), the Outcome: method="brent" if self.scalar is not None else "ipopt"
+    # (and "brent" added to SolverResult.method's Literal in feedtune/result.py)
+
 The search sees only the problem's Functions and numbers (duck-typed: ``has_nlp``,
 ``n_z``, ``lbw``, ``ubw``, ``starts``, ``bounds``, ``check``, ``settling``,
 ``param_values``, ``f_scale`` and ``_exchange`` of :class:`feedtune.tuner.nlp.Problem`),

@@ -168,3 +168,21 @@ def test_feasibility_boundary_between_grid_points_is_located():
     assert status == "Solve_Succeeded"
     assert 0.7 - 2e-10 <= z[0] <= 0.7
     assert search.flat_tunables(z, "x") == []
+
+
+@pytest.mark.xfail(strict=True, reason="the tuner does not call feedtune.tuner.scalar yet: "
+                                       "the hook in its module docstring; remove this mark "
+                                       "when it lands")
+def test_tuner_uses_the_scalar_search_for_one_free_tunable():
+    """Through feedtune.problem.tune: case 3 is solved by the scalar search (no IPOPT),
+    at IPOPT's gain, with a unique optimum and a validation that passes."""
+    from feedtune.problem import tune
+
+    data = _spec([{"metric": "iae"}])
+    ipopt = _problem(data).solve()
+    result = tune(parse_spec(data))
+    assert result.solver.method == "brent"
+    assert result.success and result.validation["ok"]
+    assert result.tuned["position_gain"].value == pytest.approx(
+        ipopt.values["position_gain"], rel=K_TOL)
+    assert result.optimum.unique is True
