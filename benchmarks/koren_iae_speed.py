@@ -139,6 +139,69 @@ def _tune_once(spec: dict, nlpsol_time: list) -> dict:
             "unique": result.optimum.unique if result.optimum else None}
 
 
+def _timer(owner, name: str, into: dict, key: str):
+    """Wrap ``owner.name`` so that its calls add their wall time to ``into[key]``; returns
+    the original, for :func:`_restore`."""
+    original = getattr(owner, name)
+
+    def timed(*args, **kwargs):
+        started = time.perf_counter()
+        try:
+            return original(*args, **kwargs)
+        finally:
+            into[key] = into.get(key, 0.0) + time.perf_counter() - started
+
+    setattr(owner, name, timed)
+    return owner, name, original
+
+
+def profile(spec: dict, scalar_mode: bool) -> dict:
+    """Where one tuning's time goes [s], the solver cache cleared (module docstring)."""
+    import feedtune.problem as problem_module
+    from feedtune.problem import tune
+    from feedtune.spec import parse_spec
+    from feedtune.tuner import nlp
+
+    parts: dict[str, float] = {}
+    stats: list[dict] = []
+    wrapped = [_timer(nlp, "_nlpsol", parts, "nlpsol (SX expansion, derivatives)"),
+               _timer(problem_module, "_validation", parts, "validation"),
+               _timer(nlp.Problem, "_evaluate_numeric", parts, "evaluation on numbers")]
+    if scalar_mode:
+        from feedtune.tuner import scalar
+
+        wrapped += [_timer(scalar.ScalarSearch, "__post_init__", parts, "grid (starts, box ends)"),
+                    _timer(scalar.ScalarSearch, "solve_from", parts, "Brent refinements"),
+                    _timer(scalar.ScalarSearch, "flat_tunables", parts, "flatness")]
+    else:
+        solve_from = nlp.Problem._solve_from
+
+        def counted(self, *args):
+            out = solve_from(self, *args)
+            stats.append(self._nlpsol.stats())
+            return out
+
+        nlp.Problem._solve_from = counted
+        wrapped.append((nlp.Problem, "_solve_from", solve_from))
+    nlp.clear_solver_cache()
+    started = time.perf_counter()
+    result = tune(parse_spec(spec))
+    parts["tuning"] = time.perf_counter() - started
+    for owner, name, original in wrapped:
+        setattr(owner, name, original)
+    s = result.solver
+    parts["build"] = s.build_time
+    parts["solve (all starts)"] = s.solve_time
+    for key, label in (("nlp_f", "IPOPT objective"), ("nlp_grad_f", "IPOPT gradient"),
+                       ("nlp_hess_l", "IPOPT Hessian")):
+        if stats:
+            parts[f"{label} ({sum(st.get('n_call_' + key, 0) for st in stats)} calls)"] = sum(
+                st.get("t_wall_" + key, 0.0) for st in stats)
+    parts["starts"] = len(s.starts)
+    parts["iterations"] = sum(st.iterations for st in s.starts)
+    return parts
+
+
 def _best(runs: list[dict]) -> dict:
     best = min(runs, key=lambda r: r["tuning"])
     return {**best, **{key: min(r[key] for r in runs) for key in TIMES}}
@@ -161,7 +224,7 @@ def brent_case3(repeats: int) -> dict:
             "objective": kvs.iae_sampled(math.exp(res.x), kvs.T_FIXED), "evaluations": res.nfev}
 
 
-def worker(repeats: int) -> dict:
+def worker(repeats: int, profiles: bool = False) -> dict:
     """Every case and mode in this process (see module docstring); a JSON-able dict."""
     from feedtune.problem import tune
     from feedtune.spec import parse_spec
@@ -178,6 +241,8 @@ def worker(repeats: int) -> dict:
 
     nlp._nlpsol = timed_nlpsol
     out = {"load": os.getloadavg()[0]}
+    if profiles:
+        nlp._nlpsol = nlpsol  # profile() times it itself
     for case, spec in CASES.items():
         tune(parse_spec(spec))  # untimed: IPOPT loaded, first calls paid
         out[f"{case}/ipopt"] = _best([_tune_once(spec, nlpsol_time) for _ in range(repeats)])
@@ -191,13 +256,24 @@ def worker(repeats: int) -> dict:
     if hook == "patched":
         remove_scalar_hook(saved)
     out["case3/brent"] = brent_case3(repeats)
+    if profiles:
+        out["profile"] = {}
+        for case, spec in CASES.items():
+            out["profile"][f"{case}/ipopt"] = profile(spec, False)
+            if hook == "patched":
+                apply_scalar_hook()
+            if hook != "absent":
+                out["profile"][f"{case}/scalar"] = profile(spec, True)
+            if hook == "patched":
+                remove_scalar_hook(saved)
     return out
 
 
-def _run_worker(path: str, repeats: int) -> dict:
+def _run_worker(path: str, repeats: int, profiles: bool) -> dict:
     env = {**os.environ, "PYTHONPATH": path, "OPENBLAS_NUM_THREADS": "1",
            "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-    proc = subprocess.run([sys.executable, __file__, "--worker", "--repeats", str(repeats)],
+    proc = subprocess.run([sys.executable, __file__, "--worker", "--repeats", str(repeats)]
+                          + (["--profile"] if profiles else []),
                           env=env, capture_output=True, text=True, cwd="/")
     if proc.returncode:
         raise RuntimeError(f"worker for {path} failed:\n{proc.stderr}")
@@ -210,10 +286,12 @@ def main(argv=None) -> int:
                         help="LABEL=PATH of a feedtune checkout (repeatable; default: this one)")
     parser.add_argument("--rounds", type=int, default=3, help="worker processes per tree")
     parser.add_argument("--repeats", type=int, default=5, help="tunings per case per worker")
+    parser.add_argument("--profile", action="store_true",
+                        help="also print where one tuning's time goes, per case and mode")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        print(json.dumps(worker(args.repeats)))
+        print(json.dumps(worker(args.repeats, args.profile)))
         return 0
     trees = dict(t.split("=", 1) for t in args.tree) or {"this": str(HERE.parent)}
     trees = {label: str(Path(path).resolve()) for label, path in trees.items()}
@@ -222,7 +300,8 @@ def main(argv=None) -> int:
     for r in range(args.rounds):
         order = list(trees) if r % 2 == 0 else list(reversed(trees))
         for label in order:
-            runs[label].append(_run_worker(trees[label], args.repeats))
+            runs[label].append(_run_worker(trees[label], args.repeats,
+                                           args.profile and r == args.rounds - 1))
     print(f"Koren sampled-data IAE speed: {args.rounds} rounds x {args.repeats} tunings per "
           f"case, trees alternating; load average (1 min) {load_start:.2f} at start, "
           f"{os.getloadavg()[0]:.2f} at end, on {os.cpu_count()} CPUs")
@@ -270,6 +349,15 @@ def main(argv=None) -> int:
                 print(f"  {key}: {labels[0]}/{other} tuning {a['tuning'] / b['tuning']:.2f}, "
                       f"solve1 {a['solve1'] / b['solve1']:.2f}, build "
                       f"{a['build'] / b['build']:.2f}")
+    if args.profile:
+        print()
+        print("profile of one tuning per tree (last round), ms; parts overlap: build holds "
+              "nlpsol and the grid, solve the IPOPT calls and Brent")
+        for label, tree_runs in runs.items():
+            for key, parts in tree_runs[-1].get("profile", {}).items():
+                print(f"  {label} {key}: " + ", ".join(
+                    f"{name} {value * 1e3:.1f}" if isinstance(value, float) else
+                    f"{name} {value}" for name, value in parts.items()))
     for label in labels:
         for case in CASES:
             a, b = best.get((label, f"{case}/ipopt")), best.get((label, f"{case}/scalar"))
