@@ -241,8 +241,6 @@ def worker(repeats: int, profiles: bool = False) -> dict:
 
     nlp._nlpsol = timed_nlpsol
     out = {"load": os.getloadavg()[0]}
-    if profiles:
-        nlp._nlpsol = nlpsol  # profile() times it itself
     for case, spec in CASES.items():
         tune(parse_spec(spec))  # untimed: IPOPT loaded, first calls paid
         out[f"{case}/ipopt"] = _best([_tune_once(spec, nlpsol_time) for _ in range(repeats)])
