@@ -67,6 +67,11 @@ BRENT_MAXITER = 200
 #: (a relative 1e-10 of the tunable), the feasible end kept: IPOPT holds a constraint to
 #: its tol 1e-9 (relative), the same order
 BOUNDARY_XTOL = 1e-10
+#: step [1] in ln(tunable) (a relative 1e-8 of the tunable) into the box from a bound or a
+#: feasibility boundary: an objective that rises over it (by more than its rounding, ~1e-13
+#: relative for a sum over samples, i.e. a slope above ~1e-5 per unit of ln x) has its
+#: minimum on that edge; flatter edges are left to Brent
+EDGE_STEP = 1e-8
 #: step [1] in ln(tunable) (0.1 % of the tunable) of the central second difference that
 #: measures curvature at the optimum: rounding (values to ~1e-15 relative) then contributes
 #: 4·1e-15/h² ≈ 4e-9 to a curvature compared with FLAT_CURVATURE = 1e-6
@@ -95,8 +100,10 @@ class Refined:
 class ScalarSearch:
     """Grid, bracketing and Brent on a problem with one free tunable (see module docstring).
 
-    ``evaluate(zs)`` returns (objective, violation) arrays at the points ``zs`` [ln
-    tunable]: a point is feasible when its violation is ≤ 0 and its objective finite.
+    ``evaluate(zs)`` returns (objective, violation, stable) arrays at the points ``zs`` [ln
+    tunable]: a point is feasible when its violation is ≤ 0 and its objective finite;
+    ``stable`` says whether its stability conditions hold (settling conditions and
+    constraints aside).
     """
 
     evaluate: object
@@ -107,13 +114,17 @@ class ScalarSearch:
     grid: np.ndarray = field(init=False)
     values: np.ndarray = field(init=False)
     feasible: np.ndarray = field(init=False)
+    violations: np.ndarray = field(init=False)
+    stable: np.ndarray = field(init=False)
     evaluations: int = field(init=False, default=0)
     refined: dict = field(init=False, default_factory=dict)  # z of an optimum → Refined
 
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([[self.lower, self.upper],
                                               np.clip(self.starts, self.lower, self.upper)]))
-        self.values, self.feasible = self._classify(self.grid)
+        self.values, self.violations, self.stable = self.evaluate(self.grid)
+        self.evaluations += len(self.grid)
+        self.feasible = (self.violations <= 0) & np.isfinite(self.values)
 
     @classmethod
     def for_problem(cls, problem, check, settling) -> "ScalarSearch | None":
@@ -131,7 +142,8 @@ class ScalarSearch:
             columns = [[np.asarray(v, dtype=float).ravel() for v in point(z, problem.param_values)]
                        for z in np.atleast_1d(np.asarray(zs, dtype=float))]
             values = [np.column_stack([c[k] for c in columns]) for k in range(4)]
-            return values[0].ravel(), violation(*values[1:], problem.bounds)
+            stable = np.all(values[2] > 0, axis=0)
+            return values[0].ravel(), violation(*values[1:], problem.bounds), stable
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
                    np.asarray(problem.starts, dtype=float)[:, 0], problem.settings.multistart)
@@ -139,7 +151,7 @@ class ScalarSearch:
     # -- grid --------------------------------------------------------------------------
 
     def _classify(self, zs):
-        values, violations = self.evaluate(zs)
+        values, violations, _ = self.evaluate(zs)
         self.evaluations += len(np.atleast_1d(zs))
         feasible = (violations <= 0) & np.isfinite(values)
         return values, feasible
@@ -158,12 +170,17 @@ class ScalarSearch:
         return sorted(local, key=lambda i: (v[i], i))[:max(self.count, 1)]
 
     def start_points(self) -> np.ndarray:
-        """The grid minima as starts (rows of one ln tunable), or the first start when no
-        grid point is feasible (its search then reports that nothing was found)."""
+        """The grid minima as starts (rows of one ln tunable). When no grid point is
+        feasible: the stable grid point with the smallest violation (its search reports the
+        problem infeasible there, and the tuner lengthens a horizon whose settling
+        conditions bind, as after IPOPT), else the first start (no stable start)."""
         minima = self.minima()
-        if not minima:
-            return self.starts[:1].reshape(-1, 1)
-        return self.grid[minima].reshape(-1, 1)
+        if minima:
+            return self.grid[minima].reshape(-1, 1)
+        candidates = np.flatnonzero(self.stable & np.isfinite(self.values))
+        if candidates.size:
+            return self.grid[[candidates[np.argmin(self.violations[candidates])]]].reshape(-1, 1)
+        return self.starts[:1].reshape(-1, 1)
 
     # -- one start ---------------------------------------------------------------------
 
@@ -193,7 +210,9 @@ class ScalarSearch:
 
         index = int(np.argmin(np.abs(self.grid - z0)))
         if not self.feasible[index]:
-            return Refined(np.array([z0]), "No_Stable_Start", 0, False)
+            status = ("Infeasible_Problem_Detected" if self.stable[index]
+                      and np.isfinite(self.values[index]) else "No_Stable_Start")
+            return Refined(np.array([z0]), status, 0, False)
         ends = []
         for neighbour in (index - 1, index + 1):
             if 0 <= neighbour < len(self.grid):
@@ -208,12 +227,22 @@ class ScalarSearch:
         worst = float(np.max(np.abs(self.values[self.feasible]))) / scale
 
         def objective(z):
-            value, violation = self.evaluate(np.array([z]))
+            value, violation, _ = self.evaluate(np.array([z]))
             self.evaluations += 1
             if violation[0] > 0 or not np.isfinite(value[0]):
                 return 2 * worst + 1.0  # above every feasible value of the grid
             return float(value[0]) / scale
 
+        center = float(self.values[index]) / scale
+        for end, edge, inward in ((a, a_boundary or a <= self.lower, 1.0),
+                                  (c, c_boundary or c >= self.upper, -1.0)):
+            # an optimum on a bound or a feasibility boundary: the objective no higher there
+            # than at the grid minimum and rising into the box (first-order condition)
+            if not edge:
+                continue
+            at_edge = objective(end)
+            if at_edge <= center and objective(end + inward * EDGE_STEP) > at_edge:
+                return Refined(np.array([end]), "Solve_Succeeded", 0, True, scale)
         result = optimize.minimize_scalar(objective, bounds=(a, c), method="bounded",
                                           options={"xatol": BRENT_XTOL,
                                                    "maxiter": BRENT_MAXITER})
@@ -253,7 +282,7 @@ class ScalarSearch:
         """d²(f/|reference|)/d(ln x)² at ``z`` by a central second difference
         (CURVATURE_STEP); +inf where a neighbour is infeasible."""
         h = CURVATURE_STEP
-        values, violations = self.evaluate(np.array([z - h, z, z + h]))
+        values, violations, _ = self.evaluate(np.array([z - h, z, z + h]))
         self.evaluations += 3
         if np.any(violations > 0) or not np.all(np.isfinite(values)):
             return math.inf
