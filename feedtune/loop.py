@@ -555,7 +555,7 @@ class SampledLoop(_LoopBase):
         of its own (:func:`_sample_step`), built when a metric first reads it: an IAE term
         carries no ISE or ITAE in its graph. Inside each sample the error is
         α + βs + γe^{−s}, s = σ/τ, integrated in closed form. The rest, from the horizon to
-        infinity, is summed in closed form too (:meth:`_tail`): exact for ISE, and exact for
+        infinity, is summed in closed form too (:func:`_tail`): exact for ISE, and exact for
         IAE and ITAE once the error no longer changes sign. A loop of numbers is summed on
         numbers (no graph is built).
         """
