@@ -60,6 +60,12 @@ CASES = {
     "min-iae-radius": json.loads((HERE.parent / "examples" / "koren-1979-min-iae-radius.json")
                                  .read_text()),
 }
+#: ``--free-period``: IAE with K and T free, T down to 1 ms (the horizon's sample count is
+#: set by T_min); tuned once per worker, IPOPT only (two free tunables)
+FREE_PERIOD = {"name": "iae-free-period", "plant": PLANT,
+               "tunables": {"position_gain": {"min": 1, "max": 200},
+                            "sampling_period": {"min": 0.001, "max": 0.5}},
+               "objective": [{"metric": "iae"}], "solver": {"multistart": 4}}
 TIMES = ("tuning", "build", "nlpsol", "solve", "solve1", "evaluation", "rest")
 
 
@@ -224,7 +230,7 @@ def brent_case3(repeats: int) -> dict:
             "objective": kvs.iae_sampled(math.exp(res.x), kvs.T_FIXED), "evaluations": res.nfev}
 
 
-def worker(repeats: int, profiles: bool = False) -> dict:
+def worker(repeats: int, profiles: bool = False, free_period: bool = False) -> dict:
     """Every case and mode in this process (see module docstring); a JSON-able dict."""
     from feedtune.problem import tune
     from feedtune.spec import parse_spec
@@ -254,6 +260,8 @@ def worker(repeats: int, profiles: bool = False) -> dict:
     if hook == "patched":
         remove_scalar_hook(saved)
     out["case3/brent"] = brent_case3(repeats)
+    if free_period:
+        out["free-period/ipopt"] = _tune_once(FREE_PERIOD, nlpsol_time)
     if profiles:
         out["profile"] = {}
         for case, spec in CASES.items():
@@ -267,11 +275,12 @@ def worker(repeats: int, profiles: bool = False) -> dict:
     return out
 
 
-def _run_worker(path: str, repeats: int, profiles: bool) -> dict:
+def _run_worker(path: str, repeats: int, profiles: bool, free_period: bool) -> dict:
     env = {**os.environ, "PYTHONPATH": path, "OPENBLAS_NUM_THREADS": "1",
            "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     proc = subprocess.run([sys.executable, __file__, "--worker", "--repeats", str(repeats)]
-                          + (["--profile"] if profiles else []),
+                          + (["--profile"] if profiles else [])
+                          + (["--free-period"] if free_period else []),
                           env=env, capture_output=True, text=True, cwd="/")
     if proc.returncode:
         raise RuntimeError(f"worker for {path} failed:\n{proc.stderr}")
@@ -286,10 +295,13 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=5, help="tunings per case per worker")
     parser.add_argument("--profile", action="store_true",
                         help="also print where one tuning's time goes, per case and mode")
+    parser.add_argument("--free-period", action="store_true",
+                        help="also tune IAE with T free in [1 ms, 0.5 s] once per worker "
+                             "(minutes on an old tree)")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.worker:
-        print(json.dumps(worker(args.repeats, args.profile)))
+        print(json.dumps(worker(args.repeats, args.profile, args.free_period)))
         return 0
     trees = dict(t.split("=", 1) for t in args.tree) or {"this": str(HERE.parent)}
     trees = {label: str(Path(path).resolve()) for label, path in trees.items()}
@@ -299,7 +311,8 @@ def main(argv=None) -> int:
         order = list(trees) if r % 2 == 0 else list(reversed(trees))
         for label in order:
             runs[label].append(_run_worker(trees[label], args.repeats,
-                                           args.profile and r == args.rounds - 1))
+                                           args.profile and r == args.rounds - 1,
+                                           args.free_period and r == 0))
     print(f"Koren sampled-data IAE speed: {args.rounds} rounds x {args.repeats} tunings per "
           f"case, trees alternating; load average (1 min) {load_start:.2f} at start, "
           f"{os.getloadavg()[0]:.2f} at end, on {os.cpu_count()} CPUs")
@@ -327,7 +340,8 @@ def main(argv=None) -> int:
                              for t in TIMES)
             print(f"{key:<22} {label:<6} {cells} {merged.get('starts', '-'):>6} "
                   f"{merged.get('iterations', merged.get('evaluations', '-')):>5} "
-                  f"{merged['K']:14.9f} {merged['objective']:17.12g}  "
+                  f"{merged['K']:14.9f} "
+                  f"{merged['objective'] if merged['objective'] is not None else '-':>17.12}  "
                   f"{str(merged.get('unique', '-')):>6} {str(merged.get('validation_ok', '-')):>5}")
     print()
     print("ratios (time of the first over the second; > 1: the second is faster)")
