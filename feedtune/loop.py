@@ -102,14 +102,16 @@ def _sample_fold(order: int, name: str, samples: int) -> ca.Function:
 
 
 @lru_cache(maxsize=None)
-def _tail(order: int) -> ca.Function:
-    """∫e, ∫e², ∫t·e of a sampled integrator-lag loop from a sample to infinity.
+def _tail(order: int, name: str) -> ca.Function:
+    """∫e, ∫e² or ∫t·e (``name`` iae, ise or itae) of a sampled integrator-lag loop from a
+    sample to infinity.
 
     ``tail(state, t, Φ, Γ, k_x, T, τ)`` at sample state ``state`` and time ``t`` [s]. With
     δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are linear in δ
     (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing over δ(k) = Φ^k δ
     gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov equation. Returns the signed
-    ∫e [m·s], ∫e² [m²·s] and the signed ∫t·e [m·s²]. Built once per process, as
+    ∫e [m·s], ∫e² [m²·s] or the signed ∫t·e [m·s²], only that one: expanding a graph
+    evaluates every output of the Functions it calls. Built once per process, as
     :func:`_sample_step`.
     """
     n = order
@@ -130,10 +132,11 @@ def _tail(order: int) -> ca.Function:
     lyapunov = ca.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
     p = ca.reshape(lyapunov, n, n)
     sum_e = ca.mtimes([c1, geometric, delta])
-    sum_te = (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
-              + ca.mtimes([c2, geometric, delta]))
-    return ca.Function("step_tail", [state, start_time, phi, gamma_cl, kx, period, tau],
-                       [sum_e, ca.mtimes([delta.T, p, delta]), sum_te])
+    tails = {"iae": sum_e, "ise": ca.mtimes([delta.T, p, delta]),
+             "itae": (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
+                      + ca.mtimes([c2, geometric, delta]))}
+    return ca.Function(f"tail_{name}", [state, start_time, phi, gamma_cl, kx, period, tau],
+                       [tails[name]])
 
 
 @lru_cache(maxsize=None)
@@ -573,9 +576,8 @@ class SampledLoop(_LoopBase):
         def integral(name):
             final = _sample_fold(n, name, samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx, kr,
                                                     period, tau)
-            tail = _tail(n)(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
-            index = ErrorIntegrals._fields.index(name)
-            return final[n] + (tail[index] if name == "ise" else ca.fabs(tail[index]))
+            tail = _tail(n, name)(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
+            return final[n] + (tail if name == "ise" else ca.fabs(tail))
 
         return StepIntegrals(integral)
 
