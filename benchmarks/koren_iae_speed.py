@@ -324,7 +324,7 @@ def main(argv=None) -> int:
     for tree_runs in runs.values():
         keys += [k for k in tree_runs[0] if "/" in k and k not in keys]
     header = f"{'case/mode':<22} {'tree':<6} " + " ".join(f"{t:>10}" for t in TIMES) + \
-        f" {'starts':>6} {'iter':>5} {'K 1/s':>14} {'objective':>17}  unique valid"
+        f" {'starts':>6} {'iter':>5} {'K 1/s':>14} {'objective':>17}  unique valid success"
     print(header)
     print("-" * len(header))
     best = {}
@@ -342,7 +342,8 @@ def main(argv=None) -> int:
                   f"{merged.get('iterations', merged.get('evaluations', '-')):>5} "
                   f"{merged['K']:14.9f} "
                   f"{merged['objective'] if merged['objective'] is not None else '-':>17.12}  "
-                  f"{str(merged.get('unique', '-')):>6} {str(merged.get('validation_ok', '-')):>5}")
+                  f"{str(merged.get('unique', '-')):>6} {str(merged.get('validation_ok', '-')):>5} "
+                  f"{str(merged.get('success', '-')):>7}")
     print()
     print("ratios (time of the first over the second; > 1: the second is faster)")
     labels = list(trees)
