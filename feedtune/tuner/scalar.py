@@ -184,25 +184,24 @@ class ScalarSearch:
 
     # -- one start ---------------------------------------------------------------------
 
-    def _is_feasible(self, z) -> bool:
-        return bool(self._classify(np.array([z]))[1][0])
-
-    def _bracket_end(self, center: int, neighbour: int) -> tuple[float, bool]:
-        """(end, on a feasibility boundary) of the bracket of grid point ``center`` towards
-        its infeasible ``neighbour``, by bisection: the first feasible midpoint whose
-        objective is no lower than the center's ends the bracket (the minimum lies inside);
-        else the bracket narrows to BOUNDARY_XTOL and its feasible end is the boundary."""
+    def _bracket_end(self, center: int, neighbour: int) -> tuple[float, bool, float]:
+        """(end, on a feasibility boundary, objective there) of the bracket of grid point
+        ``center`` towards its infeasible ``neighbour``, by bisection: the first feasible
+        midpoint whose objective is no lower than the center's ends the bracket (the minimum
+        lies inside); else the bracket narrows to BOUNDARY_XTOL and its feasible end is the
+        boundary."""
         inside, outside = float(self.grid[center]), float(self.grid[neighbour])
+        inside_value = float(self.values[center])
         while abs(outside - inside) > BOUNDARY_XTOL:
             middle = 0.5 * (inside + outside)
             values, feasible = self._classify(np.array([middle]))
             if not feasible[0]:
                 outside = middle
             elif values[0] >= self.values[center]:
-                return middle, False
+                return middle, False, float(values[0])
             else:
-                inside = middle
-        return inside, True
+                inside, inside_value = middle, float(values[0])
+        return inside, True, inside_value
 
     def refine(self, z0: float) -> Refined:
         """Brent's method in the bracket of the grid point ``z0`` (see module docstring)."""
@@ -213,47 +212,46 @@ class ScalarSearch:
             status = ("Infeasible_Problem_Detected" if self.stable[index]
                       and np.isfinite(self.values[index]) else "No_Stable_Start")
             return Refined(np.array([z0]), status, 0, False)
-        ends = []
+        ends = []  # (point, on a feasibility boundary, objective there), below and above
         for neighbour in (index - 1, index + 1):
-            if 0 <= neighbour < len(self.grid):
-                if self.feasible[neighbour]:
-                    ends.append((float(self.grid[neighbour]), False))
-                else:
-                    ends.append(self._bracket_end(index, neighbour))
+            if not 0 <= neighbour < len(self.grid):
+                neighbour = index  # the box's own end
+            if self.feasible[neighbour]:
+                ends.append((float(self.grid[neighbour]), False, float(self.values[neighbour])))
             else:
-                ends.append((float(self.grid[index]), False))  # the box's own end
-        (a, a_boundary), (c, c_boundary) = ends
+                ends.append(self._bracket_end(index, neighbour))
         scale = float(abs(self.values[index])) or 1.0
-        worst = float(np.max(np.abs(self.values[self.feasible]))) / scale
+        worst = max(float(np.max(np.abs(self.values[self.feasible]))), abs(ends[0][2]),
+                    abs(ends[1][2])) / scale
+        penalty = 2 * worst + 1.0  # above every feasible value of the grid and the bracket
 
         def objective(z):
             value, violation, _ = self.evaluate(np.array([z]))
             self.evaluations += 1
             if violation[0] > 0 or not np.isfinite(value[0]):
-                return 2 * worst + 1.0  # above every feasible value of the grid
+                return penalty
             return float(value[0]) / scale
 
         center = float(self.values[index]) / scale
-        for end, edge, inward in ((a, a_boundary or a <= self.lower, 1.0),
-                                  (c, c_boundary or c >= self.upper, -1.0)):
+        edges = []
+        for (end, boundary, value), inward in zip(ends, (1.0, -1.0)):
+            edge = boundary or end <= self.lower or end >= self.upper
+            edges.append(edge)
             # an optimum on a bound or a feasibility boundary: the objective no higher there
             # than at the grid minimum and rising into the box (first-order condition)
-            if not edge:
-                continue
-            at_edge = objective(end)
-            if at_edge <= center and objective(end + inward * EDGE_STEP) > at_edge:
+            if edge and value / scale <= center and \
+                    objective(end + inward * EDGE_STEP) > value / scale:
                 return Refined(np.array([end]), "Solve_Succeeded", 0, True, scale)
+        (a, _, fa), (c, _, fc) = ends
         result = optimize.minimize_scalar(objective, bounds=(a, c), method="bounded",
                                           options={"xatol": BRENT_XTOL,
                                                    "maxiter": BRENT_MAXITER})
-        z = float(result.x)
-        best = min(((z, result.fun), (a, objective(a)), (c, objective(c))), key=lambda p: p[1])
-        z = best[0]
-        if not self._is_feasible(z):
-            return Refined(np.array([z]), "Search_Failed", int(result.nit), False, scale)
+        # the ends are feasible, so the lowest of the three is (an infeasible point scores
+        # the penalty, above both ends)
+        z, _ = min(((float(result.x), float(result.fun)), (a, fa / scale), (c, fc / scale)),
+                   key=lambda p: p[1])
         near = BOUNDARY_XTOL + 4 * BRENT_XTOL + 1e-7 * max(1.0, abs(z))
-        vertex = ((abs(z - a) <= near and (a_boundary or a <= self.lower))
-                  or (abs(z - c) <= near and (c_boundary or c >= self.upper)))
+        vertex = (abs(z - a) <= near and edges[0]) or (abs(z - c) <= near and edges[1])
         status = "Solve_Succeeded" if result.success else "Maximum_Iterations_Exceeded"
         return Refined(np.array([z]), status, int(result.nit), vertex, scale)
 
