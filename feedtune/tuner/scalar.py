@@ -291,8 +291,7 @@ def violation(bounds, conditions, settling, constraints) -> np.ndarray:
     """Largest violation per point (columns): > 0 when a stability or settling condition is
     not positive or a constraint leaves its bounds (relative to max(1, |bound|), as the
     tuner reports violations); ≤ 0 when everything holds."""
-    n = conditions.shape[1] if conditions.size else bounds.shape[1] if bounds.size else settling.shape[1]
-    rows = [np.full(n, -np.inf)]
+    rows = [np.full(conditions.shape[1], -np.inf)]  # every array has one column per point
     if conditions.size:
         rows.append(np.max(-conditions, axis=0))
     if settling.size:
