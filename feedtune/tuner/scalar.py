@@ -53,6 +53,7 @@ never a plant or a metric.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -76,6 +77,10 @@ EDGE_STEP = 1e-8
 #: measures curvature at the optimum: rounding (values to ~1e-15 relative) then contributes
 #: 4·1e-15/h² ≈ 4e-9 to a curvature compared with FLAT_CURVATURE = 1e-6
 CURVATURE_STEP = 1e-3
+
+
+class _OutOfTime(Exception):
+    """A start's time limit passed (see :meth:`ScalarSearch.solve_from`)."""
 
 
 def applies(problem) -> bool:
@@ -111,6 +116,7 @@ class ScalarSearch:
     upper: float
     starts: np.ndarray
     count: int  # at most this many grid minima are refined (the spec's multistart)
+    time_limit: float = math.inf  # [s] per start, as IPOPT's max_wall_time
     grid: np.ndarray = field(init=False)
     values: np.ndarray = field(init=False)
     feasible: np.ndarray = field(init=False)
@@ -118,6 +124,7 @@ class ScalarSearch:
     stable: np.ndarray = field(init=False)
     evaluations: int = field(init=False, default=0)
     refined: dict = field(init=False, default_factory=dict)  # z of an optimum → Refined
+    deadline: float = field(init=False, default=math.inf)  # [s] perf_counter of this start
 
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([[self.lower, self.upper],
@@ -146,11 +153,13 @@ class ScalarSearch:
             return values[0].ravel(), violation(*values[1:], problem.bounds), stable
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
-                   np.asarray(problem.starts, dtype=float)[:, 0], problem.settings.multistart)
+                   np.asarray(problem.starts, dtype=float)[:, 0], problem.settings.multistart,
+                   problem.settings.time_limit)
 
     # -- grid --------------------------------------------------------------------------
 
     def _classify(self, zs):
+        self._check_time()
         values, violations, _ = self.evaluate(zs)
         self.evaluations += len(np.atleast_1d(zs))
         feasible = (violations <= 0) & np.isfinite(values)
@@ -226,6 +235,7 @@ class ScalarSearch:
         penalty = 2 * worst + 1.0  # above every feasible value of the grid and the bracket
 
         def objective(z):
+            self._check_time()
             value, violation, _ = self.evaluate(np.array([z]))
             self.evaluations += 1
             if violation[0] > 0 or not np.isfinite(value[0]):
@@ -255,10 +265,24 @@ class ScalarSearch:
         status = "Solve_Succeeded" if result.success else "Maximum_Iterations_Exceeded"
         return Refined(np.array([z]), status, int(result.nit), vertex, scale)
 
-    def solve_from(self, start: np.ndarray, started: float = 0.0):
+    def _check_time(self):
+        if time.perf_counter() > self.deadline:
+            raise _OutOfTime
+
+    def solve_from(self, start: np.ndarray, started: float | None = None):
         """What ``Problem._solve_from`` returns, for the scalar search: (z, return status,
-        iterations, exchange points added (0), None: no IPOPT multipliers)."""
-        refined = self.refine(float(start[0]))
+        iterations, exchange points added (0), None: no IPOPT multipliers).
+
+        ``started`` [s, perf_counter]: the start's clock; past ``time_limit`` after it, the
+        search stops at its start with IPOPT's status Maximum_WallTime_Exceeded.
+        """
+        self.deadline = (started if started is not None else time.perf_counter()) + self.time_limit
+        try:
+            refined = self.refine(float(start[0]))
+        except _OutOfTime:
+            refined = Refined(np.array([float(start[0])]), "Maximum_WallTime_Exceeded", 0, False)
+        finally:
+            self.deadline = math.inf
         self.refined[float(refined.z[0])] = refined
         return refined.z, refined.status, refined.iterations, 0, None
 

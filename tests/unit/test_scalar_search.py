@@ -214,3 +214,18 @@ def test_tuner_uses_the_scalar_search_for_one_free_tunable():
     assert result.tuned["position_gain"].value == pytest.approx(
         ipopt.values["position_gain"], rel=K_TOL)
     assert result.optimum.unique is True
+
+
+def test_a_start_over_its_time_limit_stops_with_ipopts_status():
+    """solver.time_limit bounds each start, as IPOPT's max_wall_time does: a search whose
+    start's clock is already past it stops at once, at its start, with
+    Maximum_WallTime_Exceeded (the tuner's status time_limit)."""
+    import time
+
+    search = _numpy_search(lambda z: (z - 1.0) ** 2, 0.0, 2.0, [0.5, 1.5])
+    search.time_limit = 1.0
+    (start,) = search.start_points()
+    z, status, iterations, _, _ = search.solve_from(start, time.perf_counter() - 2.0)
+    assert (status, iterations, z[0]) == ("Maximum_WallTime_Exceeded", 0, start[0])
+    z, status, *_ = search.solve_from(start, time.perf_counter())  # within the limit
+    assert status == "Solve_Succeeded" and z[0] == pytest.approx(1.0, abs=1e-6)
