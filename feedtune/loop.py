@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import casadi as ca
 import numpy as np
@@ -35,6 +35,143 @@ SETTLE_FRACTION = 1e-4  # a symbolic loop's modes must decay this far within its
 
 class HorizonError(ValueError):
     """A step response would need more samples than MAX_HORIZON_SAMPLES."""
+
+
+class StepIntegrals:
+    """IAE [m·s], ISE [m²·s] and ITAE [m·s²] of a step response, each built when first read.
+
+    ``build(name)`` returns the integral named ``iae``, ``ise`` or ``itae``. Reads and
+    iterates like :class:`~feedtune.signals.ErrorIntegrals` (iae, ise, itae).
+    """
+
+    _NAMES = ErrorIntegrals._fields
+
+    def __init__(self, build):
+        self._build = build
+        self._values = {}
+
+    def _get(self, name):
+        if name not in self._values:
+            self._values[name] = self._build(name)
+        return self._values[name]
+
+    iae = property(lambda self: self._get("iae"))
+    ise = property(lambda self: self._get("ise"))
+    itae = property(lambda self: self._get("itae"))
+
+    def __iter__(self):
+        return (self._get(name) for name in self._NAMES)
+
+
+@lru_cache(maxsize=None)
+def _sample_step(order: int, name: str) -> ca.Function:
+    """One sample of a sampled loop with an integrator-lag plant, accumulating one integral.
+
+    ``step(state, Φ, Γ, k_x, k_r, T, τ)`` with state [plant and buffer states (``order``),
+    ∫ so far, t] returns the state one sample later; the integral is ``name`` (iae, ise or
+    itae) of the error α + βs + γe^{−s} over the sample (:func:`sample_error_integrals`).
+    Built once per process: the same Function serves every loop, so graphs of equal
+    structure serialize alike (the tuner's solver cache) and no loop pays for the build.
+    """
+    n = order
+    tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
+    state = ca.SX.sym("state", n + 2)  # [x, v, buffer..., integral, t]
+    phi_s = ca.SX.sym("phi", n, n)
+    gamma_s = ca.SX.sym("gamma", n)
+    kx_s = ca.SX.sym("kx", 1, n)
+    kr_s = ca.SX.sym("kr")
+    period_s = ca.SX.sym("period")
+    xi = state[:n]
+    u = ca.mtimes(kx_s, xi) + kr_s
+    position, velocity = xi[0], xi[1]
+    alpha = 1 - position - (velocity - u) * tau
+    beta = -u * tau
+    gamma = (velocity - u) * tau
+    pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 1])
+    nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s, state[n] + getattr(pieces, name),
+                     state[n + 1] + period_s)
+    return ca.Function(f"sample_{name}", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
+                       [nxt])
+
+
+@lru_cache(maxsize=64)
+def _sample_fold(order: int, name: str, samples: int) -> ca.Function:
+    """:func:`_sample_step` folded over ``samples`` samples (2.5 ms to build: kept for the
+    loops that follow, of the same structure)."""
+    return _sample_step(order, name).fold(samples)
+
+
+@lru_cache(maxsize=None)
+def _tail(order: int, name: str) -> ca.Function:
+    """∫e, ∫e² or ∫t·e (``name`` iae, ise or itae) of a sampled integrator-lag loop from a
+    sample to infinity.
+
+    ``tail(state, t, Φ, Γ, k_x, T, τ)`` at sample state ``state`` and time ``t`` [s]. With
+    δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are linear in δ
+    (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing over δ(k) = Φ^k δ
+    gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov equation. Returns the signed
+    ∫e [m·s], ∫e² [m²·s] or the signed ∫t·e [m·s²], only that one: expanding a graph
+    evaluates every output of the Functions it calls. Built once per process, as
+    :func:`_sample_step`.
+    """
+    n = order
+    state, start_time = ca.SX.sym("state", n), ca.SX.sym("t")
+    phi, gamma_cl = ca.SX.sym("phi", n, n), ca.SX.sym("gamma", n)
+    kx, period, tau = ca.SX.sym("kx", 1, n), ca.SX.sym("period"), ca.SX.sym("tau")
+    eye = ca.DM.eye(n)
+    delta = state - ca.solve(eye - phi, gamma_cl)
+    e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
+    e_v = ca.horzcat(0, 1, ca.DM.zeros(1, n - 2))
+    # α, β, γ of the intersample error as rows acting on δ (zero at the settled state)
+    a_row = -e_x - tau * (e_v - kx)
+    b_row = -tau * kx
+    g_row = tau * (e_v - kx)
+    c1, c2, q = sample_moments(a_row, b_row, g_row, period / tau, tau)
+    geometric = ca.solve(eye - phi, ca.SX(eye))  # Σ Φ^k
+    weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
+    lyapunov = ca.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
+    p = ca.reshape(lyapunov, n, n)
+    sum_e = ca.mtimes([c1, geometric, delta])
+    tails = {"iae": sum_e, "ise": ca.mtimes([delta.T, p, delta]),
+             "itae": (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
+                      + ca.mtimes([c2, geometric, delta]))}
+    return ca.Function(f"tail_{name}", [state, start_time, phi, gamma_cl, kx, period, tau],
+                       [tails[name]])
+
+
+@lru_cache(maxsize=None)
+def _pole_pair() -> ca.Function:
+    """(ζ, ω_n·T) of the pole pair of z² + c1·z + c0, mapped by s = ln(z)/T.
+
+    Complex pair a·e^{±jθ}: ζ = −ln a/√(ln²a + θ²), ω_nT = √(ln²a + θ²) (Koren eqs
+    17–19). Positive real pair: the overdamped second order with s_i = ln z_i/T,
+    ζ = −(ln z1 + ln z2)/(2√(ln z1 ln z2)) ≥ 1. A negative real pole rings at the
+    Nyquist frequency: the principal branch ln|z| ± jπ of the most negative pole (the
+    least damped one) gives ζ and ω_n. Built once per process, as :func:`_sample_step`,
+    so a loop of numbers evaluates it without building a graph.
+    """
+    c1, c0 = ca.SX.sym("c1"), ca.SX.sym("c0")
+    tiny = 1e-300
+    discriminant = c1**2 - 4 * c0
+    a = ca.sqrt(ca.fmax(c0, tiny))
+    cosine = ca.fmin(ca.fmax(-c1 / (2 * a), -1), 1)
+    # θ = acos(cosine), written so that no derivative is infinite at cosine = ±1 (a branch
+    # not taken still multiplies its derivatives by zero in reverse mode: 0·∞ is NaN)
+    theta = ca.atan2(ca.sqrt(ca.fmax(1 - cosine**2, tiny)), cosine)
+    complex_wn = ca.sqrt(ca.log(a) ** 2 + theta**2)
+    complex_zeta = -ca.log(a) / complex_wn
+    root = ca.sqrt(ca.fmax(discriminant, tiny))  # tiny, not 0: keeps d√ finite
+    z1, z2 = (-c1 + root) / 2, (-c1 - root) / 2  # z1 ≥ z2
+    ln1, ln2 = ca.log(ca.fmax(z1, tiny)), ca.log(ca.fmax(z2, tiny))
+    real_wn = ca.sqrt(ln1 * ln2)
+    real_zeta = -(ln1 + ln2) / (2 * real_wn)
+    ln_abs = ca.log(ca.fmax(ca.fabs(z2), tiny))
+    nyquist_wn = ca.sqrt(ln_abs**2 + ca.pi**2)
+    nyquist_zeta = -ln_abs / nyquist_wn
+    zeta = ca.if_else(discriminant < 0, complex_zeta,
+                      ca.if_else(z2 > 0, real_zeta, nyquist_zeta))
+    wn = ca.if_else(discriminant < 0, complex_wn, ca.if_else(z2 > 0, real_wn, nyquist_wn))
+    return ca.Function("pole_pair", [c1, c0], [zeta, wn])
 
 
 @dataclass(frozen=True)
@@ -343,42 +480,19 @@ class SampledLoop(_LoopBase):
         d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
         return d_re * re[0] - d_im * im[0], d_re * im[0] + d_im * re[0]
 
+    @cached_property
     def _equivalent_poles(self):
-        """(ζ, ω_n·T) of the closed-loop pole pair mapped by s = ln(z)/T; order-2 loops.
-
-        Complex pair a·e^{±jθ}: ζ = −ln a/√(ln²a + θ²), ω_nT = √(ln²a + θ²) (Koren eqs
-        17–19). Positive real pair: the overdamped second order with s_i = ln z_i/T,
-        ζ = −(ln z1 + ln z2)/(2√(ln z1 ln z2)) ≥ 1. A negative real pole rings at the
-        Nyquist frequency: the principal branch ln|z| ± jπ of the most negative pole (the
-        least damped one) gives ζ and ω_n.
-        """
+        """(ζ, ω_n·T) of the closed-loop pole pair (:func:`_pole_pair`); order-2 loops."""
         _, c1, c0 = self.characteristic_polynomial
-        tiny = 1e-300
-        discriminant = c1**2 - 4 * c0
-        a = ca.sqrt(ca.fmax(c0, tiny))
-        theta = ca.acos(ca.fmin(ca.fmax(-c1 / (2 * a), -1), 1))
-        complex_wn = ca.sqrt(ca.log(a) ** 2 + theta**2)
-        complex_zeta = -ca.log(a) / complex_wn
-        root = ca.sqrt(ca.fmax(discriminant, tiny))  # tiny, not 0: keeps d√ finite
-        z1, z2 = (-c1 + root) / 2, (-c1 - root) / 2  # z1 ≥ z2
-        ln1, ln2 = ca.log(ca.fmax(z1, tiny)), ca.log(ca.fmax(z2, tiny))
-        real_wn = ca.sqrt(ln1 * ln2)
-        real_zeta = -(ln1 + ln2) / (2 * real_wn)
-        ln_abs = ca.log(ca.fmax(ca.fabs(z2), tiny))
-        nyquist_wn = ca.sqrt(ln_abs**2 + ca.pi**2)
-        nyquist_zeta = -ln_abs / nyquist_wn
-        zeta = ca.if_else(discriminant < 0, complex_zeta,
-                          ca.if_else(z2 > 0, real_zeta, nyquist_zeta))
-        wn = ca.if_else(discriminant < 0, complex_wn, ca.if_else(z2 > 0, real_wn, nyquist_wn))
-        return zeta, wn
+        return _pole_pair()(c1, c0)
 
     def natural_frequency(self):
         """ω_n [rad/s] of the equivalent s-plane poles s = ln(z)/T (Koren eqs 17–19)."""
-        return self._equivalent_poles()[1] / self.period
+        return self._equivalent_poles[1] / self.period
 
     def damping_ratio(self):
         """ζ = αT / √((αT)² + (ωT)²), Koren eq 19, extended to real pole pairs."""
-        return self._equivalent_poles()[0]
+        return self._equivalent_poles[0]
 
     @property
     def has_exact_step_error(self) -> bool:
@@ -437,72 +551,35 @@ class SampledLoop(_LoopBase):
         return samples
 
     @cached_property
-    def step_error_integrals(self) -> ErrorIntegrals:
+    def step_error_integrals(self) -> StepIntegrals:
         """IAE/ISE/ITAE after a 1 m position step, intersample included.
 
-        Summed sample by sample over ``horizon_samples`` with a CasADi fold; inside each
-        sample the error is α + βs + γe^{−s}, s = σ/τ, integrated in closed form. The rest,
-        from the horizon to infinity, is summed in closed form too (:meth:`_tail`): exact for
-        ISE, and exact for IAE and ITAE once the error no longer changes sign.
+        Each integral is summed sample by sample over ``horizon_samples`` with a CasADi fold
+        of its own (:func:`_sample_step`), built when a metric first reads it: an IAE term
+        carries no ISE or ITAE in its graph. Inside each sample the error is
+        α + βs + γe^{−s}, s = σ/τ, integrated in closed form. The rest, from the horizon to
+        infinity, is summed in closed form too (:func:`_tail`): exact for ISE, and exact for
+        IAE and ITAE once the error no longer changes sign. A loop of numbers is summed on
+        numbers (no graph is built).
         """
         radius = self._numeric_spectral_radius
         if radius is not None and radius >= 1:
-            return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
-        n = self.order
-        tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
-        state = ca.SX.sym("state", n + 4)  # [x, v, buffer..., iae, ise, itae, t]
-        phi_s = ca.SX.sym("phi", n, n)
-        gamma_s = ca.SX.sym("gamma", n)
-        kx_s = ca.SX.sym("kx", 1, n)
-        kr_s = ca.SX.sym("kr")
-        period_s = ca.SX.sym("period")
-        xi = state[:n]
-        u = ca.mtimes(kx_s, xi) + kr_s
-        position, velocity = xi[0], xi[1]
-        alpha = 1 - position - (velocity - u) * tau
-        beta = -u * tau
-        gamma = (velocity - u) * tau
-        pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 3])
-        nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s,
-                         state[n] + pieces.iae, state[n + 1] + pieces.ise,
-                         state[n + 2] + pieces.itae, state[n + 3] + period_s)
-        step = ca.Function("sample_step", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
-                           [nxt])
+            return StepIntegrals(lambda name: math.inf)  # unstable: never settles
+        samples = self.horizon_samples  # raises HorizonError before any metric is built
         phi, gamma_cl, kx, kr = self._matrices
-        final = step.fold(self.horizon_samples)(ca.DM.zeros(n + 4), phi, gamma_cl, kx, kr,
-                                                 self.period, self.plant.time_constant)
-        tail = self._tail(final[:n], final[n + 3])
-        return ErrorIntegrals(final[n] + ca.fabs(tail.iae), final[n + 1] + tail.ise,
-                              final[n + 2] + ca.fabs(tail.itae))
-
-    def _tail(self, state, start_time) -> ErrorIntegrals:
-        """∫e, ∫e², ∫t·e from sample state ``state`` at ``start_time`` [s] to infinity.
-
-        With δ the distance to the settled state, each sample's ∫e dt and ∫σe dσ are
-        linear in δ (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing
-        over δ(k) = Φ^k δ gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov
-        equation. Returned in an ErrorIntegrals whose iae/itae are the signed ∫e, ∫t·e.
-        """
+        period, tau = self.period, self.plant.time_constant
+        if radius is not None:  # numbers: evaluate the small matrices once, sum on DM
+            phi, gamma_cl, kx, kr, period, tau = (
+                ca.evalf(ca.MX(m)) for m in (phi, gamma_cl, kx, kr, period, tau))
         n = self.order
-        tau = self.plant.time_constant
-        phi, gamma_cl, kx, _ = self._matrices
-        eye = ca.DM.eye(n)
-        delta = state - linalg.solve(eye - phi, gamma_cl)
-        e_x = ca.horzcat(1, ca.DM.zeros(1, n - 1))
-        e_v = ca.horzcat(0, 1, ca.DM.zeros(1, n - 2))
-        # α, β, γ of the intersample error as rows acting on δ (zero at the settled state)
-        a_row = -e_x - tau * (e_v - kx)
-        b_row = -tau * kx
-        g_row = tau * (e_v - kx)
-        c1, c2, q = sample_moments(a_row, b_row, g_row, self.period / tau, tau)
-        geometric = linalg.solve(eye - phi, eye)  # Σ Φ^k
-        weighted = ca.mtimes([phi, geometric, geometric])  # Σ k Φ^k
-        lyapunov = linalg.solve(ca.DM.eye(n * n) - ca.kron(phi.T, phi.T), ca.vec(q))
-        p = ca.reshape(lyapunov, n, n)
-        sum_e = ca.mtimes([c1, geometric, delta])
-        sum_te = (start_time * sum_e + self.period * ca.mtimes([c1, weighted, delta])
-                  + ca.mtimes([c2, geometric, delta]))
-        return ErrorIntegrals(sum_e, ca.mtimes([delta.T, p, delta]), sum_te)
+
+        def integral(name):
+            final = _sample_fold(n, name, samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx, kr,
+                                                    period, tau)
+            tail = _tail(n, name)(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
+            return final[n] + (tail if name == "ise" else ca.fabs(tail))
+
+        return StepIntegrals(integral)
 
 
 @dataclass(frozen=True, eq=False)

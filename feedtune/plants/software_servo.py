@@ -41,7 +41,8 @@ from feedtune.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Int
 from feedtune.model import SpecModel
 from feedtune.plants.base import Tunable
 
-#: sampled step responses are summed sample by sample over this many times (2τ + dead time)
+#: sampled step responses are summed sample by sample over this many times (2τ + dead time),
+#: the dead time (computation_delay + 1)·T at the smallest T of the box
 SETTLING_TIME_CONSTANTS = 20.0
 
 
@@ -145,8 +146,9 @@ class SoftwareServo:
         """The closed loop at ``values`` (expressions or numbers per tunable name).
 
         ``box`` gives each tunable's (min, max) [its unit]; with ``horizon_scale`` it sizes
-        the step-response horizon of a sampled loop (20·(2τ + dead time)·horizon_scale),
-        which the tuner lengthens when the NLP and the exact evaluation disagree.
+        the step-response horizon of a sampled loop (20·(2τ + dead time at T_min)·
+        horizon_scale, summed in steps of T_min: 20·(2τ/T_min + d + 1)·horizon_scale
+        samples), which the tuner lengthens when the NLP and the exact evaluation disagree.
         ``numbers`` replaces some of :meth:`numbers` by expressions (NLP parameters).
         """
         p = self.params
@@ -167,11 +169,15 @@ class SoftwareServo:
             interpolator = Interpolator(values["reference_interval"], period)
         if p.model == "pade":
             return self._pade_loop(gain, period, box, interpolator, tau, drive)
-        period_min, period_max = box["sampling_period"]
+        period_min = box["sampling_period"][0]
         # loops near the optimum settle within tens of (2τ + dead time); slower, overdamped
         # loops are still exact through the closed-form tail of SampledLoop (an ideal drive
-        # has no step integrals, so its horizon is unused)
-        settle = 2 * (p.time_constant or 0.0) + (p.computation_delay + 1) * period_max
+        # has no step integrals, so its horizon is unused). The NLP sums a fixed number of
+        # samples, 20·(2τ/T_min + d + 1): at any T ≥ T_min they span at least
+        # 20·(2τ + (d + 1)·T), twenty of that loop's own (2τ + dead time). Sizing the time
+        # by T_max instead summed T_max/T_min times longer than the fastest loop needs
+        # (10 800 samples for T in [1 ms, 0.5 s]: a 40 s tuning)
+        settle = 2 * (p.time_constant or 0.0) + (p.computation_delay + 1) * period_min
         plant = IntegratorLag(tau) if tau is not None else Integrator()
         return SampledLoop(plant, gain, period, delay=p.computation_delay, drive=drive,
                            horizon=SETTLING_TIME_CONSTANTS * settle * horizon_scale,

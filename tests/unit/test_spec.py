@@ -304,9 +304,9 @@ def test_empty_bounds_and_a_start_outside_them_are_spec_errors():
 
 
 def test_the_step_response_sample_limit_is_a_spec_error_at_the_term():
-    """20·(2τ + T_max)/T_min samples, τ = 20 ms, T in [1 µs, 20 ms]: 1.2 million, over the
-    tuner's 50 000: refused by parse_spec (validate and tune alike); at T_min = 0.1 ms
-    (12 000 samples) accepted."""
+    """20·(2τ/T_min + 1) samples, τ = 20 ms, T in [1 µs, 20 ms]: 800 021 (20·0.04002 s in
+    steps of 1 µs, rounded up), over the tuner's 50 000: refused by parse_spec (validate and
+    tune alike); at T_min = 0.1 ms (8 020 samples) accepted."""
     spec = json.loads(EXAMPLE.read_text())
     spec["objective"] = [{"metric": "radial_error", "radius": 0.008, "feed": 0.04},
                          {"metric": "iae", "weight": 0.1}]
@@ -315,7 +315,7 @@ def test_the_step_response_sample_limit_is_a_spec_error_at_the_term():
         parse_spec(spec)
     [(pointer, message)] = info.value.errors
     assert pointer == "/objective/1/metric"
-    assert "1200000 samples (limit 50000)" in message
+    assert "800021 samples (limit 50000)" in message
     spec["tunables"]["sampling_period"] = {"min": 1e-4, "max": 0.02}
     assert parse_spec(spec).objective[1].metric == "iae"
 
