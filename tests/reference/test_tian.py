@@ -18,7 +18,7 @@ import feedtune.problem
 from feedtune.objectives import METRICS
 from feedtune.plants.pulse_generator import PulseGenerator, PulseGeneratorParams
 from feedtune.pulse_train import _simulate
-from feedtune.tuner.nlp import Bound, Settings, Term, Variable
+from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import SearchProblem
 
 from conftest import load_example, tune_dict
