@@ -12,8 +12,6 @@ held apart as ``slots``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import casadi as ca
 import numpy as np
 
@@ -62,6 +60,13 @@ class NlpBuilder:
         self._lbg.append(lower)
         self._ubg.append(upper)
         return len(self.rows) - 1
+
+    def constrain_all(self, expr, lower: float, upper: float) -> range:
+        """One row ``lower ≤ e ≤ upper`` per entry e of the vector ``expr``; their indices."""
+        start = len(self.rows)
+        for k in range(expr.numel()):
+            self.constrain(expr[k], lower, upper)
+        return range(start, len(self.rows))
 
     def slot(self, name: str, default: float) -> tuple[int, ca.MX]:
         """An exchange point: a parameter set while solving (``default`` until then); its
@@ -113,44 +118,6 @@ class NlpBuilder:
     @property
     def ubg(self) -> np.ndarray:
         return np.array(self._ubg, dtype=float)
-
-
-@dataclass(frozen=True)
-class Scales:
-    """The smallest magnitude each expression takes over the stable starts (None: no stable
-    start gave a finite, non-zero value), in the expression's own unit."""
-
-    objective: float | None
-    terms: list[float | None]
-    bounds: list[float | None]
-    stability: list[float | None]
-    settling: list[float | None]
-
-
-def probe_scales(probe: ca.Function, starts: np.ndarray, param_values: np.ndarray,
-                 sizes: dict[str, int]) -> Scales:
-    """:class:`Scales` from ``probe`` evaluated at every start.
-
-    ``probe(z, p)`` stacks the objective, then ``sizes['terms']`` term values,
-    ``sizes['bounds']`` bound values, ``sizes['stability']`` stability conditions and
-    ``sizes['settling']`` settling conditions. Only stable starts count: an unstable loop's
-    IAE is astronomically large, and scaling by it would flatten the objective until IPOPT
-    stops anywhere (too small a scale is harmless: IPOPT's gradient-based scaling shrinks
-    large gradients).
-    """
-    table = np.column_stack([np.asarray(probe(z0, param_values), dtype=float).ravel()
-                             for z0 in starts])
-    first_stability = 1 + sizes["terms"] + sizes["bounds"]
-    stable = np.all(table[first_stability:first_stability + sizes["stability"]] > 0, axis=0)
-    table = np.abs(table)
-    table[~np.isfinite(table) | (table == 0)] = np.inf
-    table[:first_stability, ~stable] = np.inf
-    smallest = [float(v) if math.isfinite(v) else None for v in table.min(axis=1)]
-    parts, at = {}, 1
-    for name in ("terms", "bounds", "stability", "settling"):
-        parts[name] = smallest[at:at + sizes[name]]
-        at += sizes[name]
-    return Scales(objective=smallest[0], **parts)
 
 
 def scale(*candidates) -> float:

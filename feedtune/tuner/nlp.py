@@ -9,6 +9,7 @@ own module:
   at the starts;
 * feedtune.tuner.terms — objective terms and constraints (epigraphs for |e| and peaks);
 * feedtune.tuner.supremum — peaks and crossings over frequency, by the exchange method;
+* feedtune.tuner.evaluation — what the NLP sees at a point, by name;
 * feedtune.tuner.stability — Hurwitz/Schur rows, the eigenvalue verdict, restoration;
 * feedtune.tuner.starts — the multistart's starting points;
 * feedtune.tuner.cache — the process-wide solver cache;
@@ -30,12 +31,13 @@ from typing import Callable, Mapping
 import casadi as ca
 import numpy as np
 
-from feedtune.tuner.builder import NlpBuilder, Scales, probe_scales, scale
+from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build
+from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.stability import add_stability_rows, feasibility, restore
 from feedtune.tuner.starts import starting_points
-from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points
+from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points, make_scan
 from feedtune.tuner.terms import add_bound, add_term, exact_value
 from feedtune.tuner.types import (SOLVED, STATUS, Bound, Outcome, Settings, StartOutcome, Term,
                                   Variable, finite, within)
@@ -77,36 +79,39 @@ class Problem:
         bound_values = [b.value(loop) for b in constraints]
         stability = loop.stability_conditions()
         settling = loop.settling_conditions()  # after the terms: they say what was summed
-        raw_objective = sum((w * (ca.fabs(e) if mag else e)
-                             for (e, mag), w in zip(map(exact_value, term_values), weights)),
-                            ca.MX(0))
-        bound_exprs = [exact_value(v) for v in bound_values]
+        matrices = loop.stability_matrices()
+        z, p = builder.z, builder.p  # the parameters so far: the loop's, and the weights
+        term_scans = [make_scan(f"term{i}", v, z, p) for i, v in enumerate(term_values)]
+        bound_scans = [make_scan(f"bound{i}", v, z, p) for i, v in enumerate(bound_values)]
+        self.evaluator = Evaluator(z, p, term_values, [t.weight for t in objective], term_scans,
+                                   bound_values, bound_scans, stability, settling, matrices)
+        self.param_values = builder.param_values
         self.starts = starting_points(variables, settings.multistart)
-        probe = ca.Function("probe", [builder.z, builder.p], [ca.vertcat(
-            raw_objective, *[exact_value(v)[0] for v in term_values],
-            *[e for e, _ in bound_exprs], *stability, *settling)])
-        scales = probe_scales(probe, self.starts, builder.param_values,
-                              {"terms": len(term_values), "bounds": len(bound_values),
-                               "stability": len(stability), "settling": len(settling)})
+        scales = smallest_magnitudes([self.evaluator(z0, self.param_values) for z0 in self.starts])
         self.f_scale = scale(scales.objective)
-        f, scaled_settling, groups = self._formulate(builder, term_values, bound_values, weights,
-                                                     stability, settling, scales)
+        groups: list[ExchangeGroup] = []
+        f = ca.MX(0)
+        for index, (value, scan, weight, term, reference) in enumerate(
+                zip(term_values, term_scans, weights, objective, scales.terms)):
+            f += add_term(builder, index, value, scan, weight, term.weight, reference, groups)
+        for index, (value, scan, bound, reference) in enumerate(
+                zip(bound_values, bound_scans, constraints, scales.bounds)):
+            add_bound(builder, index, value, scan, bound, reference, groups)
+        scaled_settling = add_stability_rows(builder, stability, settling, scales.stability,
+                                             scales.settling)
         self.exchange_groups = groups
         self.param_values = builder.param_values
         self.lbw, self.ubw = builder.lbw, builder.ubw
         self.lbg, self.ubg = builder.lbg, builder.ubg
         self.slot_defaults = builder.slot_defaults
-        self._options = {
-            "ipopt": {"max_iter": settings.max_iter, "tol": settings.tol,
-                      "max_wall_time": settings.time_limit, **settings.ipopt_options,
-                      **FIXED_IPOPT_OPTIONS},
-            "print_time": False,
-            "error_on_fail": False,
-        }
+        given = settings.ipopt_options.get("hessian_approximation")
+        # peaks and crossings over frequency: the limited-memory Hessian first (measured
+        # faster), the exact one for a start it leaves unsolved, infeasible or unstable
+        self.hessians = ([given] if given else
+                         ["limited-memory", "exact"] if groups else ["exact"])
         expand = settings.expand
         if expand is None:  # auto: expansion pays for itself on short horizons only
             expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
-        matrices = loop.stability_matrices()
         self.matrix_names = list(matrices)
         z, p = builder.z, builder.p
         # the objective is divided by its value at each start (a parameter, so one build
@@ -120,31 +125,40 @@ class Problem:
             "settling": ca.Function("settling", [z, p], [ca.vertcat(ca.MX(0, 1), *scaled_settling)]),
             "extra_start": ca.Function("extra_start", [z, p],
                                        [ca.vertcat(ca.MX(0, 1), *builder.extra_start)]),
-            # per exchange group: how far its refined peak or dip violates the bound, and where
-            "exchange_check": ca.Function(
-                "exchange_check", [z, *builder.extra, p],
-                [ca.vertcat(ca.MX(0, 1), *[g.violation for g in groups]),
-                 ca.vertcat(ca.MX(0, 1), *[g.where for g in groups])],
-                ["z", *[f"extra{i}" for i in range(len(builder.extra))], "p"],
-                ["violation", "where"]),
-            "check": ca.Function(
-                "check", [z, p],
-                [raw_objective,
-                 ca.vertcat(ca.MX(0, 1), *[ca.fabs(e) if m else e for e, m in bound_exprs]),
-                 ca.vertcat(*stability), *matrices.values()]),
+            # per exchange group: the level its refined peak or dip is checked against
+            "exchange_levels": ca.Function("exchange_levels", [z, *builder.extra, p],
+                                           [ca.vertcat(ca.MX(0, 1), *[g.level for g in groups])]),
             # conditions and matrices alone: what restoration evaluates hundreds of times
             "stability_check": ca.Function("stability_check", [z, p],
                                            [ca.vertcat(*stability), *matrices.values()]),
         }
-        entry = cached_build(functions, {"probe": probe}, self._options, expand, self.has_nlp)
+        self._build = (functions, {"check": self.evaluator.function}, expand)
+        self._solvers: dict[str, object] = {}
+        entry = self._entry(self.hessians[0])
         self.settling = entry.functions["settling"]
         self.extra_start = entry.functions["extra_start"]
-        self._exchange_check = entry.functions["exchange_check"]
-        self.check = entry.functions["check"]
+        self._exchange_levels = entry.functions["exchange_levels"]
         self.stability_check = entry.functions["stability_check"]
-        self._nlpsol = entry.solver
         self.solver_reused = entry.reused
         self.build_time = time.perf_counter() - started
+
+    def _entry(self, hessian: str):
+        """The cached build (Functions and IPOPT solver) with this Hessian approximation;
+        a solver is built when a start first needs it."""
+        functions, key_extra, expand = self._build
+        options = {
+            "ipopt": {"max_iter": self.settings.max_iter, "tol": self.settings.tol,
+                      "max_wall_time": self.settings.time_limit, **self.settings.ipopt_options,
+                      "hessian_approximation": hessian, **FIXED_IPOPT_OPTIONS},
+            "print_time": False,
+            "error_on_fail": False,
+        }
+        entry = cached_build(functions, key_extra, options, expand, self.has_nlp)
+        self._solvers[hessian] = entry.solver
+        return entry
+
+    def _solver(self, hessian: str):
+        return self._solvers.get(hessian) or self._entry(hessian).solver
 
     def _symbolic_loop(self, builder: NlpBuilder, numbers: Mapping[str, float]):
         """The loop of the NLP's symbols: free tunables exp(z), fixed ones and the plant's
@@ -159,28 +173,11 @@ class Problem:
         lifted = {name: builder.parameter(f"number_{name}", value) for name, value in numbers.items()}
         return self.make_loop(values, lifted) if lifted else self.make_loop(values)
 
-    def _formulate(self, builder: NlpBuilder, term_values, bound_values, weights, stability,
-                   settling, scales: Scales):
-        """Objective, constraint and stability rows; (objective, scaled settling conditions,
-        exchange groups)."""
-        groups: list[ExchangeGroup] = []
-        f = ca.MX(0)
-        for index, (value, weight, term, reference) in enumerate(
-                zip(term_values, weights, self.objective_terms, scales.terms)):
-            f += add_term(builder, index, value, weight, term.weight, reference, groups)
-        for index, (value, bound, reference) in enumerate(zip(bound_values, self.bounds,
-                                                              scales.bounds)):
-            add_bound(builder, index, value, bound, reference, groups)
-        scaled_settling = add_stability_rows(builder, stability, settling, scales.stability,
-                                             scales.settling)
-        return f, scaled_settling, groups
-
     def _evaluate(self, z_value):
-        """What the NLP sees at ``z_value``: objective, bound values, conditions, matrices."""
-        objective, bounds, conditions, *matrices = self.check(z_value, self.param_values)
-        bounds = [finite(b) for b in np.asarray(bounds).ravel()]
-        matrices = {name: np.asarray(m, dtype=float) for name, m in zip(self.matrix_names, matrices)}
-        return finite(objective), bounds, np.asarray(conditions).ravel(), matrices
+        """What the NLP sees at ``z_value``: objective, bound values, conditions, matrices
+        (see :class:`~feedtune.tuner.evaluation.Seen`)."""
+        seen = self.evaluator(z_value, self.param_values)
+        return seen.objective, seen.bounds, seen.stability, seen.matrices
 
     def _evaluate_numeric(self, values: Mapping[str, float]):
         """Objective, bounds, conditions, matrices and reports on the loop built from numbers.
@@ -213,19 +210,25 @@ class Problem:
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, return_status, status)
         optima = []  # (index, objective, z) of every start that solved feasibly
-        solutions: dict[int, Solution | None] = {}  # each start's last NLP round
+        solutions: dict[int, tuple] = {}  # each start's solver and last NLP round
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
-            if self.has_nlp:
-                z_opt, return_status, iterations, exchanged, solutions[index] = self._solve_from(
-                    z0, started)
-                status = STATUS.get(return_status, "error")
-            else:
-                z_opt, return_status, status, iterations = z0, "No_Free_Tunables", "optimal", 0
-                exchanged = 0
+            iterations = exchanged = 0
+            for hessian in (self.hessians if self.has_nlp else [None]):
+                if hessian is not None:
+                    solver = self._solver(hessian)
+                    z_opt, return_status, its, exchanged, solution = self._solve_from(
+                        z0, started, solver)
+                    iterations += its
+                    solutions[index] = (solver, solution)
+                    status = STATUS.get(return_status, "error")
+                else:
+                    z_opt, return_status, status = z0, "No_Free_Tunables", "optimal"
+                objective, bounds, conditions, matrices = self._evaluate(z_opt)
+                feasible, _ = self._feasible(bounds, conditions, matrices)
+                if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
+                    break
             elapsed = time.perf_counter() - started
-            objective, bounds, conditions, matrices = self._evaluate(z_opt)
-            feasible, _ = self._feasible(bounds, conditions, matrices)
             if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
                 objective = None
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
@@ -241,8 +244,8 @@ class Problem:
                 best = (key, index, z_opt, return_status, status)
         _, index, z_opt, return_status, status = best
         equal = equal_optima(optima, index, self.f_scale, self.variables)
-        flat = (flat_tunables(self._nlpsol, solutions[index], self.variables)
-                if solutions.get(index) else None)
+        solver, solution = solutions.get(index, (None, None))
+        flat = flat_tunables(solver, solution, self.variables) if solution else None
         started = time.perf_counter()
         values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
         values.update(self.fixed)
@@ -286,8 +289,9 @@ class Problem:
             starts=starts, equal_optima=equal if success else [],
             flat_tunables=flat if success else None)
 
-    def _solve_from(self, start: np.ndarray, started: float) -> tuple:
-        """One start: IPOPT, then exchange rounds while a refined peak or dip violates its bound.
+    def _solve_from(self, start: np.ndarray, started: float, solver) -> tuple:
+        """One start: IPOPT (``solver``), then exchange rounds while a refined peak or dip
+        violates its bound.
 
         Returns the tunables' logarithms, IPOPT's last return status, the iterations of
         every round, the number of exchange points added and the last round's
@@ -299,7 +303,6 @@ class Problem:
         z0 = self._stable_start(start)
         if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)
             return start, "No_Stable_Start", 0, 0, None
-        solver = self._nlpsol
         slots = self.slot_defaults.copy()
         lbg, ubg = self.lbg.copy(), self.ubg.copy()
         used = [0] * len(self.exchange_groups)
@@ -317,11 +320,12 @@ class Problem:
                                 ubg.copy())
             if STATUS.get(return_status) not in SOLVED:
                 break
-            check = self._exchange_check(x0[:self.n_z], *x0[self.n_z:], self.param_values)
-            added = add_exchange_points(self.exchange_groups,
-                                        np.asarray(check[0], dtype=float).ravel(),
-                                        np.asarray(check[1], dtype=float).ravel(),
-                                        slots, lbg, ubg, used)
+            z = x0[:self.n_z]
+            levels = np.asarray(self._exchange_levels(z, *x0[self.n_z:], self.param_values),
+                                dtype=float).ravel()
+            violations = [group.violation(z, self.param_values, level)
+                          for group, level in zip(self.exchange_groups, levels)]
+            added = add_exchange_points(self.exchange_groups, violations, slots, lbg, ubg, used)
             if added is None:
                 return_status = "Exchange_Points_Exhausted"
                 break

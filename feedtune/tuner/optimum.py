@@ -34,12 +34,38 @@ class Solution:
     ubg: np.ndarray
 
 
+#: step [1] along a unit direction of the NLP's variables (log tunables) for the curvature
+#: by central differences of the exact gradient, where IPOPT has no Hessian (limited
+#: memory): truncation ~ step² · third derivative, rounding ~ 1e-16/step, both ≪ FLAT_CURVATURE
+CURVATURE_STEP = 1e-5
+
+
+def _curvature(solver, solution: "Solution", directions: np.ndarray) -> np.ndarray:
+    """directionsᵀ H directions, H the Hessian of f + λᵀg at ``solution``: IPOPT's own
+    (``nlp_hess_l``), or central differences of the exact gradient f′ + g′ᵀλ along each
+    direction when IPOPT approximates it (limited memory) and has built none."""
+    x, p, lam_g = solution.x, solution.p, solution.lam_g
+    if solver.has_function("nlp_hess_l"):
+        triu = np.asarray(solver.get_function("nlp_hess_l")(x, p, 1.0, lam_g).full())
+        return directions.T @ (triu + np.triu(triu, 1).T) @ directions
+    grad_f, jac_g = solver.get_function("nlp_grad_f"), solver.get_function("nlp_jac_g")
+
+    def gradient(point):
+        return (np.asarray(grad_f(point, p)[1], dtype=float).ravel()
+                + np.asarray(jac_g(point, p)[1].full()).T @ lam_g)
+
+    columns = [(gradient(x + CURVATURE_STEP * d) - gradient(x - CURVATURE_STEP * d))
+               / (2 * CURVATURE_STEP) for d in directions.T]
+    reduced = directions.T @ np.column_stack(columns)
+    return (reduced + reduced.T) / 2
+
+
 def flat_tunables(solver, solution: Solution, variables: list[Variable]) -> list[str]:
     """Tunables that move along a flat direction of the NLP at ``solution``.
 
-    The Hessian of the Lagrangian (IPOPT's own, with its multipliers, from ``solver``'s
-    ``nlp_hess_l``) reduced to the directions that keep every active constraint and bound
-    (a multiplier above ACTIVE_MULTIPLIER, or an equality) unchanged to first order. A
+    The Hessian of the Lagrangian (with IPOPT's multipliers, see :func:`_curvature`)
+    reduced to the directions that keep every active constraint and bound (a multiplier
+    above ACTIVE_MULTIPLIER, or an equality) unchanged to first order. A
     reduced curvature below FLAT_CURVATURE (the objective is divided by its value at the
     start, the tunables are logarithms) is a direction in which the optimum is not unique,
     e.g. zero radial error along a curve K(T).
@@ -58,9 +84,7 @@ def flat_tunables(solver, solution: Solution, variables: list[Variable]) -> list
     directions = linalg.null_space(active) if len(active) else np.eye(len(x))
     if directions.shape[1] == 0:
         return []  # a vertex: the active constraints fix every variable
-    triu = np.asarray(solver.get_function("nlp_hess_l")(x, p, 1.0, lam_g).full())
-    hessian = triu + np.triu(triu, 1).T
-    curvature, vectors = np.linalg.eigh(directions.T @ hessian @ directions)
+    curvature, vectors = np.linalg.eigh(_curvature(solver, solution, directions))
     n_z = len(variables)
     flat = set()
     for value, vector in zip(curvature, vectors.T):

@@ -27,21 +27,22 @@ def exact_value(value) -> tuple[object, bool]:
     return value, False
 
 
-def add_term(builder: NlpBuilder, index: int, value, weight, sign: float,
+def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
              reference: float | None, groups: list[ExchangeGroup]):
     """The NLP's share of objective term ``index``: ``weight`` (a parameter) times its value.
 
     ``sign`` is the term's signed weight: its sign shapes the NLP (an epigraph only bounds
     what is minimised), its size is the parameter. ``reference`` is the term's magnitude
-    at the starts (see feedtune.tuner.builder.Scales).
+    at the starts (see feedtune.tuner.builder.Scales); ``scan`` the numeric scan of a
+    Supremum or Crossing value (feedtune.tuner.supremum.make_scan).
     """
     expr, magnitude = exact_value(value)
     if isinstance(value, Crossing):
-        return weight * crossing_variable(builder, value, index, sign > 0, groups)
+        return weight * crossing_variable(builder, value, scan, index, sign > 0, groups)
     if isinstance(value, Supremum) and sign > 0:  # epigraph: fn(ω) ≤ s·t, minimise
         s = builder.parameter(f"term_scale{index}", scale(reference))
         t = builder.variable(f"peak{index}", 0, ca.inf, value.exact / s * 1.01)
-        supremum_below(builder, value, s * t, s, True, groups)
+        supremum_below(builder, value, scan, s * t, s, True, groups)
         return weight * s * t
     if magnitude and sign < 0:  # maximising |e|: no epigraph bounds it from above
         return weight * ca.fabs(expr)
@@ -54,20 +55,22 @@ def add_term(builder: NlpBuilder, index: int, value, weight, sign: float,
     return weight * expr
 
 
-def add_bound(builder: NlpBuilder, index: int, value, bound: Bound, reference: float | None,
-              groups: list[ExchangeGroup]) -> None:
-    """Rows holding ``bound.lower ≤ value ≤ bound.upper``, divided by the bound's scale."""
+def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
+              reference: float | None, groups: list[ExchangeGroup]) -> None:
+    """Rows holding ``bound.lower ≤ value ≤ bound.upper``, divided by the bound's scale
+    (``scan`` as for :func:`add_term`)."""
     expr, magnitude = exact_value(value)
     s_value = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(reference)
     s = builder.parameter(f"bound_scale{index}", s_value)
     lower = bound.lower / s_value if bound.lower is not None else -ca.inf
     upper = bound.upper / s_value if bound.upper is not None else ca.inf
     if isinstance(value, Crossing):
-        b = crossing_variable(builder, value, f"_bound{index}", bound.upper is not None, groups)
+        b = crossing_variable(builder, value, scan, f"_bound{index}", bound.upper is not None,
+                              groups)
         builder.constrain(b / s, lower, upper)
     elif isinstance(value, Supremum) and bound.upper is not None:
-        supremum_below(builder, value, builder.parameter(f"bound_upper{index}", bound.upper), s,
-                       bound.upper > 0, groups)
+        supremum_below(builder, value, scan, builder.parameter(f"bound_upper{index}", bound.upper),
+                       s, bound.upper > 0, groups)
         if bound.lower is not None:
             builder.constrain(expr / s, lower, ca.inf)
     elif magnitude and bound.lower is not None and bound.lower > 0:

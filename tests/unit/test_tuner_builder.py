@@ -1,4 +1,4 @@
-"""feedtune.tuner.builder: the NLP's pieces, collected with names, and the probed scales."""
+"""feedtune.tuner.builder: the NLP's pieces, collected with names."""
 
 import math
 
@@ -6,7 +6,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from feedtune.tuner.builder import NlpBuilder, Scales, probe_scales, scale
+from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.types import Variable
 
 VARIABLES = [Variable("gain", 1.0, 100.0), Variable("period", 1e-3, 1e-1)]
@@ -19,6 +19,15 @@ def test_variables_bounds_are_the_tunables_logarithms_then_the_auxiliary_ones():
     np.testing.assert_allclose(builder.lbw, [0.0, math.log(1e-3), 0.0])
     np.testing.assert_allclose(builder.ubw, [math.log(100.0), math.log(1e-1), 5.0])
     assert builder.extra[0] is t
+
+
+def test_a_vector_of_rows_gets_one_index_per_entry():
+    builder = NlpBuilder(VARIABLES)
+    builder.constrain(builder.z[0], 0.0, 1.0)
+    rows = builder.constrain_all(ca.DM([[1.0, 2.0, 3.0]]) * builder.z[1], -1.0, 1.0)
+    assert rows == range(1, 4) and len(builder.lbg) == 4
+    g = ca.Function("g", [builder.z], [ca.vertcat(*builder.rows)])
+    np.testing.assert_allclose(np.asarray(g([0.0, 2.0])).ravel(), [0.0, 2.0, 4.0, 6.0])
 
 
 def test_rows_parameters_and_slots_keep_their_order_and_indices():
@@ -38,27 +47,6 @@ def test_rows_parameters_and_slots_keep_their_order_and_indices():
                     [ca.vertcat(*builder.rows)])
     np.testing.assert_allclose(np.asarray(g([1.0, 2.0], [7.5], builder.param_values)).ravel(),
                                [2.0, 5.0, 7.5])
-
-
-def test_scales_are_the_smallest_magnitudes_over_the_stable_starts_only():
-    z = ca.MX.sym("z", 1)
-    p = ca.MX.sym("p", 0)
-    # objective z², one term 10z, one bound −z, one stability condition 1 − z (stable for
-    # z < 1), no settling condition
-    probe = ca.Function("probe", [z, p], [ca.vertcat(z**2, 10 * z, -z, 1 - z)])
-    starts = np.array([[0.5], [-2.0], [3.0]])  # the third start is unstable
-    scales = probe_scales(probe, starts, np.zeros(0),
-                          {"terms": 1, "bounds": 1, "stability": 1, "settling": 0})
-    assert scales == Scales(objective=0.25, terms=[5.0], bounds=[0.5], stability=[0.5],
-                            settling=[])
-
-
-def test_no_stable_start_gives_no_scale():
-    z = ca.MX.sym("z", 1)
-    probe = ca.Function("probe", [z, ca.MX.sym("p", 0)], [ca.vertcat(z, -1 + 0 * z)])
-    scales = probe_scales(probe, np.array([[1.0]]), np.zeros(0),
-                          {"terms": 0, "bounds": 0, "stability": 1, "settling": 0})
-    assert scales.objective is None
 
 
 @pytest.mark.parametrize("candidates, expected", [

@@ -14,8 +14,10 @@ from feedtune.expr import Supremum
 from feedtune.frequency import peak
 from feedtune.tuner.builder import NlpBuilder
 from feedtune.tuner.nlp import Problem
-from feedtune.tuner.supremum import (EXCHANGE_POINTS, EXCHANGE_TOL, ExchangeGroup,
-                                     add_exchange_points, supremum_below)
+from feedtune.expr import Crossing
+from feedtune.tuner.supremum import (EXCHANGE_POINTS, EXCHANGE_TOL, ROW_STRIDE, ExchangeGroup,
+                                     FrequencyFunction, add_exchange_points,
+                                     make_scan, refined_maximum, supremum_below)
 from feedtune.tuner.types import Bound, Settings, Term, Variable
 
 GRID = np.array([0.1, 0.5, 2.0, 10.0])  # rad/s; the peak at 1 rad/s falls between points
@@ -61,30 +63,65 @@ def test_the_exchange_method_holds_the_true_peak_not_the_grid():
     assert outcome.starts[0].exchange_points >= 1
 
 
-def test_grid_rows_then_exchange_rows_switched_off():
+def test_coarse_grid_rows_then_exchange_rows_switched_off():
     builder = NlpBuilder([Variable("k", 0.1, 10.0)])
-    loop = ToyLoop(ca.exp(builder.z[0]))
+    value = toy_peak(ToyLoop(ca.exp(builder.z[0])))
     groups = []
-    supremum_below(builder, toy_peak(loop), 1.0, 1.0, True, groups)
-    assert len(builder.rows) == len(GRID) + EXCHANGE_POINTS
-    assert np.all(builder.ubg[:len(GRID)] == 0) and np.all(builder.ubg[len(GRID):] == np.inf)
+    supremum_below(builder, value, make_scan("peak", value, builder.z, builder.p), 1.0, 1.0,
+                   True, groups)
+    coarse = len(GRID[::ROW_STRIDE])
+    assert len(builder.rows) == coarse + EXCHANGE_POINTS
+    assert np.all(builder.ubg[:coarse] == 0) and np.all(builder.ubg[coarse:] == np.inf)
     group = groups[0]
-    assert group.rows == list(range(len(GRID), len(GRID) + EXCHANGE_POINTS))
-    check = ca.Function("check", [builder.z], [group.violation, group.where])
-    violation, where = (float(v) for v in check(math.log(3.0)))
+    assert list(group.rows) == list(range(coarse, coarse + EXCHANGE_POINTS))
+    violation, where = group.violation(np.array([math.log(3.0)]), np.zeros(0), 1.0)
     assert violation == pytest.approx(0.5, rel=1e-9)  # peak 1.5 over the bound 1
-    assert where == pytest.approx(1.0, rel=1e-9)
+    assert where == pytest.approx(1.0, rel=1e-6)
+
+
+def test_rows_are_one_vector_evaluation_and_equal_the_pointwise_values():
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 0)
+    k = ca.exp(z[0])
+    vector = FrequencyFunction("f", lambda w: k * w / (1 + w**2), z, p)
+    # ca.if_else on a row is not elementwise here: the mapped fallback is used
+    pointwise = FrequencyFunction("g", lambda w: ca.if_else(w > 0, k * w / (1 + w**2), 0) +
+                                  ca.DM.zeros(1, 1), z, p)
+    omegas = np.array([0.5, 1.0, 2.0])
+    expected = 2.0 * omegas / (1 + omegas**2)
+    np.testing.assert_allclose(vector(omegas, np.array([math.log(2.0)]), np.zeros(0)), expected)
+    np.testing.assert_allclose(pointwise(omegas, np.array([math.log(2.0)]), np.zeros(0)),
+                               expected)
+    rows = ca.Function("rows", [z], [vector.rows(ca.DM(omegas).T)])
+    np.testing.assert_allclose(np.asarray(rows(math.log(2.0))).ravel(), expected)
+
+
+def test_refined_maximum_finds_a_peak_between_grid_points():
+    u = np.log(np.geomspace(0.1, 10.0, 9))  # 1 rad/s is a grid point: shift the peak off it
+    top, at = refined_maximum(lambda v: -(v - 0.123) ** 2 + 5.0, u, u[0], u[-1])
+    # the value to rounding; its place in ln ω only to √(eps·5) ≈ 3e-8: f is flat there
+    assert top == pytest.approx(5.0, abs=1e-15) and at == pytest.approx(0.123, abs=1e-7)
+
+
+def test_crossing_scan_finds_the_first_crossing():
+    """condition 1 − ω/c: crosses 0 at ω = c."""
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 0)
+    c = ca.exp(z[0])
+    crossing = Crossing(lambda w: 1 - w / c, np.geomspace(1e-3, 1.0, 121)[:-1], None,
+                        (0.01, 100.0), c)
+    scan = make_scan("crossing", crossing, z, p)
+    assert scan.exact(np.array([math.log(7.0)]), np.zeros(0)) == pytest.approx(7.0, rel=1e-12)
+    dip, where = scan.lowest_dip(np.array([math.log(7.0)]), np.zeros(0), 5.0, 0.0)
+    assert dip == pytest.approx(1 - 5.0 / 7.0, rel=1e-9) and where == pytest.approx(5.0)
 
 
 def _group():
-    return ExchangeGroup((-np.inf, 0.0), slots=[0, 1], rows=[5, 6])
+    return ExchangeGroup(None, None, (-np.inf, 0.0), slots=[0, 1], rows=range(5, 7))
 
 
 def test_a_violated_group_switches_on_its_next_row():
     slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
     used = [0]
-    assert add_exchange_points([_group()], np.array([0.1]), np.array([3.0]), slots, lbg, ubg,
-                               used) is True
+    assert add_exchange_points([_group()], [(0.1, 3.0)], slots, lbg, ubg, used) is True
     assert used == [1] and slots[0] == 3.0 and ubg[5] == 0.0 and ubg[6] == np.inf
 
 
@@ -92,12 +129,11 @@ def test_a_violated_group_switches_on_its_next_row():
                                               (1.0, 0.0)])
 def test_no_point_for_a_tiny_violation_or_no_frequency(violation, where):
     slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
-    assert add_exchange_points([_group()], np.array([violation]), np.array([where]), slots, lbg,
-                               ubg, [0]) is False
+    assert add_exchange_points([_group()], [(violation, where)], slots, lbg, ubg,
+                               [0]) is False
     assert np.all(ubg == np.inf)
 
 
 def test_a_group_out_of_points_says_so():
     slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
-    assert add_exchange_points([_group()], np.array([0.1]), np.array([3.0]), slots, lbg, ubg,
-                               [2]) is None
+    assert add_exchange_points([_group()], [(0.1, 3.0)], slots, lbg, ubg, [2]) is None
