@@ -323,7 +323,7 @@ class Problem:
             z = x0[:self.n_z]
             levels = np.asarray(self._exchange_levels(z, *x0[self.n_z:], self.param_values),
                                 dtype=float).ravel()
-            violations = [group.violation(z, self.param_values, level)
+            violations = [group.violations(z, self.param_values, level)
                           for group, level in zip(self.exchange_groups, levels)]
             added = add_exchange_points(self.exchange_groups, violations, slots, lbg, ubg, used)
             if added is None:

@@ -28,7 +28,7 @@ from feedtune.expr import Crossing, Supremum
 from feedtune.tuner.builder import NlpBuilder
 
 #: frequencies the exchange method may add to one peak or crossing, per start
-EXCHANGE_POINTS = 16
+EXCHANGE_POINTS = 24
 #: NLP rows on every ROW_STRIDE-th point of a metric's frequency grid (40 per decade): the
 #: exchange method adds the points that matter, so the NLP stays small
 ROW_STRIDE = 2
@@ -130,19 +130,36 @@ def _top(values: np.ndarray, u: np.ndarray) -> tuple[float, float]:
     return (float(values[k]), float(u[k])) if np.isfinite(values[k]) else (-math.inf, math.nan)
 
 
-def refined_maximum(f, u: np.ndarray, lower: float, upper: float) -> tuple[float, float]:
-    """(max of f over [lower, upper], its u) from the values on the even grid ``u``: every
-    grid point that is a local maximum (ends included) is refined in its window of two
-    grid steps (:func:`window_maxima`). (−inf, nan) when no value is finite."""
+def refined_maxima(f, u: np.ndarray, lower: float,
+                   upper: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Local maxima of f over [lower, upper] from its values on the even grid ``u``: every
+    grid point that is a local maximum (ends included) refined in its window of two grid
+    steps (:func:`window_maxima`). Returns (refined values, their u, f on the grid)."""
     values = f(u)
     finite = np.where(np.isfinite(values), values, -np.inf)
     left = np.concatenate([[-np.inf], finite[:-1]])
     right = np.concatenate([finite[1:], [-np.inf]])
     candidates = np.flatnonzero((finite >= left) & (finite >= right) & np.isfinite(finite))
     if candidates.size == 0:
-        return -math.inf, math.nan
+        return np.zeros(0), np.zeros(0), finite
     refined, where = window_maxima(f, u[candidates], (u[1] - u[0]) / 2, lower, upper)
+    return refined, where, finite
+
+
+def refined_maximum(f, u: np.ndarray, lower: float, upper: float) -> tuple[float, float]:
+    """(max of f over [lower, upper], its u): the largest of :func:`refined_maxima` and
+    the grid values; (−inf, nan) when no value is finite."""
+    refined, where, finite = refined_maxima(f, u, lower, upper)
     return _top(np.concatenate([refined, finite]), np.concatenate([where, u]))
+
+
+def _worst_first(amounts: np.ndarray, places: np.ndarray) -> list[tuple[float, float]]:
+    """(amount, place) pairs, largest amount first, one per place (relative 1e-9 apart)."""
+    pairs = []
+    for k in np.argsort(-amounts, kind="stable"):
+        if all(abs(places[k] - q) > 1e-9 * abs(q) for _, q in pairs):
+            pairs.append((float(amounts[k]), float(places[k])))
+    return pairs
 
 
 class SupremumScan:
@@ -164,6 +181,12 @@ class SupremumScan:
     def exact(self, z, p) -> float:
         """The Supremum's value: its refined peak."""
         return self.peak(z, p)[0]
+
+    def local_peaks(self, z, p) -> tuple[np.ndarray, np.ndarray]:
+        """(every refined local peak of fn, its ω [rad/s])."""
+        refined, where, _ = refined_maxima(lambda u: self.fn(np.exp(u), z, p), self.u,
+                                           self.u[0], self.u[-1])
+        return refined, np.exp(where)
 
 
 class CrossingScan:
@@ -204,6 +227,18 @@ class CrossingScan:
         top, at = refined_maximum(f, np.linspace(lo, hi, self.count), lo, hi)
         return -top, math.exp(at)
 
+    def local_dips(self, z, p, b: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """(every refined local minimum over ω ≤ b of condition(ω) − margin·(1 − ω/b), its
+        ω [rad/s])."""
+        lo, hi = math.log(self.band[0]), math.log(b)
+
+        def f(u):
+            omega = np.exp(u)
+            return -(self.fn(omega, z, p) - margin * (1 - omega / b))
+
+        refined, where, _ = refined_maxima(f, np.linspace(lo, hi, self.count), lo, hi)
+        return -refined, np.exp(where)
+
 
 def make_scan(name: str, value, z, p) -> SupremumScan | CrossingScan | None:
     """The numeric scan of a Supremum or Crossing (None for any other metric value)."""
@@ -230,15 +265,15 @@ class ExchangeGroup:
     slots: list[int] = field(default_factory=list)
     rows: range = range(0)
 
-    def violation(self, z, p, level: float) -> tuple[float, float]:
-        """(how far the refined peak exceeds ``level`` relative to it [1], or how far the
-        lowest dip under b = ``level`` falls below 0 [1]; the slot value that holds it:
-        ω [rad/s] for a peak, x = ω/b for a crossing)."""
+    def violations(self, z, p, level: float) -> list[tuple[float, float]]:
+        """Every refined local peak's excess over ``level`` relative to it [1] (or every
+        local dip's fall below 0 under b = ``level`` [1]), worst first, each with the slot
+        value that holds it: ω [rad/s] for a peak, x = ω/b for a crossing."""
         if isinstance(self.scan, SupremumScan):
-            peak, where = self.scan.peak(z, p)
-            return (peak - level) / (abs(level) + 1e-300), where
-        dip, where = self.scan.lowest_dip(z, p, level, DIP_MARGIN)
-        return -dip, where / level
+            peaks, where = self.scan.local_peaks(z, p)
+            return _worst_first((peaks - level) / (abs(level) + 1e-300), where)
+        dips, where = self.scan.local_dips(z, p, level, DIP_MARGIN)
+        return _worst_first(-dips, where / level)
 
 
 def _exchange_rows(builder: NlpBuilder, group: ExchangeGroup, default: float, constraint_at):
@@ -289,24 +324,29 @@ def supremum_below(builder: NlpBuilder, value: Supremum, scan: "SupremumScan", b
                                  float(grid[0]), rows))
 
 
-def add_exchange_points(groups: list[ExchangeGroup], violations: list[tuple[float, float]],
-                        slots: np.ndarray, lbg: np.ndarray, ubg: np.ndarray,
-                        used: list[int]) -> bool | None:
-    """Switch on a row at every group's violated refined peak/dip (in place).
+def add_exchange_points(groups: list[ExchangeGroup],
+                        violations: list[list[tuple[float, float]]], slots: np.ndarray,
+                        lbg: np.ndarray, ubg: np.ndarray, used: list[int]) -> bool | None:
+    """Switch on a row at every violated refined peak/dip of every group (in place).
 
-    ``violations`` holds each group's (violation, slot value) at the last solution; ``used``
-    counts each group's rows already on. True when points were added, False when nothing
-    is violated, None when a group that needs a point has none left.
+    ``violations`` holds each group's (violation, slot value) pairs at the last solution,
+    worst first (:meth:`ExchangeGroup.violations`): every violated local peak gets a point
+    in the same round, so one IPOPT round serves several resonances. ``used`` counts each
+    group's rows already on. True when points were added, False when nothing is violated,
+    None when a group's worst violation finds no point left.
     """
     added = False
-    for number, (group, (amount, at)) in enumerate(zip(groups, violations)):
-        if not (amount > EXCHANGE_TOL and math.isfinite(at) and at > 0):
-            continue
-        if used[number] == len(group.slots):
-            return None
-        slots[group.slots[used[number]]] = at
-        row = group.rows[used[number]]
-        lbg[row], ubg[row] = group.bounds
-        used[number] += 1
-        added = True
+    for number, (group, pairs) in enumerate(zip(groups, violations)):
+        for rank, (amount, at) in enumerate(pairs):
+            if not (amount > EXCHANGE_TOL and math.isfinite(at) and at > 0):
+                continue
+            if used[number] == len(group.slots):
+                if rank == 0:
+                    return None
+                break
+            slots[group.slots[used[number]]] = at
+            row = group.rows[used[number]]
+            lbg[row], ubg[row] = group.bounds
+            used[number] += 1
+            added = True
     return added

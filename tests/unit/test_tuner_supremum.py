@@ -74,9 +74,10 @@ def test_coarse_grid_rows_then_exchange_rows_switched_off():
     assert np.all(builder.ubg[:coarse] == 0) and np.all(builder.ubg[coarse:] == np.inf)
     group = groups[0]
     assert list(group.rows) == list(range(coarse, coarse + EXCHANGE_POINTS))
-    violation, where = group.violation(np.array([math.log(3.0)]), np.zeros(0), 1.0)
+    (violation, where), *others = group.violations(np.array([math.log(3.0)]), np.zeros(0), 1.0)
     assert violation == pytest.approx(0.5, rel=1e-9)  # peak 1.5 over the bound 1
     assert where == pytest.approx(1.0, rel=1e-6)
+    assert all(v < violation for v, _ in others)
 
 
 def test_rows_are_one_vector_evaluation_and_equal_the_pointwise_values():
@@ -121,7 +122,7 @@ def _group():
 def test_a_violated_group_switches_on_its_next_row():
     slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
     used = [0]
-    assert add_exchange_points([_group()], [(0.1, 3.0)], slots, lbg, ubg, used) is True
+    assert add_exchange_points([_group()], [[(0.1, 3.0)]], slots, lbg, ubg, used) is True
     assert used == [1] and slots[0] == 3.0 and ubg[5] == 0.0 and ubg[6] == np.inf
 
 
@@ -129,11 +130,19 @@ def test_a_violated_group_switches_on_its_next_row():
                                               (1.0, 0.0)])
 def test_no_point_for_a_tiny_violation_or_no_frequency(violation, where):
     slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
-    assert add_exchange_points([_group()], [(violation, where)], slots, lbg, ubg,
+    assert add_exchange_points([_group()], [[(violation, where)]], slots, lbg, ubg,
                                [0]) is False
     assert np.all(ubg == np.inf)
 
 
 def test_a_group_out_of_points_says_so():
     slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
-    assert add_exchange_points([_group()], [(0.1, 3.0)], slots, lbg, ubg, [2]) is None
+    assert add_exchange_points([_group()], [[(0.1, 3.0)]], slots, lbg, ubg, [2]) is None
+
+
+def test_every_violated_peak_gets_a_point_in_one_round_while_points_last():
+    slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
+    used = [0]
+    pairs = [(0.3, 5.0), (0.1, 3.0), (EXCHANGE_TOL / 2, 9.0), (0.05, 7.0)]
+    assert add_exchange_points([_group()], [pairs], slots, lbg, ubg, used) is True
+    assert used == [2] and list(slots) == [5.0, 3.0]  # the third violated one finds no slot
