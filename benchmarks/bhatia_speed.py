@@ -34,7 +34,7 @@ for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import copy  # noqa: E402
 import json  # noqa: E402
-import math  # noqa: E402
+import re  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -171,11 +171,11 @@ def reached(run: dict | None, best: float | None) -> str:
 
 
 def reference(multistart: int, only: str | None = None) -> int:
-    """Thorough reference: every spec (whose name contains ``only``) with ``multistart``
+    """Thorough reference: every spec (whose name matches the regex ``only``) with ``multistart``
     starts; prints REFERENCE."""
     found = {}
     for spec in all_specs():
-        if only and only not in spec["name"]:
+        if only and not re.search(only, spec["name"]):
             continue
         run = tune_one(spec, {"multistart": multistart})
         found[spec["name"]] = run["bandwidth"]
@@ -193,7 +193,7 @@ def main(argv=None) -> int:
                         help="run the old code on the 24 variants too (slow)")
     parser.add_argument("--reference", type=int, metavar="STARTS",
                         help="run the thorough reference with this many starts and print it")
-    parser.add_argument("--only", help="with --reference: only specs whose name contains this")
+    parser.add_argument("--only", help="with --reference: only specs whose name matches this regular expression")
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
