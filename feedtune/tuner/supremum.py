@@ -216,17 +216,6 @@ class CrossingScan:
         """The Crossing's value [rad/s]: its first crossing."""
         return self.crossing(z, p)
 
-    def lowest_dip(self, z, p, b: float, margin: float) -> tuple[float, float]:
-        """(min over ω ≤ b of condition(ω) − margin·(1 − ω/b), where it is taken [rad/s])."""
-        lo, hi = math.log(self.band[0]), math.log(b)
-
-        def f(u):
-            omega = np.exp(u)
-            return -(self.fn(omega, z, p) - margin * (1 - omega / b))
-
-        top, at = refined_maximum(f, np.linspace(lo, hi, self.count), lo, hi)
-        return -top, math.exp(at)
-
     def local_dips(self, z, p, b: float, margin: float) -> tuple[np.ndarray, np.ndarray]:
         """(every refined local minimum over ω ≤ b of condition(ω) − margin·(1 − ω/b), its
         ω [rad/s])."""
