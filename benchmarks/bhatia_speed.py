@@ -60,8 +60,9 @@ NOT_CONSTANTS = {"type", "velocity_compensator", "position_compensator", "stable
 #: best-known optimum: bandwidth [rad/s] from a thorough run with 8 starts (``--reference 8``)
 #: on 2 cores under load 5-10, 2026-11-25: the two bundled specs and Bhatia variants 01-06
 #: with the previous code (65fdeaa; variant 07 hit its 60 s time limit there), Bhatia
-#: variants 07-08 and Ward-Leonard variants 01-03 with the new formulation (bb54a23-6edb250).
-#: Every value is a validated, stable, feasible optimum; the others were not run in time.
+#: variants 07-12 and Ward-Leonard variants 01-03 with the new formulation (bb54a23-6edb250;
+#: Ward-Leonard variant 04 hit the time limit, 05-12 were not run in time). Every value is
+#: a validated, stable, feasible optimum.
 REFERENCE: dict[str, float] = {
     "bhatia-1971-hydraulic": 689.7739082816353,
     "ward-leonard-feed-drive": 25.557059411399987,
@@ -73,6 +74,10 @@ REFERENCE: dict[str, float] = {
     "bhatia-1971-hydraulic-variant06": 710.0536494734812,
     "bhatia-1971-hydraulic-variant07": 728.3211536901289,
     "bhatia-1971-hydraulic-variant08": 817.3431064515905,
+    "bhatia-1971-hydraulic-variant09": 597.8133894395507,
+    "bhatia-1971-hydraulic-variant10": 594.2351776776985,
+    "bhatia-1971-hydraulic-variant11": 691.6037305638166,
+    "bhatia-1971-hydraulic-variant12": 531.4980741433311,
     "ward-leonard-feed-drive-variant01": 21.012053724738568,
     "ward-leonard-feed-drive-variant02": 29.04832744477611,
     "ward-leonard-feed-drive-variant03": 24.476051917881513,

@@ -28,7 +28,7 @@ from feedtune.expr import Crossing, Supremum
 from feedtune.tuner.builder import NlpBuilder
 
 #: frequencies the exchange method may add to one peak or crossing, per start
-EXCHANGE_POINTS = 24
+EXCHANGE_POINTS = 16
 #: NLP rows on every ROW_STRIDE-th point of a metric's frequency grid (40 per decade): the
 #: exchange method adds the points that matter, so the NLP stays small
 ROW_STRIDE = 2
