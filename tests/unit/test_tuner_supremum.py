@@ -84,14 +84,15 @@ def test_rows_are_one_vector_evaluation_and_equal_the_pointwise_values():
     z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 0)
     k = ca.exp(z[0])
     vector = FrequencyFunction("f", lambda w: k * w / (1 + w**2), z, p)
-    # ca.if_else on a row is not elementwise here: the mapped fallback is used
-    pointwise = FrequencyFunction("g", lambda w: ca.if_else(w > 0, k * w / (1 + w**2), 0) +
-                                  ca.DM.zeros(1, 1), z, p)
+    # w·wᵀ is w² for one ω but 1×1 for a row: not elementwise, so ω is mapped one at a time
+    pointwise = FrequencyFunction("g", lambda w: k * ca.sqrt(ca.mtimes(w, w.T))
+                                  / (1 + ca.mtimes(w, w.T)), z, p)
     omegas = np.array([0.5, 1.0, 2.0])
     expected = 2.0 * omegas / (1 + omegas**2)
     np.testing.assert_allclose(vector(omegas, np.array([math.log(2.0)]), np.zeros(0)), expected)
     np.testing.assert_allclose(pointwise(omegas, np.array([math.log(2.0)]), np.zeros(0)),
                                expected)
+    assert pointwise.function(3).class_name() == "Map"
     rows = ca.Function("rows", [z], [vector.rows(ca.DM(omegas).T)])
     np.testing.assert_allclose(np.asarray(rows(math.log(2.0))).ravel(), expected)
 
