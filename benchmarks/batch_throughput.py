@@ -10,7 +10,7 @@ and the number of multistarts (2–4), so each costs about 0.03–0.1 s to tune.
 
 a. single solves: ``parse_spec`` + ``tune`` here, one after another, on the first
    ``--sample`` specs (default 100), after one untimed solve of each kind of problem (so
-   imports and IPOPT's first load are not counted) and, when ``feedtune.tuner.nlp`` has
+   imports and IPOPT's first load are not counted) and, when ``feedtune.tuner.cache`` has
    it, ``clear_solver_cache()``. The solver cache keys on the serialized CasADi graph;
    τ, BLU and V_m are NLP parameters, but the circle (radius, feed) and the sampling box
    shape the graph, so these generated specs share few solvers (the printed hit rate
@@ -30,7 +30,7 @@ relative to a single solve, (batch s/spec − single s/spec) / single s/spec, th
 of each worker count over 1 worker, the mean time inside ``solve`` per spec (the summary
 rows' ``time``: parse + tune as a worker measured it) and CPU ms/spec (this process and
 its joined worker processes), which tell contention on a shared machine from overhead.
-With ``feedtune.tuner.nlp.solver_cache_info()`` (when it exists) it also prints this
+With ``feedtune.tuner.cache.solver_cache_info()`` (when it exists) it also prints this
 process's solver-cache hit rate over the single solves.
 
     .venv/bin/python benchmarks/batch_throughput.py                 # 2000 specs
@@ -150,9 +150,9 @@ def single_solves(specs: list[dict], sample: int) -> dict:
 
 
 def _nlp():
-    import feedtune.tuner.nlp as nlp
+    import feedtune.tuner.cache as cache
 
-    return nlp
+    return cache
 
 
 def _counts(info) -> tuple[int, int] | None:
@@ -276,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"WARNING: only {resumed['resumed']} of {resumed['count']} rows resumed")
         cache = single["cache"]
         print("solver cache, single solves: " + (cache if cache else
-              "feedtune.tuner.nlp has no solver_cache_info(); not reported"))
+              "feedtune.tuner.cache has no solver_cache_info(); not reported"))
         if args.keep:
             print(f"kept: {root}")
     finally:

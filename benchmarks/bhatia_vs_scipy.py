@@ -8,7 +8,8 @@ and the three time constants of each compensator); the closed-loop bandwidth is 
 subject to C_v ≥ 80 1/s, |G(0) K'_v K'_p| ≥ 1000 1/s, M_peak ≤ 1.3, and both the position
 loop and the velocity loop stable. It is solved
 
-* by feedtune, from the example's spec dict (``parse_spec`` + ``tune``, its 8 multistarts);
+* by feedtune, from the example's spec dict (``parse_spec`` + ``tune``, its own multistart:
+  1 start since issue 15, 8 before);
 * by scipy ``differential_evolution`` and by SLSQP from the same 8 starting points, both on
   a numpy model of the loop written here (``numpy.polymul``; no feedtune code), with
   NonlinearConstraint objects for the constraints.

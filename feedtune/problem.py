@@ -280,7 +280,7 @@ def optimum_check(equal_optima: list[tuple[int, dict[str, float]]], flat: list[s
     """Is the tuned point the only one with its objective? (see OptimumCheck)
 
     Two tests: ``flat``, the tunables along a flat direction of the NLP at the optimum
-    (reduced Hessian, see feedtune.tuner.nlp; None when there was no NLP), and the starts
+    (reduced Hessian, see feedtune.tuner.optimum; None when there was no NLP), and the starts
     that reached the best objective (``equal_optima``, the best first, with their free
     tunables): a tunable whose values among them differ by more than DISTINCT_POINT_TOL
     (relative) spreads.

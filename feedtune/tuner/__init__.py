@@ -3,6 +3,7 @@
 It imports neither ``feedtune.plants`` nor ``feedtune.objectives`` (tests enforce this).
 """
 
-from feedtune.tuner.nlp import Bound, Outcome, Problem, Settings, Term, Variable
+from feedtune.tuner.nlp import Problem
+from feedtune.tuner.types import Bound, Outcome, Settings, Term, Variable
 
 __all__ = ["Bound", "Outcome", "Problem", "Settings", "Term", "Variable"]

@@ -27,8 +27,9 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import optimize
 
-from feedtune.tuner.nlp import (Bound, Outcome, Problem, Settings, StartOutcome, Term, Variable,
-                                _within)
+from feedtune.tuner.nlp import Problem
+from feedtune.tuner.types import (Bound, Outcome, Settings, StartOutcome, Term, Variable,
+                                  within as _within)
 
 #: an infeasible candidate scores PENALTY + its violation: worse than any feasible objective
 PENALTY = 1e9

@@ -1,6 +1,7 @@
 """The dependency rule (docs/design.md): plant → Loop → metrics → tuner, nothing flows back.
 
-* the tuner imports neither ``feedtune.plants`` nor ``feedtune.objectives``;
+* the tuner imports neither ``feedtune.plants`` nor ``feedtune.objectives``, nor the
+  validator (``feedtune.validate``), which must judge its results with code of its own;
 * an objective imports nothing from ``feedtune.plants``;
 * a plant imports nothing from ``feedtune.objectives`` or ``feedtune.tuner``.
 
@@ -141,7 +142,7 @@ def _modules_under(package: str) -> list[str]:
 
 
 RULES = [
-    ("feedtune.tuner", ("feedtune.plants", "feedtune.objectives")),
+    ("feedtune.tuner", ("feedtune.plants", "feedtune.objectives", "feedtune.validate")),
     ("feedtune.objectives", ("feedtune.plants", "feedtune.tuner")),
     ("feedtune.plants", ("feedtune.objectives", "feedtune.tuner")),
 ]

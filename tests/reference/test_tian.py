@@ -16,7 +16,7 @@ import pytest
 import feedtune.problem
 from feedtune.objectives import METRICS
 from feedtune.plants.pulse_generator import PulseGenerator, PulseGeneratorParams
-from feedtune.tuner.nlp import Bound, Settings, Term, Variable
+from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import SearchProblem
 from feedtune.validate.pulse_generator import PulseModel
 

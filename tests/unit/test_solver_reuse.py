@@ -13,7 +13,7 @@ import pytest
 from feedtune.plants import plant_for
 from feedtune.problem import tune
 from feedtune.spec import parse_spec
-from feedtune.tuner import nlp
+from feedtune.tuner import cache
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TIMING = ("solve_time", "build_time", "evaluation_time")
@@ -41,11 +41,11 @@ def _variant(data: dict, **plant) -> dict:
 def _tune_after(first: dict | None, second: dict):
     """Tune ``second`` in a cleared cache, after ``first`` when given; its result and the
     cache counters."""
-    nlp.clear_solver_cache()
+    cache.clear_solver_cache()
     if first is not None:
         tune(parse_spec(first))
     result = tune(parse_spec(second))
-    return result, nlp.solver_cache_info()
+    return result, cache.solver_cache_info()
 
 
 @pytest.mark.parametrize("example, changes", [
@@ -90,22 +90,22 @@ def test_a_number_that_shapes_the_graph_makes_a_new_solver():
 
 def test_same_spec_twice_reuses_and_repeats_the_result():
     a = _example("koren-1979-sampled-data.json")
-    nlp.clear_solver_cache()
+    cache.clear_solver_cache()
     first = tune(parse_spec(a))
     second = tune(parse_spec(a))
-    assert nlp.solver_cache_info()["hits"] == 1
+    assert cache.solver_cache_info()["hits"] == 1
     assert _without_timing(first) == _without_timing(second)
 
 
 def test_cache_is_bounded_least_recently_used_first(monkeypatch):
-    monkeypatch.setattr(nlp, "SOLVER_CACHE_SIZE", 1)
+    monkeypatch.setattr(cache, "SOLVER_CACHE_SIZE", 1)
     a = _example("koren-1979-sampled-data.json")
     b = copy.deepcopy(a)
     b["solver"]["tol"] = 1e-8  # an nlpsol option: part of the key
-    nlp.clear_solver_cache()
+    cache.clear_solver_cache()
     for data in (a, b, a):
         tune(parse_spec(data))
-    info = nlp.solver_cache_info()
+    info = cache.solver_cache_info()
     assert (info["hits"], info["misses"], info["size"]) == (0, 3, 1), info
 
 

@@ -1,0 +1,289 @@
+#!/usr/bin/env python
+"""Issue 15: Bhatia's hydraulic drive and the Ward-Leonard drive, one tuning each in ≤ 2 s.
+
+Runs the two bundled specs (``examples/bhatia-1971-hydraulic.json``,
+``examples/ward-leonard-feed-drive.json``) and 12 seeded random variants of each
+(:func:`variants`: every free tunable's box moved, C_v bound 60–150 1/s, M_peak bound
+1.1–1.5, every plant constant ×0.8–1.2), tuned with the spec's own solver settings, and
+prints per tuning the wall time (parse + build + solve + evaluation + validation), the
+bandwidth reached, whether it reaches the best-known optimum (:data:`REFERENCE`, within
+REACHED_RTOL), and whether the validator passed.
+
+The baseline ("old") is the previous code, exported from git (``--baseline REV``, default
+the commit this work started from) into a temporary directory and run in a child process,
+interleaved with the new runs so both see the same machine load: the bundled specs as
+they were then (8 and 4 starts, exact Hessian), the variants as here; the table gives
+new/old time ratios. Both run with one BLAS thread, as the ``feedtune``
+command does. ``--reference`` instead runs the thorough reference of every variant (many
+starts, the code on PYTHONPATH) and prints the dictionary to paste into REFERENCE.
+
+Usage::
+
+    .venv/bin/python benchmarks/bhatia_speed.py                 # new + old on the 2 specs, new on 24 variants
+    .venv/bin/python benchmarks/bhatia_speed.py --old-variants  # old on the variants too (≈ 25 min)
+    .venv/bin/python benchmarks/bhatia_speed.py --no-old        # new only
+"""
+
+from __future__ import annotations
+
+import os
+
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")  # as the feedtune command does (feedtune/__main__.py)
+
+import argparse  # noqa: E402
+import copy  # noqa: E402
+import json  # noqa: E402
+import re  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SPECS = ("bhatia-1971-hydraulic", "ward-leonard-feed-drive")
+VARIANTS = 12
+SEED = 15  # issue 15
+#: the commit this work started from (the landed main's tuner)
+BASELINE = "65fdeaa"
+#: a tuning reaches the best-known optimum when its bandwidth is within this of it (relative):
+#: the issue's 1e-4 for Bhatia's 689.774 rad/s
+REACHED_RTOL = 1e-4
+TARGET_SECONDS = 2.0
+#: box of each compensator time constant when the spec gives none (the plants' defaults) [s]
+DEFAULT_TAU_BOX = {"tau1": (1e-4, 10.0), "tau2": (1e-4, 10.0), "tau12": (1e-4, 100.0)}
+#: plant fields that are not constants to perturb
+NOT_CONSTANTS = {"type", "velocity_compensator", "position_compensator", "stable_velocity_loop"}
+
+#: best-known optimum: bandwidth [rad/s] from a thorough run with 8 starts (``--reference 8``)
+#: on 2 cores under load 5-10, 2026-11-25: the two bundled specs and Bhatia variants 01-06
+#: with the previous code (65fdeaa; variant 07 hit its 60 s time limit there), Bhatia
+#: variants 07-12 and Ward-Leonard variants 01-03 with the new formulation (bb54a23-6edb250;
+#: Ward-Leonard variant 04 hit the time limit, 05-12 were not run in time). Every value is
+#: a validated, stable, feasible optimum.
+REFERENCE: dict[str, float] = {
+    "bhatia-1971-hydraulic": 689.7739082816353,
+    "ward-leonard-feed-drive": 25.557059411399987,
+    "bhatia-1971-hydraulic-variant01": 730.1984499832166,
+    "bhatia-1971-hydraulic-variant02": 544.1906353283963,
+    "bhatia-1971-hydraulic-variant03": 701.9113344928676,
+    "bhatia-1971-hydraulic-variant04": 799.5321769625574,
+    "bhatia-1971-hydraulic-variant05": 674.0181338902814,
+    "bhatia-1971-hydraulic-variant06": 710.0536494734812,
+    "bhatia-1971-hydraulic-variant07": 728.3211536901289,
+    "bhatia-1971-hydraulic-variant08": 817.3431064515905,
+    "bhatia-1971-hydraulic-variant09": 597.8133894395507,
+    "bhatia-1971-hydraulic-variant10": 594.2351776776985,
+    "bhatia-1971-hydraulic-variant11": 691.6037305638166,
+    "bhatia-1971-hydraulic-variant12": 531.4980741433311,
+    "ward-leonard-feed-drive-variant01": 21.012053724738568,
+    "ward-leonard-feed-drive-variant02": 29.04832744477611,
+    "ward-leonard-feed-drive-variant03": 24.476051917881513,
+}
+
+
+def load(name: str) -> dict:
+    with open(os.path.join(ROOT, "examples", f"{name}.json")) as fh:
+        return json.load(fh)
+
+
+def variants(name: str, count: int = VARIANTS, seed: int = SEED) -> list[dict]:
+    """``count`` seeded random variants of the bundled spec ``name``.
+
+    Each free tunable's box: min and max each times 10^U(−0.5, 0.5) (decades; the plant's
+    default box where the spec gives none), the initial point clipped into the new box;
+    the C_v bound U(60, 150) 1/s; the M_peak bound U(1.1, 1.5); every numeric plant
+    constant times U(0.8, 1.2). The sensitivity bound and the objective are the spec's.
+    """
+    rng = np.random.default_rng([seed, SPECS.index(name)])
+    out = []
+    for k in range(count):
+        spec = copy.deepcopy(load(name))
+        spec["name"] = f"{name}-variant{k + 1:02d}"
+        for key, value in spec["plant"].items():
+            if key not in NOT_CONSTANTS and isinstance(value, (int, float)):
+                spec["plant"][key] = float(value * rng.uniform(0.8, 1.2))
+        for tname, tunable in spec["tunables"].items():
+            lo, hi = tunable.get("min"), tunable.get("max")
+            if lo is None or hi is None:
+                lo, hi = DEFAULT_TAU_BOX[tname.split(".")[-1]]
+            lo *= 10 ** rng.uniform(-0.5, 0.5)
+            hi *= 10 ** rng.uniform(-0.5, 0.5)
+            tunable["min"], tunable["max"] = float(lo), float(hi)
+            if "initial" in tunable:
+                tunable["initial"] = float(min(max(tunable["initial"], lo), hi))
+        for c in spec["constraints"]:
+            if c["metric"] == "velocity_constant":
+                c["min"] = float(rng.uniform(60, 150))
+            elif c["metric"] == "m_peak":
+                c["max"] = float(rng.uniform(1.1, 1.5))
+        out.append(spec)
+    return out
+
+
+def all_specs() -> list[dict]:
+    """The two bundled specs, then 12 variants of each."""
+    return [load(n) for n in SPECS] + [v for n in SPECS for v in variants(n)]
+
+
+def tune_one(spec: dict, solver: dict | None = None) -> dict:
+    """Tune ``spec`` (optionally with other solver settings) with the feedtune on sys.path."""
+    from feedtune.problem import tune
+    from feedtune.spec import parse_spec
+
+    spec = copy.deepcopy(spec)
+    if solver is not None:
+        spec["solver"] = {**spec.get("solver", {}), **solver}
+    started = time.perf_counter()
+    result = tune(parse_spec(spec))
+    seconds = time.perf_counter() - started
+    bandwidth = result.metrics["bandwidth"].value if result.success else None
+    return {"name": spec["name"], "seconds": seconds, "bandwidth": bandwidth,
+            "status": result.status, "success": result.success,
+            "validation_ok": result.validation.get("ok"),
+            "starts": len(result.solver.starts),
+            "iterations": sum(s.iterations for s in result.solver.starts),
+            "tuned": {k: v.value for k, v in result.tuned.items()}}
+
+
+def _child(argv) -> int:
+    """``--child``: tune the specs given as JSON on stdin, one JSON line per result."""
+    specs = json.load(sys.stdin)
+    for spec in specs:
+        print(json.dumps(tune_one(spec)), flush=True)
+    return 0
+
+
+class Baseline:
+    """The previous code in a child process: ``git archive REV`` unpacked into a temp dir."""
+
+    def __init__(self, rev: str):
+        self.dir = tempfile.mkdtemp(prefix="feedtune-baseline-")
+        archive = subprocess.run(["git", "-C", ROOT, "archive", rev, "feedtune"],
+                                 check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", self.dir], input=archive, check=True)
+        self.rev = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", rev], check=True,
+                                  capture_output=True, text=True).stdout.strip()
+
+    def spec(self, name: str) -> dict:
+        """The bundled spec ``name`` as it was at the baseline (its own solver settings)."""
+        text = subprocess.run(["git", "-C", ROOT, "show", f"{self.rev}:examples/{name}.json"],
+                              check=True, capture_output=True, text=True).stdout
+        return json.loads(text)
+
+    def tune(self, spec: dict) -> dict:
+        """Tune ``spec`` with the old code (the bundled specs as they were then)."""
+        if spec["name"] in SPECS:
+            spec = self.spec(spec["name"])
+        env = {**os.environ, "PYTHONPATH": self.dir}
+        proc = subprocess.run([sys.executable, os.path.abspath(__file__), "--child"],
+                              input=json.dumps([spec]), capture_output=True, text=True, env=env,
+                              cwd=self.dir, check=True)
+        return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def reached(run: dict | None, best: float | None) -> str:
+    """yes/no against the best-known optimum; n/a without a reference run for the spec."""
+    if run is None:
+        return "-"
+    if best is None:
+        return "n/a"
+    if run["bandwidth"] is None:
+        return "no"
+    return "yes" if run["bandwidth"] >= best * (1 - REACHED_RTOL) else "no"
+
+
+def reference(multistart: int, only: str | None = None) -> int:
+    """Thorough reference: every spec (whose name matches the regex ``only``) with ``multistart``
+    starts; prints REFERENCE."""
+    found = {}
+    for spec in all_specs():
+        if only and not re.search(only, spec["name"]):
+            continue
+        run = tune_one(spec, {"multistart": multistart})
+        found[spec["name"]] = run["bandwidth"]
+        print(f"# {spec['name']}: {run['bandwidth']} rad/s, {run['status']}, validation "
+              f"{run['validation_ok']}, {run['seconds']:.1f} s", flush=True)
+    print("REFERENCE = " + json.dumps(found, indent=4))
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", default=BASELINE, help="git revision of the old code")
+    parser.add_argument("--no-old", action="store_true", help="do not run the old code")
+    parser.add_argument("--old-variants", action="store_true",
+                        help="run the old code on the 24 variants too (slow)")
+    parser.add_argument("--reference", type=int, metavar="STARTS",
+                        help="run the thorough reference with this many starts and print it")
+    parser.add_argument("--only", help="with --reference: only specs whose name matches this regular expression")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        return _child(argv)
+    if args.reference:
+        return reference(args.reference, args.only)
+
+    import casadi
+
+    import feedtune
+
+    baseline = None if args.no_old else Baseline(args.baseline)
+    load_start = os.getloadavg()
+    tune_one(load(SPECS[1]), {"multistart": 1, "max_iter": 1})  # imports and IPOPT's load
+    print(f"feedtune {feedtune.__file__}; casadi {casadi.__version__}; python "
+          f"{sys.version.split()[0]}; baseline: "
+          f"{'none' if baseline is None else baseline.rev + ' (child process, same specs)'}")
+    print(f"load average at start {load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f} on "
+          f"{os.cpu_count()} CPUs; time = parse + build + solve + evaluation + validation")
+    header = (f"{'spec':<36} {'new s':>6} {'bandwidth':>10} {'best':>10} {'reached':>7} "
+              f"{'valid':>5} {'starts':>6} {'iters':>6} | {'old s':>6} {'reached':>7} "
+              f"{'new/old':>7}")
+    print(header)
+    print("-" * len(header))
+    rows = []
+    for spec in all_specs():
+        bundled = spec["name"] in SPECS
+        new = tune_one(spec)
+        old = (baseline.tune(spec) if baseline is not None and (bundled or args.old_variants)
+               else None)
+        reference_value = REFERENCE.get(spec["name"])
+        # best known: the reference run's, or a better one found here (then it is the best)
+        best = (None if reference_value is None else
+                max(b for b in (reference_value, new["bandwidth"], old and old["bandwidth"])
+                    if b is not None))
+        rows.append((spec["name"], new, old, best))
+        ratio = f"{new['seconds'] / old['seconds']:7.3f}" if old else f"{'-':>7}"
+        print(f"{spec['name']:<36} {new['seconds']:6.2f} "
+              f"{new['bandwidth'] if new['bandwidth'] is not None else float('nan'):10.4f} "
+              f"{best if best is not None else float('nan'):10.4f} {reached(new, best):>7} "
+              f"{'yes' if new['validation_ok'] else 'NO':>5} {new['starts']:6d} "
+              f"{new['iterations']:6d} | "
+              f"{old['seconds'] if old else float('nan'):6.2f} {reached(old, best):>7} {ratio}",
+              flush=True)
+    print()
+    for name in SPECS:
+        group = [r for r in rows if r[0].startswith(name) and r[0] != name]
+        ok = sum(reached(new, best) == "yes" and new["seconds"] <= TARGET_SECONDS
+                 and new["validation_ok"] for _, new, _, best in group)
+        found = sum(reached(new, best) == "yes" for _, new, _, best in group)
+        known = sum(best is not None for _, _, _, best in group)
+        times = [new["seconds"] for _, new, _, _ in group]
+        print(f"{name} variants: {found} of {known} with a reference reach the best-known "
+              f"optimum, {ok} of them in ≤ {TARGET_SECONDS:g} s with validation ok (target: "
+              f"≥ 10 of 12); time median {np.median(times):.2f} s, max {max(times):.2f} s")
+    for name, new, old, best in rows:
+        if name in SPECS:
+            print(f"{name}: new {new['seconds']:.2f} s ({reached(new, best)}, validation "
+                  f"{new['validation_ok']}), old "
+                  + (f"{old['seconds']:.2f} s ({reached(old, best)}); new/old "
+                     f"{new['seconds'] / old['seconds']:.3f}" if old else "not run"))
+    end = os.getloadavg()
+    print(f"load average at end {end[0]:.2f} {end[1]:.2f} {end[2]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,126 @@
+"""The NLP under construction: its variables, parameters, constraint rows and scales.
+
+The NLP's variables are the logarithms of the free tunables (``z``) followed by auxiliary
+variables (epigraph slacks, crossing frequencies). Every number of a problem that shapes
+no graph is an NLP parameter (``p``): fixed tunable values, the plant's numbers, objective
+weights, bounds inside the graph and every scale found by probing the starts, so that one
+built solver serves every spec of the same structure (feedtune.tuner.cache). Exchange
+points (frequencies added while solving, feedtune.tuner.supremum) are parameters too,
+held apart as ``slots``.
+"""
+
+from __future__ import annotations
+
+import math
+import casadi as ca
+import numpy as np
+
+from feedtune.tuner.types import Variable
+
+
+class NlpBuilder:
+    """Collects the NLP piece by piece; each ``add_*`` returns what the caller needs later
+    (a symbol, or a row's index)."""
+
+    def __init__(self, variables: list[Variable]):
+        self.variables = variables
+        self.z = ca.MX.sym("log_tunables", len(variables))
+        self._params: list[ca.MX] = []
+        self._param_values: list[float] = []
+        self._extra: list[ca.MX] = []
+        self._extra_lower: list[float] = []
+        self._extra_upper: list[float] = []
+        self.extra_start: list = []  # start of each auxiliary variable, an expression of z
+        self.rows: list = []
+        self._lbg: list[float] = []
+        self._ubg: list[float] = []
+        self.slots: list[ca.MX] = []
+        self._slot_defaults: list[float] = []
+
+    def parameter(self, name: str, value: float) -> ca.MX:
+        """A new NLP parameter holding ``value`` for this problem; its symbol."""
+        symbol = ca.MX.sym(name)
+        self._params.append(symbol)
+        self._param_values.append(float(value))
+        return symbol
+
+    def variable(self, name: str, lower: float, upper: float, start) -> ca.MX:
+        """A new auxiliary NLP variable in [lower, upper], started at ``start`` (an
+        expression of z); its symbol."""
+        symbol = ca.MX.sym(name)
+        self._extra.append(symbol)
+        self._extra_lower.append(lower)
+        self._extra_upper.append(upper)
+        self.extra_start.append(start)
+        return symbol
+
+    def constrain(self, expr, lower: float, upper: float) -> int:
+        """Constraint row ``lower ≤ expr ≤ upper``; its index."""
+        self.rows.append(expr)
+        self._lbg.append(lower)
+        self._ubg.append(upper)
+        return len(self.rows) - 1
+
+    def constrain_all(self, expr, lower: float, upper: float) -> range:
+        """One row ``lower ≤ e ≤ upper`` per entry e of the vector ``expr``; their indices."""
+        start = len(self.rows)
+        for k in range(expr.numel()):
+            self.constrain(expr[k], lower, upper)
+        return range(start, len(self.rows))
+
+    def slot(self, name: str, default: float) -> tuple[int, ca.MX]:
+        """An exchange point: a parameter set while solving (``default`` until then); its
+        index among the slots and its symbol."""
+        symbol = ca.MX.sym(name)
+        self.slots.append(symbol)
+        self._slot_defaults.append(float(default))
+        return len(self.slots) - 1, symbol
+
+    @property
+    def n_z(self) -> int:
+        return len(self.variables)
+
+    @property
+    def extra(self) -> list[ca.MX]:
+        """The auxiliary variables' symbols."""
+        return list(self._extra)
+
+    @property
+    def w(self) -> ca.MX:
+        """Every NLP variable: z, then the auxiliary ones."""
+        return ca.vertcat(self.z, *self._extra)
+
+    @property
+    def p(self) -> ca.MX:
+        """Every parameter but the slots."""
+        return ca.vertcat(ca.MX(0, 1), *self._params)
+
+    @property
+    def param_values(self) -> np.ndarray:
+        return np.array(self._param_values, dtype=float)
+
+    @property
+    def slot_defaults(self) -> np.ndarray:
+        return np.array(self._slot_defaults, dtype=float)
+
+    @property
+    def lbw(self) -> np.ndarray:
+        return np.concatenate([np.log([v.lower for v in self.variables]), self._extra_lower])
+
+    @property
+    def ubw(self) -> np.ndarray:
+        return np.concatenate([np.log([v.upper for v in self.variables]), self._extra_upper])
+
+    @property
+    def lbg(self) -> np.ndarray:
+        return np.array(self._lbg, dtype=float)
+
+    @property
+    def ubg(self) -> np.ndarray:
+        return np.array(self._ubg, dtype=float)
+
+
+def scale(*candidates) -> float:
+    """The largest finite, non-zero |candidate|, or 1 when there is none."""
+    finite = [abs(c) for c in candidates if c is not None and math.isfinite(c) and c != 0]
+    return max(finite) if finite else 1.0

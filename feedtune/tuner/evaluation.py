@@ -1,0 +1,124 @@
+"""What the NLP sees at a point: objective, terms, bounds, stability, by name.
+
+Plain metric values come from one CasADi Function of the log tunables and the parameters;
+peaks and crossings over frequency from their numeric scans (feedtune.tuner.supremum),
+not from the metrics' symbolic refinement (golden section in every grid window, written
+in MX: ≈ 0.2–0.3 s a call on Bhatia's loop). The result's own numbers come from the loop
+of numbers instead (Problem._evaluate_numeric); the model gap compares the two.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from feedtune.tuner.terms import exact_value
+from feedtune.tuner.types import finite
+
+
+@dataclass(frozen=True)
+class Seen:
+    """Values at one point, each in its metric's unit (None: not a finite number).
+
+    ``objective`` is Σ weight·term; ``terms`` and ``bounds`` each metric value (|e| for a
+    magnitude); ``stability`` and ``settling`` the loop's conditions (all > 0 when stable
+    and settled); ``matrices`` the state matrices that must be stable, by name.
+    """
+
+    objective: float | None
+    terms: list[float | None]
+    bounds: list[float | None]
+    stability: np.ndarray
+    settling: np.ndarray
+    matrices: dict[str, np.ndarray]
+
+
+class Evaluator:
+    """:class:`Seen` at any log tunables ``z`` for parameter values ``p`` (the NLP's, of
+    which the first ``p.numel()`` given here are read).
+
+    ``terms`` and ``bounds`` are the metric values of the objective terms and constraints
+    (expressions, Magnitudes, Supremums or Crossings), ``weights`` the terms' signed
+    weights, ``scans`` the numeric scan of each value that has one (None otherwise).
+    """
+
+    def __init__(self, z, p, terms: list, weights: list[float], term_scans: list, bounds: list,
+                 bound_scans: list, stability: list, settling: list, matrices: dict):
+        self.weights = list(weights)
+        self.term_scans, self.bound_scans = list(term_scans), list(bound_scans)
+        self.term_magnitude = [exact_value(v)[1] for v in terms]
+        self.bound_magnitude = [exact_value(v)[1] for v in bounds]
+        self.matrix_names = list(matrices)
+        self.n_params = p.numel()  # the parameters existing now: a call passes that many
+
+        def plain(values, scans):  # a scanned value is filled in numerically
+            return ca.vertcat(ca.MX(0, 1), *[ca.MX(0) if scan is not None else exact_value(v)[0]
+                                             for v, scan in zip(values, scans)])
+
+        self.function = ca.Function(
+            "check", [z, p],
+            [plain(terms, term_scans), plain(bounds, bound_scans),
+             ca.vertcat(ca.MX(0, 1), *stability), ca.vertcat(ca.MX(0, 1), *settling),
+             *matrices.values()],
+            ["z", "p"], ["terms", "bounds", "stability", "settling", *self.matrix_names])
+
+    def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
+        out = self.function(z=z, p=p[:self.n_params])
+
+        def values(row, magnitudes, scans):
+            row = np.asarray(row, dtype=float).ravel()
+            result = []
+            for v, magnitude, scan in zip(row, magnitudes, scans):
+                v = scan.exact(z, p) if scan is not None else v
+                result.append(finite(abs(v) if magnitude else v))
+            return result
+
+        terms = values(out["terms"], self.term_magnitude, self.term_scans)
+        objective = (None if any(t is None for t in terms)
+                     else sum(w * t for w, t in zip(self.weights, terms)))
+        return Seen(objective=finite(objective) if objective is not None else None,
+                    terms=terms,
+                    bounds=values(out["bounds"], self.bound_magnitude, self.bound_scans),
+                    stability=np.asarray(out["stability"], dtype=float).ravel(),
+                    settling=np.asarray(out["settling"], dtype=float).ravel(),
+                    matrices={name: np.asarray(out[name], dtype=float)
+                              for name in self.matrix_names})
+
+
+@dataclass(frozen=True)
+class Scales:
+    """The smallest magnitude each value takes over the stable starts (None: no stable
+    start gave a finite, non-zero value), in the value's own unit."""
+
+    objective: float | None
+    terms: list[float | None]
+    bounds: list[float | None]
+    stability: list[float | None]
+    settling: list[float | None]
+
+
+def smallest_magnitudes(seen: list[Seen]) -> Scales:
+    """:class:`Scales` over the points ``seen`` (the starts).
+
+    Objective, terms and bounds count only at stable points: an unstable loop's IAE is
+    astronomically large, and scaling by it would flatten the objective until IPOPT stops
+    anywhere (too small a scale is harmless: IPOPT's gradient-based scaling shrinks large
+    gradients). Conditions count everywhere.
+    """
+    def smallest(rows, stable_only):
+        table = np.array([[np.nan if v is None else v for v in row] for row in rows],
+                         dtype=float).reshape(len(rows), -1)
+        table = np.abs(table)
+        table[~np.isfinite(table) | (table == 0)] = np.inf
+        if stable_only:
+            table[~stable] = np.inf
+        return [float(v) if np.isfinite(v) else None for v in table.min(axis=0)]
+
+    stable = np.array([bool(np.all(s.stability > 0)) for s in seen])
+    return Scales(objective=smallest([[s.objective] for s in seen], True)[0],
+                  terms=smallest([s.terms for s in seen], True),
+                  bounds=smallest([s.bounds for s in seen], True),
+                  stability=smallest([s.stability for s in seen], False),
+                  settling=smallest([s.settling for s in seen], False))

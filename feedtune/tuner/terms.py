@@ -1,0 +1,81 @@
+"""Objective terms and constraints as smooth NLP pieces.
+
+A metric's value is a plain expression, a :class:`~feedtune.expr.Magnitude` (|e|), a
+:class:`~feedtune.expr.Supremum` (a peak over ω) or a :class:`~feedtune.expr.Crossing`
+(the first ω where a condition falls to 0). Magnitudes become epigraphs (a slack t with
+−t ≤ e ≤ t), peaks epigraphs over the frequency grid, crossings an auxiliary variable
+(feedtune.tuner.supremum), so the NLP stays smooth. Every row is divided by a scale, an
+NLP parameter, so one built solver serves specs of other magnitudes.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from feedtune.expr import Crossing, Magnitude, Supremum
+from feedtune.tuner.builder import NlpBuilder, scale
+from feedtune.tuner.supremum import ExchangeGroup, crossing_variable, supremum_below
+from feedtune.tuner.types import Bound
+
+
+def exact_value(value) -> tuple[object, bool]:
+    """(expression, is |·|): the exact value the result reports, for any metric value."""
+    if isinstance(value, Magnitude):
+        return value.expr, True
+    if isinstance(value, (Supremum, Crossing)):
+        return value.exact, False
+    return value, False
+
+
+def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
+             reference: float | None, groups: list[ExchangeGroup]):
+    """The NLP's share of objective term ``index``: ``weight`` (a parameter) times its value.
+
+    ``sign`` is the term's signed weight: its sign shapes the NLP (an epigraph only bounds
+    what is minimised), its size is the parameter. ``reference`` is the term's magnitude
+    at the starts (see feedtune.tuner.builder.Scales); ``scan`` the numeric scan of a
+    Supremum or Crossing value (feedtune.tuner.supremum.make_scan).
+    """
+    expr, magnitude = exact_value(value)
+    if isinstance(value, Crossing):
+        return weight * crossing_variable(builder, value, scan, index, sign > 0, groups)
+    if isinstance(value, Supremum) and sign > 0:  # epigraph: fn(ω) ≤ s·t, minimise
+        s = builder.parameter(f"term_scale{index}", scale(reference))
+        t = builder.variable(f"peak{index}", 0, ca.inf, value.exact / s * 1.01)
+        supremum_below(builder, value, scan, s * t, s, True, groups)
+        return weight * s * t
+    if magnitude and sign < 0:  # maximising |e|: no epigraph bounds it from above
+        return weight * ca.fabs(expr)
+    if magnitude:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
+        s = builder.parameter(f"term_scale{index}", scale(reference))
+        t = builder.variable(f"slack{index}", 0, ca.inf, ca.fabs(expr) / s * 1.01 + 1e-6)
+        builder.constrain((expr - s * t) / s, -ca.inf, 0)
+        builder.constrain((expr + s * t) / s, 0, ca.inf)
+        return weight * s * t
+    return weight * expr
+
+
+def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
+              reference: float | None, groups: list[ExchangeGroup]) -> None:
+    """Rows holding ``bound.lower ≤ value ≤ bound.upper``, divided by the bound's scale
+    (``scan`` as for :func:`add_term`)."""
+    expr, magnitude = exact_value(value)
+    s_value = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(reference)
+    s = builder.parameter(f"bound_scale{index}", s_value)
+    lower = bound.lower / s_value if bound.lower is not None else -ca.inf
+    upper = bound.upper / s_value if bound.upper is not None else ca.inf
+    if isinstance(value, Crossing):
+        b = crossing_variable(builder, value, scan, f"_bound{index}", bound.upper is not None,
+                              groups)
+        builder.constrain(b / s, lower, upper)
+    elif isinstance(value, Supremum) and bound.upper is not None:
+        supremum_below(builder, value, scan, builder.parameter(f"bound_upper{index}", bound.upper),
+                       s, bound.upper > 0, groups)
+        if bound.lower is not None:
+            builder.constrain(expr / s, lower, ca.inf)
+    elif magnitude and bound.lower is not None and bound.lower > 0:
+        builder.constrain(expr**2 / s**2, lower**2, upper**2 if bound.upper is not None else ca.inf)
+    elif magnitude:
+        builder.constrain(expr / s, -upper, upper)
+    else:
+        builder.constrain(expr / s, lower, upper)

@@ -1,0 +1,150 @@
+"""feedtune.tuner.supremum: peaks over frequency held by the exchange method.
+
+A toy loop with one tunable k and the peak k·ω/(1 + ω²) (largest value k/2 at ω = 1 rad/s):
+on a grid that misses ω = 1 the grid alone would allow a larger k than the true bound.
+"""
+
+import math
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from feedtune.expr import Supremum
+from feedtune.frequency import peak
+from feedtune.tuner.builder import NlpBuilder
+from feedtune.tuner.nlp import Problem
+from feedtune.expr import Crossing
+from feedtune.tuner.supremum import (EXCHANGE_POINTS, EXCHANGE_TOL, ROW_STRIDE, ExchangeGroup,
+                                     FrequencyFunction, add_exchange_points,
+                                     make_scan, refined_maximum, supremum_below)
+from feedtune.tuner.types import Bound, Settings, Term, Variable
+
+GRID = np.array([0.1, 0.5, 2.0, 10.0])  # rad/s; the peak at 1 rad/s falls between points
+
+
+class ToyLoop:
+    """Stable for every k > 0; no horizon, no inner loop."""
+
+    discrete = False
+    unrolled_steps = 0
+
+    def __init__(self, k):
+        self.k = k
+
+    def stability_conditions(self):
+        return [self.k]
+
+    def settling_conditions(self):
+        return []
+
+    def stability_matrices(self):
+        return {"closed_loop": ca.reshape(-self.k, 1, 1)}
+
+
+def toy_peak(loop):
+    def fn(omega):
+        return loop.k * omega / (1 + omega**2)
+
+    value, where = peak(fn, (0.01, 100.0))
+    return Supremum(fn, GRID, value, where)
+
+
+def test_the_exchange_method_holds_the_true_peak_not_the_grid():
+    """max k s.t. peak ≤ 1: on the grid alone k = 1/0.4 = 2.5; the true answer is k = 2."""
+    problem = Problem([Variable("k", 0.1, 10.0, initial=1.0)], {},
+                      lambda values: ToyLoop(values["k"]),
+                      [Term("k", lambda loop: loop.k, -1.0)],
+                      [Bound("peak", toy_peak, None, 1.0)], {}, Settings(multistart=1))
+    outcome = problem.solve()
+    assert outcome.success, outcome.message
+    assert outcome.values["k"] == pytest.approx(2.0, rel=1e-6)
+    assert outcome.constraints[0][1] == pytest.approx(1.0, rel=1e-6)
+    assert outcome.starts[0].exchange_points >= 1
+
+
+def test_coarse_grid_rows_then_exchange_rows_switched_off():
+    builder = NlpBuilder([Variable("k", 0.1, 10.0)])
+    value = toy_peak(ToyLoop(ca.exp(builder.z[0])))
+    groups = []
+    supremum_below(builder, value, make_scan("peak", value, builder.z, builder.p), 1.0, 1.0,
+                   True, groups)
+    coarse = len(GRID[::ROW_STRIDE])
+    assert len(builder.rows) == coarse + EXCHANGE_POINTS
+    assert np.all(builder.ubg[:coarse] == 0) and np.all(builder.ubg[coarse:] == np.inf)
+    group = groups[0]
+    assert list(group.rows) == list(range(coarse, coarse + EXCHANGE_POINTS))
+    (violation, where), *others = group.violations(np.array([math.log(3.0)]), np.zeros(0), 1.0)
+    assert violation == pytest.approx(0.5, rel=1e-9)  # peak 1.5 over the bound 1
+    assert where == pytest.approx(1.0, rel=1e-6)
+    assert all(v < violation for v, _ in others)
+
+
+def test_rows_are_one_vector_evaluation_and_equal_the_pointwise_values():
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 0)
+    k = ca.exp(z[0])
+    vector = FrequencyFunction("f", lambda w: k * w / (1 + w**2), z, p)
+    # w·wᵀ is w² for one ω but 1×1 for a row: not elementwise, so ω is mapped one at a time
+    pointwise = FrequencyFunction("g", lambda w: k * ca.sqrt(ca.mtimes(w, w.T))
+                                  / (1 + ca.mtimes(w, w.T)), z, p)
+    omegas = np.array([0.5, 1.0, 2.0])
+    expected = 2.0 * omegas / (1 + omegas**2)
+    np.testing.assert_allclose(vector(omegas, np.array([math.log(2.0)]), np.zeros(0)), expected)
+    np.testing.assert_allclose(pointwise(omegas, np.array([math.log(2.0)]), np.zeros(0)),
+                               expected)
+    assert pointwise.function(3).class_name() == "Map"
+    rows = ca.Function("rows", [z], [vector.rows(ca.DM(omegas).T)])
+    np.testing.assert_allclose(np.asarray(rows(math.log(2.0))).ravel(), expected)
+
+
+def test_refined_maximum_finds_a_peak_between_grid_points():
+    u = np.log(np.geomspace(0.1, 10.0, 9))  # 1 rad/s is a grid point: shift the peak off it
+    top, at = refined_maximum(lambda v: -(v - 0.123) ** 2 + 5.0, u, u[0], u[-1])
+    # the value to rounding; its place in ln ω only to √(eps·5) ≈ 3e-8: f is flat there
+    assert top == pytest.approx(5.0, abs=1e-15) and at == pytest.approx(0.123, abs=1e-7)
+
+
+def test_crossing_scan_finds_the_first_crossing():
+    """condition 1 − ω/c: crosses 0 at ω = c."""
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 0)
+    c = ca.exp(z[0])
+    crossing = Crossing(lambda w: 1 - w / c, np.geomspace(1e-3, 1.0, 121)[:-1], None,
+                        (0.01, 100.0), c)
+    scan = make_scan("crossing", crossing, z, p)
+    assert scan.exact(np.array([math.log(7.0)]), np.zeros(0)) == pytest.approx(7.0, rel=1e-12)
+    dips, where = scan.local_dips(np.array([math.log(7.0)]), np.zeros(0), 5.0, 0.0)
+    k = int(np.argmin(dips))  # the condition falls all the way: its lowest value is at b
+    assert dips[k] == pytest.approx(1 - 5.0 / 7.0, rel=1e-9) and where[k] == pytest.approx(5.0)
+
+
+def _group():
+    return ExchangeGroup(None, None, (-np.inf, 0.0), slots=[0, 1], rows=range(5, 7))
+
+
+def test_a_violated_group_switches_on_its_next_row():
+    slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
+    used = [0]
+    assert add_exchange_points([_group()], [[(0.1, 3.0)]], slots, lbg, ubg, used) is True
+    assert used == [1] and slots[0] == 3.0 and ubg[5] == 0.0 and ubg[6] == np.inf
+
+
+@pytest.mark.parametrize("violation, where", [(EXCHANGE_TOL / 2, 3.0), (1.0, math.nan),
+                                              (1.0, 0.0)])
+def test_no_point_for_a_tiny_violation_or_no_frequency(violation, where):
+    slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
+    assert add_exchange_points([_group()], [[(violation, where)]], slots, lbg, ubg,
+                               [0]) is False
+    assert np.all(ubg == np.inf)
+
+
+def test_a_group_out_of_points_says_so():
+    slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
+    assert add_exchange_points([_group()], [[(0.1, 3.0)]], slots, lbg, ubg, [2]) is None
+
+
+def test_every_violated_peak_gets_a_point_in_one_round_while_points_last():
+    slots, lbg, ubg = np.zeros(2), np.full(7, -np.inf), np.full(7, np.inf)
+    used = [0]
+    pairs = [(0.3, 5.0), (0.1, 3.0), (EXCHANGE_TOL / 2, 9.0), (0.05, 7.0)]
+    assert add_exchange_points([_group()], [pairs], slots, lbg, ubg, used) is True
+    assert used == [2] and list(slots) == [5.0, 3.0]  # the third violated one finds no slot
