@@ -218,8 +218,8 @@ def _summary(result) -> list[str]:
         text += f", spectral abscissa {_g(stability['spectral_abscissa'])} [1/s] (s-plane poles)"
     lines.append(f"stability: {text}")
     s = result.solver
-    method = "IPOPT" if s.method == "ipopt" else s.method.replace("_", " ")
-    unit = "iterations" if s.method == "ipopt" else "generations"
+    method = {"ipopt": "IPOPT", "brent": "Brent"}.get(s.method, s.method.replace("_", " "))
+    unit = "generations" if s.method == "differential_evolution" else "iterations"
     lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
                  f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
     return lines

@@ -60,7 +60,7 @@ class StartResult(ResultModel):
 
 
 class SolverResult(ResultModel):
-    method: Literal["ipopt", "differential_evolution"] = Field(
+    method: Literal["ipopt", "brent", "differential_evolution"] = Field(
         "ipopt", description="ipopt: the NLP with exact derivatives; differential_evolution: "
                              "the search on an exact simulation (pulse generators)")
     return_status: str = Field(description="The solver's own return status of the chosen start "

@@ -35,6 +35,8 @@ from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build
 from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
+from feedtune.tuner.scalar import ScalarSearch
+from feedtune.tuner.scalar import applies as scalar_search_applies
 from feedtune.tuner.stability import add_stability_rows, feasibility, restore
 from feedtune.tuner.starts import starting_points
 from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points, make_scan
@@ -138,17 +140,25 @@ class Problem:
         }
         self._build = (functions, {"check": self.evaluator.function}, expand)
         self._solvers: dict[str, object] = {}
-        entry = self._entry(self.hessians[0])
+        # one free tunable and nothing else to decide: a line search, no IPOPT solver built
+        scalar = (settings.scalar_search and not settings.ipopt_options
+                  and scalar_search_applies(self))
+        entry = self._entry(self.hessians[0], with_solver=not scalar)
         self.settling = entry.functions["settling"]
         self.extra_start = entry.functions["extra_start"]
         self._exchange_levels = entry.functions["exchange_levels"]
         self.stability_check = entry.functions["stability_check"]
         self.solver_reused = entry.reused
+        self.scalar = ScalarSearch.for_problem(self) if scalar else None
+        if self.scalar is not None and not self.scalar.stable.any():
+            self.scalar = None  # IPOPT's restoration looks for stability between the points
+        if self.scalar is not None:
+            self.starts = self.scalar.start_points()
         self.build_time = time.perf_counter() - started
 
-    def _entry(self, hessian: str):
+    def _entry(self, hessian: str, with_solver: bool = True):
         """The cached build (Functions and IPOPT solver) with this Hessian approximation;
-        a solver is built when a start first needs it."""
+        a solver is built when a start first needs it (never for the scalar search)."""
         functions, key_extra, expand = self._build
         history = ({"limited_memory_max_history": LBFGS_HISTORY}
                    if hessian == "limited-memory" else {})
@@ -160,7 +170,7 @@ class Problem:
             "print_time": False,
             "error_on_fail": False,
         }
-        entry = cached_build(functions, key_extra, options, expand, self.has_nlp)
+        entry = cached_build(functions, key_extra, options, expand, self.has_nlp and with_solver)
         self._solvers[hessian] = entry.solver
         return entry
 
@@ -221,8 +231,14 @@ class Problem:
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
             iterations = exchanged = 0
-            for hessian in (self.hessians if self.has_nlp else [None]):
-                if hessian is not None:
+            attempts = (["scalar"] if self.scalar is not None else
+                        self.hessians if self.has_nlp else [None])
+            for hessian in attempts:
+                if hessian == "scalar":
+                    z_opt, return_status, iterations, exchanged, _ = self.scalar.solve_from(
+                        z0, started)
+                    status = STATUS.get(return_status, "error")
+                elif hessian is not None:
                     solver = self._solver(hessian)
                     z_opt, return_status, its, exchanged, solution = self._solve_from(
                         z0, started, solver)
@@ -252,7 +268,10 @@ class Problem:
         _, index, z_opt, return_status, status = best
         equal = equal_optima(optima, index, self.f_scale, self.variables)
         solver, solution = solutions.get(index, (None, None))
-        flat = flat_tunables(solver, solution, self.variables) if solution else None
+        if self.scalar is not None:
+            flat = self.scalar.flat_tunables(z_opt, self.variables[0].name)
+        else:
+            flat = flat_tunables(solver, solution, self.variables) if solution else None
         started = time.perf_counter()
         values = {v.name: float(math.exp(z_opt[i])) for i, v in enumerate(self.variables)}
         values.update(self.fixed)
@@ -294,7 +313,8 @@ class Problem:
             solve_time=sum(s.solve_time for s in starts), build_time=self.build_time,
             evaluation_time=evaluation_time, model_gap=model_gap, horizon_bound=horizon_bound,
             starts=starts, equal_optima=equal if success else [],
-            flat_tunables=flat if success else None)
+            flat_tunables=flat if success else None,
+            method="brent" if self.scalar is not None else "ipopt")
 
     def _solve_from(self, start: np.ndarray, started: float, solver) -> tuple:
         """One start: IPOPT (``solver``), then exchange rounds while a refined peak or dip

@@ -24,30 +24,14 @@ began) in ln(tunable) at an interior optimum, by a central second difference, ag
 tuner's FLAT_CURVATURE; an optimum on a bound or a feasibility boundary is a vertex and is
 unique.
 
-Hook (to be added to :class:`feedtune.tuner.nlp.Problem`; until then the search is
-called directly, by tests/unit/test_scalar_search.py and benchmarks/koren_iae_speed.py)::
-
-    # __init__, instead of  entry = _cached_build(functions, probe, self._options, expand,
-    #                                             self.has_nlp)
-    self.scalar = ScalarSearch.for_problem(self, functions["check"], functions["settling"])
-    entry = _cached_build(functions, probe, self._options, expand,
-                          self.has_nlp and self.scalar is None)
-    if self.scalar is not None:
-        self.starts = self.scalar.start_points()
-    # solve(), where each start is solved
-    solve_from = self.scalar.solve_from if self.scalar is not None else self._solve_from
-    z_opt, return_status, iterations, exchanged, kkt[index] = solve_from(z0, started)
-    # solve(), the flat directions of the best start
-    flat = (self.scalar.flat_tunables(z_opt, self.variables[0].name)
-            if self.scalar is not None
-            else self._flat_tunables(*kkt[index]) if kkt.get(index) else None)
-    # solve(), the Outcome: method="brent" if self.scalar is not None else "ipopt"
-    # (and "brent" added to SolverResult.method's Literal in feedtune/result.py)
+The tuner (:class:`feedtune.tuner.nlp.Problem`) uses it for every problem it
+:func:`applies` to, unless the spec gives IPOPT options (then IPOPT is what was asked for);
+the result's ``solver.method`` is then ``brent``.
 
 The search sees only the problem's Functions and numbers (duck-typed: ``has_nlp``,
-``n_z``, ``lbw``, ``ubw``, ``starts``, ``bounds``, ``check``, ``settling``,
-``param_values``, ``f_scale`` and ``_exchange`` of :class:`feedtune.tuner.nlp.Problem`),
-never a plant or a metric.
+``n_z``, ``lbw``, ``ubw``, ``starts``, ``bounds``, ``evaluator``, ``settling``,
+``param_values``, ``settings`` and ``exchange_groups`` of
+:class:`feedtune.tuner.nlp.Problem`), never a plant or a metric.
 """
 
 from __future__ import annotations
@@ -56,8 +40,9 @@ import math
 import time
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
+
+from feedtune.tuner.optimum import FLAT_CURVATURE
 
 #: Brent's tolerance in ln(tunable) [1]: a relative change of the tunable of 1e-10. Brent
 #: itself stops at about √ε·|ln x| (≈ 5e-8 for x ≈ 30), the resolution of a smooth minimum
@@ -87,7 +72,7 @@ def applies(problem) -> bool:
     """A problem the scalar search solves: one free tunable and no other NLP variable or
     exchange point (a peak or crossing needs IPOPT's exchange rounds)."""
     return bool(problem.has_nlp and problem.n_z == 1 and len(problem.lbw) == 1
-                and not problem._exchange)
+                and not problem.exchange_groups)
 
 
 @dataclass
@@ -134,23 +119,24 @@ class ScalarSearch:
         self.feasible = (self.violations <= 0) & np.isfinite(self.values)
 
     @classmethod
-    def for_problem(cls, problem, check, settling) -> "ScalarSearch | None":
-        """The search for ``problem`` on its ``check`` and ``settling`` Functions, or None
-        when :func:`applies` says it does not."""
+    def for_problem(cls, problem) -> "ScalarSearch | None":
+        """The search for ``problem`` on what its NLP sees (its ``evaluator``) and its scaled
+        ``settling`` Function, or None when :func:`applies` says it does not."""
         if not applies(problem):
             return None
-        z, p = ca.MX.sym("z"), ca.MX.sym("p", problem.param_values.size)
-        objective, bounds, conditions, *_ = check(z, p)
-        point = ca.Function("scalar_point", [z, p], [objective, bounds, conditions,
-                                                     settling(z, p)])
+        p = problem.param_values
 
         def evaluate(zs):
-            # point by point: a map Function costs more to build than a few calls
-            columns = [[np.asarray(v, dtype=float).ravel() for v in point(z, problem.param_values)]
-                       for z in np.atleast_1d(np.asarray(zs, dtype=float))]
-            values = [np.column_stack([c[k] for c in columns]) for k in range(4)]
-            stable = np.all(values[2] > 0, axis=0)
-            return values[0].ravel(), violation(*values[1:], problem.bounds), stable
+            zs = np.atleast_1d(np.asarray(zs, dtype=float))
+            seen = [problem.evaluator(np.array([z]), p) for z in zs]
+            objective = np.array([np.nan if s.objective is None else s.objective for s in seen])
+            bounds = np.array([[np.nan if v is None else v for v in s.bounds] for s in seen],
+                              dtype=float).reshape(len(zs), -1).T
+            conditions = np.array([s.stability for s in seen], dtype=float).reshape(len(zs), -1).T
+            settling = np.array([np.asarray(problem.settling(z, p), dtype=float).ravel()
+                                 for z in zs]).reshape(len(zs), -1).T
+            stable = np.all(conditions > 0, axis=0)
+            return objective, violation(bounds, conditions, settling, problem.bounds), stable
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
                    np.asarray(problem.starts, dtype=float)[:, 0], problem.settings.multistart,
@@ -290,8 +276,6 @@ class ScalarSearch:
         """[name] when the optimum ``z`` (one of :meth:`solve_from`'s) is interior and the
         objective's curvature there, divided by the objective where its search began, is
         below the tuner's FLAT_CURVATURE; else []."""
-        from feedtune.tuner.nlp import FLAT_CURVATURE
-
         near = [k for k in self.refined if abs(k - float(z[0])) <= BOUNDARY_XTOL]
         if not near:
             return []

@@ -65,8 +65,10 @@ class Bound:
 @dataclass(frozen=True)
 class Settings:
     """Solver settings: starts [count], IPOPT's iteration limit per round [count] and
-    tolerance [1], the wall-clock limit of a start [s], SX expansion (None: automatic) and
-    further IPOPT options."""
+    tolerance [1], the wall-clock limit of a start [s], SX expansion (None: automatic),
+    further IPOPT options, and whether a problem of one free tunable may be solved by the
+    scalar search (:mod:`feedtune.tuner.scalar`) instead of IPOPT: only when no IPOPT
+    option is given."""
 
     multistart: int = 8
     max_iter: int = 500
@@ -74,6 +76,7 @@ class Settings:
     time_limit: float = 60.0
     expand: bool | None = None
     ipopt_options: Mapping[str, object] = field(default_factory=dict)
+    scalar_search: bool = True
 
     def __post_init__(self):
         """Refuse IPOPT options that would load a library, whoever built the settings (a

@@ -35,7 +35,8 @@ def _spec(objective, constraints=(), period={"value": 1 / 64}, multistart=8):
 
 
 def _problem(data: dict, horizon_scale: float = 1.0) -> Problem:
-    """The tuner's Problem for ``data``, built as feedtune.problem builds it."""
+    """The tuner's Problem for ``data``, built as feedtune.problem builds it, solved by
+    IPOPT (the reference here: the search is called directly on the same problem)."""
     spec = parse_spec(data)
     plant = build_plant(spec)
     variables, fixed, box = resolve_tunables(spec, plant)
@@ -50,17 +51,22 @@ def _problem(data: dict, horizon_scale: float = 1.0) -> Problem:
     objective = [Term(t.metric, value(t), t.weight) for t in spec.objective]
     constraints = [Bound(c.metric, value(c), c.min, c.max) for c in spec.constraints]
     return Problem(variables, fixed, make_loop, objective, constraints, {},
-                   Settings(multistart=spec.solver.multistart), numbers=plant.numbers())
+                   Settings(multistart=spec.solver.multistart, scalar_search=False),
+                   numbers=plant.numbers())
+
+
+def _seen(problem, z):
+    """What the problem's NLP sees at ``z`` [ln tunable]."""
+    return problem.evaluator(np.asarray(z, dtype=float), problem.param_values)
 
 
 def _search(problem):
     """(search, best z, objective the NLP sees there, every start's return status)."""
-    search = ScalarSearch.for_problem(problem, problem.check, problem.settling)
+    search = ScalarSearch.for_problem(problem)
     assert search is not None
     runs = [search.solve_from(start) for start in search.start_points()]
-    best = min(runs, key=lambda r: float(problem.check(r[0], problem.param_values)[0]))
-    return search, best[0], float(problem.check(best[0], problem.param_values)[0]), \
-        [r[1] for r in runs]
+    best = min(runs, key=lambda r: _seen(problem, r[0]).objective)
+    return search, best[0], _seen(problem, best[0]).objective, [r[1] for r in runs]
 
 
 @pytest.mark.parametrize("time", ["absolute", "natural"])
@@ -72,7 +78,7 @@ def test_koren_iae_gain_equals_ipopt(time):
     search, z, objective, statuses = _search(problem)
     assert statuses == ["Solve_Succeeded"]  # unimodal on the grid: one refinement
     assert math.exp(z[0]) == pytest.approx(ipopt.values["position_gain"], rel=K_TOL)
-    seen = float(problem.check(np.log([ipopt.values["position_gain"]]), problem.param_values)[0])
+    seen = _seen(problem, np.log([ipopt.values["position_gain"]])).objective
     assert objective == pytest.approx(seen, rel=F_TOL)
     assert objective <= seen * (1 + F_TOL)
     assert search.flat_tunables(z, "position_gain") == ipopt.flat_tunables == []
@@ -89,8 +95,8 @@ def test_constraint_active_optimum_is_on_the_boundary():
     search, z, _, statuses = _search(problem)
     assert statuses[0] == "Solve_Succeeded"
     assert math.exp(z[0]) == pytest.approx(ipopt.values["position_gain"], rel=K_TOL)
-    _, bounds, conditions, *_ = problem.check(z, problem.param_values)
-    damping = float(bounds[0])
+    seen = _seen(problem, z)
+    damping, conditions = seen.bounds[0], seen.stability
     assert 0.8 <= damping <= 0.8 * (1 + 1e-8)  # on the bound, from the feasible side
     assert np.all(np.asarray(conditions) > 0)
     assert search.flat_tunables(z, "position_gain") == []
@@ -112,8 +118,7 @@ def test_settling_bound_everywhere_reports_infeasible_at_a_stable_point():
     problem = _problem(data)
     search, z, _, statuses = _search(problem)
     assert statuses == ["Infeasible_Problem_Detected"]
-    _, _, conditions, *_ = problem.check(z, problem.param_values)
-    assert np.all(np.asarray(conditions) > 0)  # stable
+    assert np.all(_seen(problem, z).stability > 0)  # stable
     assert np.min(np.asarray(problem.settling(z, problem.param_values))) < 0  # settling binds
     longer = _problem(data, horizon_scale=4.0)
     ipopt = longer.solve()
@@ -130,7 +135,7 @@ def test_settling_bound_everywhere_reports_infeasible_at_a_stable_point():
 def test_scalar_search_declines_what_it_cannot_solve(data):
     problem = _problem(data)
     assert not applies(problem)
-    assert ScalarSearch.for_problem(problem, problem.check, problem.settling) is None
+    assert ScalarSearch.for_problem(problem) is None
 
 
 def _numpy_search(f, lower, upper, starts, count=8, feasible=None):
@@ -198,9 +203,6 @@ def test_feasibility_boundary_between_grid_points_is_located():
     assert search.flat_tunables(z, "x") == []
 
 
-@pytest.mark.xfail(strict=True, reason="the tuner does not call feedtune.tuner.scalar yet: "
-                                       "the hook in its module docstring; remove this mark "
-                                       "when it lands")
 def test_tuner_uses_the_scalar_search_for_one_free_tunable():
     """Through feedtune.problem.tune: case 3 is solved by the scalar search (no IPOPT),
     at IPOPT's gain, with a unique optimum and a validation that passes."""

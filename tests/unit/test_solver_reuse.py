@@ -20,7 +20,12 @@ TIMING = ("solve_time", "build_time", "evaluation_time")
 
 
 def _example(name: str) -> dict:
-    return json.loads((EXAMPLES / name).read_text(encoding="utf-8"))
+    data = json.loads((EXAMPLES / name).read_text(encoding="utf-8"))
+    if name == "koren-1979-min-iae-radius.json":
+        # one free gain: the scalar search, which builds no solver, unless an IPOPT option
+        # is given (this one is IPOPT's default here: same results)
+        data["solver"]["ipopt_options"] = {"hessian_approximation": "exact"}
+    return data
 
 
 def _without_timing(result) -> dict:
@@ -86,6 +91,23 @@ def test_a_number_that_shapes_the_graph_makes_a_new_solver():
     b = _variant(a, time_constant=0.03)
     _, info = _tune_after(a, b)
     assert info["hits"] == 0 and info["misses"] == 2, info
+
+
+def test_one_free_gain_builds_no_solver_and_matches_ipopt():
+    """Minimum IAE over the gain alone goes to the scalar search (feedtune.tuner.scalar):
+    no IPOPT solver is built, and the tuned gain is IPOPT's to the search's resolution
+    (Brent in ln K to ~5e-8, see tests/unit/test_scalar_search.py)."""
+    ipopt = _example("koren-1979-min-iae-radius.json")
+    scalar = copy.deepcopy(ipopt)
+    del scalar["solver"]["ipopt_options"]
+    cache.clear_solver_cache()
+    by_search = tune(parse_spec(scalar))
+    assert by_search.solver.method == "brent"
+    assert cache.solver_cache_info()["misses"] == 0
+    by_ipopt = tune(parse_spec(ipopt))
+    assert by_ipopt.solver.method == "ipopt"
+    assert by_search.tuned["position_gain"].value == pytest.approx(
+        by_ipopt.tuned["position_gain"].value, rel=1e-7)
 
 
 def test_same_spec_twice_reuses_and_repeats_the_result():
