@@ -13,34 +13,50 @@ Cases (software_servo, sampled data, τ = 20 ms, K ∈ [1, 200] 1/s free):
 For each tree (``--tree LABEL=PATH``, a checkout whose ``feedtune`` package is used; by
 default only this one) a worker process is started per round, the trees alternating
 (ABAB…, then BABA… the next round), so load from other processes hits both alike. Each
-worker imports feedtune, tunes every case once untimed (IPOPT loaded, first calls paid),
-then ``--repeats`` times with the solver cache cleared (every build paid, as on a first
-tuning) and reports the best:
+worker imports feedtune, tunes every case and mode once untimed (IPOPT loaded, first calls
+paid), then ``--repeats`` times with the solver cache cleared (every build paid, as on a
+first tuning) and reports the best. Modes:
 
-* ``tuning``: ``tune(parse_spec(spec))`` wall time after imports, validation included;
-* ``build``, ``nlpsol`` (the part of build spent creating IPOPT's solver: SX expansion and
-  derivatives), ``solve`` (all starts), ``solve1`` (the first start, the issue's "per
-  solve"), ``evaluation`` (the tuned design evaluated on numbers), ``rest`` (validation,
-  result); ``starts``, ``iterations`` (summed), ``K`` and the objective;
-* per mode: ``ipopt`` (the tuner as the tree has it) and, when the tree has
-  ``feedtune.tuner.scalar``, ``scalar`` — the scalar search hooked into the tuner. Until
-  the tuner calls it itself, the worker applies the hook by patching
-  (:func:`apply_scalar_hook`, the lines the tuner needs, see feedtune/tuner/scalar.py);
+* ``ipopt``: the spec with ``"solver": {"ipopt_options": {"hessian_approximation":
+  "exact"}}``. IPOPT options make every tree solve with IPOPT (a tree with the scalar
+  search leaves it to IPOPT when the spec asks for IPOPT options; the old tree, 65fdeaa,
+  always uses IPOPT, exact Hessian by default for these problems);
+* ``scalar``: the spec as it is, in a tree whose tuner has ``feedtune.tuner.scalar`` and
+  whose ``Settings`` has ``scalar_search``: the tuner itself routes a problem with one free
+  tunable and nothing else to decide to the scalar search (no IPOPT solver built; the
+  result's ``solver.method`` is ``brent``, shown in the ``method`` column);
 * ``brent``: scipy's bounded Brent on ln K on the exact numpy IAE of koren_vs_scipy.py
   (case3 only; xatol 1e-8, as there), best of the repeats, in the same worker.
+
+Nothing in the tuner is patched. Columns:
+
+* ``tuning``: ``tune(parse_spec(spec))`` wall time after imports, validation included;
+* ``build``, ``solve`` (all starts), ``solve1`` (the first start, the issue's "per solve"),
+  ``evaluation`` (the tuned design evaluated on numbers): as the result reports them;
+  ``rest`` = tuning − build − solve − evaluation (validation, the result);
+* ``nlpsol``: wall time inside ``casadi.nlpsol`` (IPOPT's solver created: SX expansion and
+  derivatives), taken by wrapping ``casadi.nlpsol`` in the worker, so it works on every
+  tree; part of ``build`` (0 when no solver is built);
+* ``starts``, ``iter`` (IPOPT or Brent iterations, summed), ``K``, the objective.
+
+``--profile`` adds where one tuning's time goes (last round, one tuning per case and mode):
+``casadi.nlpsol``, ``feedtune.problem._validation`` and ``Problem._evaluate_numeric``
+timed by wrapping, IPOPT's own call counts and times from every solver call's ``stats()``
+(the solver returned by ``casadi.nlpsol`` is wrapped to record them), and for the scalar
+search the grid, the Brent refinements and the flatness test (``ScalarSearch``'s methods).
 
 The table shows each tree's best over the rounds, ratios between the trees (first over
 others) and against Brent. Timings are wall clock on a shared machine: the load average is
 printed; compare ratios, not absolute values. Run:
 
     .venv/bin/python benchmarks/koren_iae_speed.py
-    .venv/bin/python benchmarks/koren_iae_speed.py --tree old=/path/to/old/checkout --tree new=.
+    git archive 65fdeaa | tar -x -C /tmp/old     # the tuner before issue 15
+    .venv/bin/python benchmarks/koren_iae_speed.py --tree new=. --tree old=/tmp/old --profile
 """
 
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import math
 import os
@@ -67,79 +83,103 @@ FREE_PERIOD = {"name": "iae-free-period", "plant": PLANT,
                             "sampling_period": {"min": 0.001, "max": 0.5}},
                "objective": [{"metric": "iae"}], "solver": {"multistart": 4}}
 TIMES = ("tuning", "build", "nlpsol", "solve", "solve1", "evaluation", "rest")
+#: the spec's solver options of mode ``ipopt``: IPOPT options force IPOPT in every tree
+IPOPT_OPTIONS = {"hessian_approximation": "exact"}
 
 
-def apply_scalar_hook() -> str:
-    """Route one-free-tunable problems to :mod:`feedtune.tuner.scalar`, as the tuner's hook
-    does: no IPOPT solver built, the grid minima as starts, each start refined by the
-    scalar search, its flatness test instead of IPOPT's Hessian. Returns how the hook is
-    present: ``tuner`` (the tuner calls the search itself), ``patched`` or ``absent``."""
+def with_mode(spec: dict, mode: str) -> dict:
+    """``spec`` for ``mode``: ``ipopt`` adds IPOPT_OPTIONS to its solver options, ``scalar``
+    leaves it as it is."""
+    if mode == "scalar":
+        return spec
+    solver = dict(spec.get("solver", {}))
+    solver["ipopt_options"] = {**solver.get("ipopt_options", {}), **IPOPT_OPTIONS}
+    return {**spec, "solver": solver}
+
+
+def scalar_search() -> str:
+    """How this tree's tuner treats one free tunable: ``tuner`` (it has
+    ``feedtune.tuner.scalar`` and ``Settings.scalar_search``: the tuner calls the scalar
+    search itself) or ``absent`` (IPOPT only)."""
+    import dataclasses
+
     try:
-        from feedtune.tuner import nlp, scalar
+        import feedtune.tuner.scalar  # noqa: F401
+        from feedtune.tuner.nlp import Settings
     except ImportError:
         return "absent"
-    if "scalar" in inspect.getsource(nlp):
-        return "tuner"
-    import numpy as np
-
-    build = nlp._cached_build
-
-    def cached_build(functions, probe, options, expand, has_nlp):
-        one = (functions["nlp"].size1_in(0) == 1
-               and functions["exchange_check"].size1_out(0) == 0)
-        return build(functions, probe, options, expand, has_nlp and not one)
-
-    init, solve_from, solve = nlp.Problem.__init__, nlp.Problem._solve_from, nlp.Problem.solve
-
-    def patched_init(self, *args, **kwargs):
-        init(self, *args, **kwargs)
-        self.scalar = (scalar.ScalarSearch.for_problem(self, self.check, self.settling)
-                       if self._nlpsol is None else None)
-        if self.scalar is not None:
-            self.starts = self.scalar.start_points()
-
-    def patched_solve_from(self, start, started):
-        if self.scalar is not None:
-            return self.scalar.solve_from(start, started)
-        return solve_from(self, start, started)
-
-    def patched_solve(self, progress=None):
-        outcome = solve(self, progress)
-        if self.scalar is not None and outcome.success:
-            name = self.variables[0].name
-            outcome.flat_tunables = self.scalar.flat_tunables(
-                np.log([outcome.values[name]]), name)
-        return outcome
-
-    nlp._cached_build = cached_build
-    nlp.Problem.__init__ = patched_init
-    nlp.Problem._solve_from = patched_solve_from
-    nlp.Problem.solve = patched_solve
-    return "patched"
+    names = {f.name for f in dataclasses.fields(Settings)}
+    return "tuner" if "scalar_search" in names else "absent"
 
 
-def remove_scalar_hook(saved) -> None:
-    from feedtune.tuner import nlp
+def clear_solver_cache() -> None:
+    """This process's solver cache emptied: ``feedtune.tuner.cache`` since issue 15's
+    restructuring, ``feedtune.tuner.nlp`` before."""
+    try:
+        from feedtune.tuner.cache import clear_solver_cache as clear
+    except ImportError:
+        from feedtune.tuner.nlp import clear_solver_cache as clear
+    clear()
 
-    nlp._cached_build, nlp.Problem.__init__, nlp.Problem._solve_from, nlp.Problem.solve = saved
+
+class _Recorded:
+    """An IPOPT solver whose calls append their ``stats()`` to ``calls`` (for --profile);
+    everything else is the solver's own."""
+
+    def __init__(self, solver, calls: list):
+        self._solver, self._calls = solver, calls
+
+    def __call__(self, *args, **kwargs):
+        try:
+            return self._solver(*args, **kwargs)
+        finally:
+            self._calls.append(self._solver.stats())
+
+    def __getattr__(self, name):
+        return getattr(self._solver, name)
 
 
-def _tune_once(spec: dict, nlpsol_time: list) -> dict:
+def timed_nlpsol(into: dict, key: str, calls: list | None = None):
+    """Wrap ``casadi.nlpsol`` (every tree's tuner calls it as ``ca.nlpsol``): its wall time
+    is added to ``into[key]``; with ``calls``, the solver records every call's stats.
+    Returns the original, for :func:`_restore`."""
+    import casadi
+
+    original = casadi.nlpsol
+
+    def nlpsol(*args, **kwargs):
+        started = time.perf_counter()
+        try:
+            solver = original(*args, **kwargs)
+        finally:
+            into[key] = into.get(key, 0.0) + time.perf_counter() - started
+        return solver if calls is None else _Recorded(solver, calls)
+
+    casadi.nlpsol = nlpsol
+    return casadi, "nlpsol", original
+
+
+def _restore(wrapped) -> None:
+    for owner, name, original in reversed(wrapped):
+        setattr(owner, name, original)
+
+
+def _tune_once(spec: dict, nlpsol_time: dict) -> dict:
     from feedtune.problem import tune
     from feedtune.spec import parse_spec
-    from feedtune.tuner import nlp
 
-    nlp.clear_solver_cache()
+    clear_solver_cache()
     nlpsol_time.clear()
     started = time.perf_counter()
     result = tune(parse_spec(spec))
     wall = time.perf_counter() - started
     s = result.solver
-    return {"tuning": wall, "build": s.build_time, "nlpsol": sum(nlpsol_time),
+    return {"tuning": wall, "build": s.build_time, "nlpsol": nlpsol_time.get("nlpsol", 0.0),
             "solve": s.solve_time, "solve1": s.starts[0].solve_time,
             "evaluation": s.evaluation_time,
             "rest": wall - s.build_time - s.solve_time - s.evaluation_time,
             "starts": len(s.starts), "iterations": sum(st.iterations for st in s.starts),
+            "method": s.method,
             "K": result.tuned["position_gain"].value, "objective": result.objective,
             "success": result.success, "validation_ok": (result.validation or {}).get("ok"),
             "unique": result.optimum.unique if result.optimum else None}
@@ -161,7 +201,7 @@ def _timer(owner, name: str, into: dict, key: str):
     return owner, name, original
 
 
-def profile(spec: dict, scalar_mode: bool) -> dict:
+def profile(spec: dict, mode: str) -> dict:
     """Where one tuning's time goes [s], the solver cache cleared (module docstring)."""
     import feedtune.problem as problem_module
     from feedtune.problem import tune
@@ -169,42 +209,34 @@ def profile(spec: dict, scalar_mode: bool) -> dict:
     from feedtune.tuner import nlp
 
     parts: dict[str, float] = {}
-    stats: list[dict] = []
-    wrapped = [_timer(nlp, "_nlpsol", parts, "nlpsol (SX expansion, derivatives)"),
+    calls: list[dict] = []
+    wrapped = [timed_nlpsol(parts, "nlpsol (SX expansion, derivatives)", calls),
                _timer(problem_module, "_validation", parts, "validation"),
                _timer(nlp.Problem, "_evaluate_numeric", parts, "evaluation on numbers")]
-    if scalar_mode:
+    if mode == "scalar":
         from feedtune.tuner import scalar
 
         wrapped += [_timer(scalar.ScalarSearch, "__post_init__", parts, "grid (starts, box ends)"),
                     _timer(scalar.ScalarSearch, "solve_from", parts, "Brent refinements"),
                     _timer(scalar.ScalarSearch, "flat_tunables", parts, "flatness")]
-    else:
-        solve_from = nlp.Problem._solve_from
-
-        def counted(self, *args):
-            out = solve_from(self, *args)
-            stats.append(self._nlpsol.stats())
-            return out
-
-        nlp.Problem._solve_from = counted
-        wrapped.append((nlp.Problem, "_solve_from", solve_from))
-    nlp.clear_solver_cache()
-    started = time.perf_counter()
-    result = tune(parse_spec(spec))
-    parts["tuning"] = time.perf_counter() - started
-    for owner, name, original in wrapped:
-        setattr(owner, name, original)
+    clear_solver_cache()
+    try:
+        started = time.perf_counter()
+        result = tune(parse_spec(with_mode(spec, mode)))
+        parts["tuning"] = time.perf_counter() - started
+    finally:
+        _restore(wrapped)
     s = result.solver
     parts["build"] = s.build_time
     parts["solve (all starts)"] = s.solve_time
     for key, label in (("nlp_f", "IPOPT objective"), ("nlp_grad_f", "IPOPT gradient"),
                        ("nlp_hess_l", "IPOPT Hessian")):
-        if stats:
-            parts[f"{label} ({sum(st.get('n_call_' + key, 0) for st in stats)} calls)"] = sum(
-                st.get("t_wall_" + key, 0.0) for st in stats)
+        if calls:
+            parts[f"{label} ({sum(st.get('n_call_' + key, 0) for st in calls)} calls)"] = sum(
+                st.get("t_wall_" + key, 0.0) for st in calls)
     parts["starts"] = len(s.starts)
     parts["iterations"] = sum(st.iterations for st in s.starts)
+    parts["method"] = s.method
     return parts
 
 
@@ -234,44 +266,27 @@ def worker(repeats: int, profiles: bool = False, free_period: bool = False) -> d
     """Every case and mode in this process (see module docstring); a JSON-able dict."""
     from feedtune.problem import tune
     from feedtune.spec import parse_spec
-    from feedtune.tuner import nlp
 
-    nlpsol_time: list[float] = []
-    nlpsol = nlp._nlpsol
-
-    def timed_nlpsol(*args):
-        started = time.perf_counter()
-        solver = nlpsol(*args)
-        nlpsol_time.append(time.perf_counter() - started)
-        return solver
-
-    nlp._nlpsol = timed_nlpsol
-    out = {"load": os.getloadavg()[0]}
-    for case, spec in CASES.items():
-        tune(parse_spec(spec))  # untimed: IPOPT loaded, first calls paid
-        out[f"{case}/ipopt"] = _best([_tune_once(spec, nlpsol_time) for _ in range(repeats)])
-    saved = (nlp._cached_build, nlp.Problem.__init__, nlp.Problem._solve_from, nlp.Problem.solve)
-    hook = apply_scalar_hook()
-    out["hook"] = hook
-    if hook != "absent":
-        for case, spec in CASES.items():
-            tune(parse_spec(spec))
-            out[f"{case}/scalar"] = _best([_tune_once(spec, nlpsol_time) for _ in range(repeats)])
-    if hook == "patched":
-        remove_scalar_hook(saved)
+    search = scalar_search()
+    modes = ["ipopt"] + (["scalar"] if search == "tuner" else [])
+    out = {"load": os.getloadavg()[0], "scalar_search": search}
+    nlpsol_time: dict[str, float] = {}
+    wrapped = [timed_nlpsol(nlpsol_time, "nlpsol")]
+    try:
+        for mode in modes:
+            for case, spec in CASES.items():
+                spec = with_mode(spec, mode)
+                tune(parse_spec(spec))  # untimed: IPOPT loaded, first calls paid
+                out[f"{case}/{mode}"] = _best([_tune_once(spec, nlpsol_time)
+                                               for _ in range(repeats)])
+        if free_period:  # two free tunables: IPOPT in every tree
+            out["free-period/ipopt"] = _tune_once(FREE_PERIOD, nlpsol_time)
+    finally:
+        _restore(wrapped)
     out["case3/brent"] = brent_case3(repeats)
-    if free_period:
-        out["free-period/ipopt"] = _tune_once(FREE_PERIOD, nlpsol_time)
     if profiles:
-        out["profile"] = {}
-        for case, spec in CASES.items():
-            out["profile"][f"{case}/ipopt"] = profile(spec, False)
-            if hook == "patched":
-                apply_scalar_hook()
-            if hook != "absent":
-                out["profile"][f"{case}/scalar"] = profile(spec, True)
-            if hook == "patched":
-                remove_scalar_hook(saved)
+        out["profile"] = {f"{case}/{mode}": profile(spec, mode)
+                          for case, spec in CASES.items() for mode in modes}
     return out
 
 
@@ -317,14 +332,14 @@ def main(argv=None) -> int:
           f"case, trees alternating; load average (1 min) {load_start:.2f} at start, "
           f"{os.getloadavg()[0]:.2f} at end, on {os.cpu_count()} CPUs")
     for label, path in trees.items():
-        print(f"  {label}: {path} (scalar hook: {runs[label][0]['hook']})")
+        print(f"  {label}: {path} (scalar search: {runs[label][0]['scalar_search']})")
     print("times in ms, best over rounds; 'tuning' is tune() after imports, solver cache "
           "cleared; 'solve1' the first start")
     keys = [k for k in runs[next(iter(trees))][0] if "/" in k]
     for tree_runs in runs.values():
         keys += [k for k in tree_runs[0] if "/" in k and k not in keys]
     header = f"{'case/mode':<22} {'tree':<6} " + " ".join(f"{t:>10}" for t in TIMES) + \
-        f" {'starts':>6} {'iter':>5} {'K 1/s':>14} {'objective':>17}  unique valid success"
+        f" {'starts':>6} {'iter':>5} {'K 1/s':>14} {'objective':>17}  unique valid success method"
     print(header)
     print("-" * len(header))
     best = {}
@@ -343,7 +358,11 @@ def main(argv=None) -> int:
                   f"{merged['K']:14.9f} "
                   f"{merged['objective'] if merged['objective'] is not None else '-':>17.12}  "
                   f"{str(merged.get('unique', '-')):>6} {str(merged.get('validation_ok', '-')):>5} "
-                  f"{str(merged.get('success', '-')):>7}")
+                  f"{str(merged.get('success', '-')):>7} {merged.get('method', '-')}")
+    for (label, key), row in best.items():
+        if key.endswith("/scalar") and row.get("method") != "brent":
+            print(f"  note: {label} {key} was solved by {row.get('method')}, not the scalar "
+                  "search")
     print()
     print("ratios (time of the first over the second; > 1: the second is faster)")
     labels = list(trees)
