@@ -22,6 +22,7 @@ Usage::
     .venv/bin/python benchmarks/bhatia_speed.py                 # new + old on the 2 specs, new on 24 variants
     .venv/bin/python benchmarks/bhatia_speed.py --old-variants  # old on the variants too (≈ 25 min)
     .venv/bin/python benchmarks/bhatia_speed.py --no-old        # new only
+    .venv/bin/python benchmarks/bhatia_speed.py --only '^bhatia-1971-hydraulic$'  # one spec, old and new (quickest)
 """
 
 from __future__ import annotations
@@ -218,7 +219,9 @@ def main(argv=None) -> int:
                         help="run the old code on the 24 variants too (slow)")
     parser.add_argument("--reference", type=int, metavar="STARTS",
                         help="run the thorough reference with this many starts and print it")
-    parser.add_argument("--only", help="with --reference: only specs whose name matches this regular expression")
+    parser.add_argument("--only", metavar="REGEX",
+                        help="only specs whose name matches this regular expression (e.g. "
+                             "'^bhatia-1971-hydraulic$' for the quickest run)")
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
@@ -245,6 +248,8 @@ def main(argv=None) -> int:
     print("-" * len(header))
     rows = []
     for spec in all_specs():
+        if args.only and not re.search(args.only, spec["name"]):
+            continue
         bundled = spec["name"] in SPECS
         new = tune_one(spec)
         old = (baseline.tune(spec) if baseline is not None and (bundled or args.old_variants)
@@ -271,6 +276,8 @@ def main(argv=None) -> int:
         found = sum(reached(new, best) == "yes" for _, new, _, best in group)
         known = sum(best is not None for _, _, _, best in group)
         times = [new["seconds"] for _, new, _, _ in group]
+        if not group:  # --only left none of them
+            continue
         print(f"{name} variants: {found} of {known} with a reference reach the best-known "
               f"optimum, {ok} of them in ≤ {TARGET_SECONDS:g} s with validation ok (target: "
               f"≥ 10 of 12); time median {np.median(times):.2f} s, max {max(times):.2f} s")
