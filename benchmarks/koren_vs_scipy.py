@@ -321,7 +321,7 @@ def run_feedtune(case: Case, repeats: int) -> Run:
     x = tuple(result.tuned[name].value for name in case.names)
     return Run("feedtune", s.build_time + s.solve_time, x,
                evaluations=sum(st.iterations for st in s.starts),
-               note=(f"{result.status}; build {s.build_time * 1e3:.1f} + {len(starts)} starts "
+               note=(f"{result.status} ({s.method}); build {s.build_time * 1e3:.1f} + {len(starts)} starts "
                      f"{s.solve_time * 1e3:.1f} ms; 1 solve {starts[0] * 1e3:.2f} ms"),
                extra={"build": s.build_time, "one_solve": starts[0], "starts": starts,
                       "tune_wall": wall, "own_objective": result.objective,
@@ -496,8 +496,9 @@ def main(argv=None) -> int:
             rows.append((run, objective, dk))
         summaries.append((case, ft, rows))
         print()
-    print("'ev/it' is the number of metric evaluations for scipy, the IPOPT iterations summed "
-          "over starts for feedtune.")
+    print("'ev/it' is the number of metric evaluations for scipy, the solver's iterations summed "
+          "over starts for feedtune (IPOPT's; Brent's where the note says brent: one free "
+          "tunable, the tuner's scalar search, whose starts are its grid minima).")
     print("feedtune details: build / first start (mid-point, the same start as Nelder-Mead) / "
           "min-median-max over starts / tune() wall incl. result evaluation")
     for case, ft, _ in summaries:
