@@ -150,8 +150,10 @@ class Problem:
         self.stability_check = entry.functions["stability_check"]
         self.solver_reused = entry.reused
         self.scalar = ScalarSearch.for_problem(self) if scalar else None
-        if self.scalar is not None and not self.scalar.stable.any():
-            self.scalar = None  # IPOPT's restoration looks for stability between the points
+        if self.scalar is not None and not self.scalar.feasible.any():
+            # no feasible grid point (an equality constraint, a narrow feasible band, no
+            # stable loop): IPOPT, with restoration, looks between the points
+            self.scalar = None
         if self.scalar is not None:
             self.starts = self.scalar.start_points()
         self.build_time = time.perf_counter() - started

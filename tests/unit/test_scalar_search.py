@@ -231,3 +231,17 @@ def test_a_start_over_its_time_limit_stops_with_ipopts_status():
     assert (status, iterations, z[0]) == ("Maximum_WallTime_Exceeded", 0, start[0])
     z, status, *_ = search.solve_from(start, time.perf_counter())  # within the limit
     assert status == "Solve_Succeeded" and z[0] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_no_feasible_grid_point_leaves_the_problem_to_ipopt():
+    """ζ = 0.707 as an equality (Koren's Fig 6 locus, feedtune.charts.koren): no grid point
+    can hold it, so the tuner does not let the scalar search call it infeasible; IPOPT
+    solves it, on the equality."""
+    from feedtune.problem import tune
+
+    data = _spec([{"metric": "natural_frequency", "goal": "maximize"}],
+                 [{"metric": "damping_ratio", "min": 0.707, "max": 0.707}], multistart=4)
+    result = tune(parse_spec(data))
+    assert result.solver.method == "ipopt"
+    assert result.success
+    assert result.metrics["damping_ratio"].value == pytest.approx(0.707, abs=1e-6)
