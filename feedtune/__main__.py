@@ -38,7 +38,14 @@ def _stop_while_starting(signum, frame):
 
 
 def main() -> None:
-    """Load the command line and run it; an interrupt while it loads is exit status 130."""
+    """The ``feedtune`` command: :func:`run`, then exit without the interpreter's teardown."""
+    exit_without_teardown(run())
+
+
+def run(args: list[str] | None = None):
+    """Load the command line and run it on ``args`` (None: ``sys.argv[1:]``); its exit code
+    (as ``SystemExit.code``: None, a number or a message). An interrupt while it loads is
+    exit status 130."""
     previous = {signum: signal.signal(signum, _stop_while_starting) for signum in _STARTING}
     pin_blas_threads()
     from feedtune.cli import main as command_line
@@ -46,10 +53,10 @@ def main() -> None:
     for signum, handler in previous.items():
         signal.signal(signum, handler)
     try:
-        command_line(prog_name="feedtune")
+        command_line(args=args, prog_name="feedtune")
     except SystemExit as stop:
-        exit_without_teardown(stop.code)
-    exit_without_teardown(0)
+        return stop.code
+    return 0
 
 
 def exit_without_teardown(code) -> None:

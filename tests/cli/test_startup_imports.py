@@ -1,7 +1,7 @@
 """What the quick commands load (issue 15: `feedtune --help` and `feedtune validate` start in
 under 0.3 s; benchmarks/startup.py measures the time). These tests hold the import set, not
-the time: commands run through the real entry point (``feedtune.__main__.main``) in a fresh
-interpreter, which lists after each command the heavy packages it then holds in
+the time: commands run through the real entry point (``feedtune.__main__.run``, what the
+command runs before it exits) in a fresh interpreter, which lists after each command the heavy packages it then holds in
 ``sys.modules`` (a package loaded by one command stays listed after the later ones)."""
 
 from __future__ import annotations
@@ -21,13 +21,9 @@ EXAMPLES = sorted((REPO / "examples").glob("*.json"))
 _PROBE = """
 import json, sys
 commands, packages = json.loads(sys.argv[1]), json.loads(sys.argv[2])
-from feedtune.__main__ import main
+from feedtune.__main__ import run
 for args in commands:
-    sys.argv = ["feedtune", *args]
-    try:
-        main()
-    except SystemExit as exc:
-        status = exc.code
+    status = run(args)
     heavy = [package for package in packages
              if any(name == package or name.startswith(package + ".") for name in sys.modules)]
     print("\\nloaded: " + json.dumps({"status": status, "heavy": heavy}), file=sys.stderr)
