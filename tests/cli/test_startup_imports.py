@@ -1,8 +1,8 @@
 """What the quick commands load (issue 15: `feedtune --help` and `feedtune validate` start in
 under 0.3 s; benchmarks/startup.py measures the time). These tests hold the import set, not
 the time: commands run through the real entry point (``feedtune.__main__.run``, what the
-command runs before it exits) in a fresh interpreter, which lists after each command the heavy packages it then holds in
-``sys.modules`` (a package loaded by one command stays listed after the later ones)."""
+command runs before it exits) in a fresh interpreter, which lists after each command the
+heavy packages it then holds in ``sys.modules`` (a package loaded by one command stays listed after the later ones)."""
 
 from __future__ import annotations
 
