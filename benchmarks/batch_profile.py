@@ -1,0 +1,121 @@
+#!/usr/bin/env python
+"""Where a batch spec's time goes: the phases of ``feedtune.batch.job.solve`` per spec.
+
+Runs ``solve`` (what a batch worker runs: parse, tune, validate, result JSON, summary row)
+in this process on the first ``--specs`` specs of ``benchmarks/batch_throughput.py``'s
+generated set, after one untimed solve of each kind, with one BLAS thread (as the
+``feedtune`` command sets it). Each phase is timed by wrapping the function that does it
+(inclusive wall time; phases nest as indented), so the numbers add up to the total only
+along one level. It also prints the solver-cache hit rate over the timed specs and the
+number of IPOPT calls and restorations.
+
+    .venv/bin/python benchmarks/batch_profile.py --specs 150
+"""
+
+from __future__ import annotations
+
+import os
+
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import functools  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from collections import defaultdict  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from batch_throughput import _structure, generate  # noqa: E402
+
+import feedtune.batch.job as job  # noqa: E402
+import feedtune.problem as problem  # noqa: E402
+import feedtune.spec as spec_module  # noqa: E402
+import feedtune.tuner.nlp as nlp  # noqa: E402
+from feedtune.result import TuneResult  # noqa: E402
+
+TOTALS: dict[str, float] = defaultdict(float)
+CALLS: dict[str, int] = defaultdict(int)
+
+#: (label, owner, attribute, depth): what is timed, in the order printed
+PHASES = [
+    ("solve (one batch spec)", job, "solve", 0),
+    ("parse_spec", spec_module, "parse_spec", 1),
+    ("tune", problem, "_tune_once", 1),
+    ("report sets (which metrics)", problem, "_report_sets", 2),
+    ("Problem.__init__ (graph, probe, solver)", nlp.Problem, "__init__", 2),
+    ("nlpsol creation (cache miss)", nlp, "_nlpsol", 3),
+    ("structure key (serialize graph)", nlp, "structure_key", 3),
+    ("Problem.solve", nlp.Problem, "solve", 2),
+    ("one start (restoration + IPOPT + exchange)", nlp.Problem, "_solve_from", 3),
+    ("restoration / stability check", nlp.Problem, "_stable_start", 4),
+    ("NLP check at each start's end", nlp.Problem, "_evaluate", 3),
+    ("flat directions (reduced Hessian)", nlp.Problem, "_flat_tunables", 3),
+    ("exact evaluation + reports", nlp.Problem, "_evaluate_numeric", 3),
+    ("validation", problem, "_validation", 2),
+    ("plausibility warnings", problem, "plausibility_warnings", 2),
+    ("result JSON (model_dump_json)", TuneResult, "model_dump_json", 1),
+    ("summary row", job, "summary_fields", 1),
+]
+
+
+def _timed(label: str, fn):
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        started = time.perf_counter()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            TOTALS[label] += time.perf_counter() - started
+            CALLS[label] += 1
+
+    return wrapper
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--specs", type=int, default=150)
+    args = parser.parse_args(argv)
+    specs = generate(max(args.specs, 300))
+    warm: dict[tuple, dict] = {}
+    for spec in reversed(specs):
+        warm.setdefault(_structure(spec), spec)
+    for spec in warm.values():
+        job.solve(json.dumps(spec).encode())
+    for label, owner, name, _ in PHASES:
+        setattr(owner, name, _timed(label, getattr(owner, name)))
+
+    TOTALS.clear()
+    CALLS.clear()
+    nlp.clear_solver_cache()
+    data = [json.dumps(s).encode() for s in specs[:args.specs]]
+    load = os.getloadavg()[0]
+    started = time.perf_counter()
+    for d in data:
+        job.solve(d)
+    wall = time.perf_counter() - started
+    n = len(data)
+    print(f"{n} specs in one process, {wall / n * 1e3:.1f} ms/spec wall (timers included); "
+          f"load average {load:.2f} before, {os.getloadavg()[0]:.2f} after")
+    print()
+    print("| phase | calls/spec | ms/spec | share |")
+    print("|---|---|---|---|")
+    total = TOTALS["solve (one batch spec)"] or wall
+    for label, _, _, depth in PHASES:
+        if CALLS.get(label):
+            print(f"| {'. ' * depth}{label} | {CALLS[label] / n:.2f} | "
+                  f"{TOTALS[label] / n * 1e3:.2f} | {TOTALS[label] / total:.0%} |")
+    info = nlp.solver_cache_info()
+    hits, misses = info["hits"], info["misses"]
+    print()
+    print(f"solver cache over the timed specs: {hits} hits, {misses} misses "
+          f"({hits / max(hits + misses, 1):.0%} hits)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
