@@ -62,6 +62,49 @@ def _value_fn(metric, options) -> Callable:
     return lambda loop: metric.evaluate(loop, options)
 
 
+class LiftedOptions:
+    """Metric options offered to the tuner as NLP parameters, beside the plant's numbers.
+
+    A metric names in ``lifted_options`` the options that enter its expression only through
+    arithmetic (a circle's radius and feed: ω = feed/radius); as constants of the graph they
+    would give every circle its own solver (feedtune.tuner.nlp, "Solver reuse"). Each such
+    option of each objective term and constraint becomes a number ``PREFIX.OPTION``
+    (``objective0.radius``) that the tuner lifts like a plant's; the loops the tuner builds
+    with those parameters are remembered, and a term evaluated on one of them reads its
+    options as the parameters. On any other loop (the exact evaluation of a tuned design)
+    it reads the spec's numbers, so both evaluate the same expression at the same values.
+    """
+
+    def __init__(self):
+        self.numbers: dict[str, float] = {}  # parameter name → the spec's value
+        self._loops: dict[int, tuple[object, dict]] = {}  # id(loop) → (loop, parameters)
+
+    def value_fn(self, prefix: str, metric, options) -> Callable:
+        """``loop → metric.evaluate(loop, options)``, the lifted options as parameters on a
+        loop built by :meth:`make_loop`."""
+        names = {field: f"{prefix}.{field}" for field in metric.lifted_options
+                 if isinstance(getattr(options, field, None), (int, float))}
+        self.numbers.update({name: float(getattr(options, field)) for field, name in names.items()})
+
+        def evaluate(loop):
+            _, parameters = self._loops.get(id(loop), (None, None))
+            if parameters is None or not names:
+                return metric.evaluate(loop, options)
+            lifted = options.model_copy(update={f: parameters[n] for f, n in names.items()})
+            return metric.evaluate(loop, lifted)
+
+        return evaluate
+
+    def make_loop(self, build: Callable, numbers: dict) -> object:
+        """``build(plant_numbers)`` (None when there are none), remembered with ``numbers``
+        (the tuner's parameters by name) when any of them is a lifted option."""
+        own = {name: value for name, value in numbers.items() if name not in self.numbers}
+        loop = build(own or None)
+        if len(own) < len(numbers):
+            self._loops[id(loop)] = (loop, numbers)  # the loop kept: its id stays its own
+        return loop
+
+
 def _report_fn(metric, options) -> Callable:
     def evaluate(loop):
         try:
@@ -182,11 +225,13 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     variables, fixed, box = resolve_tunables(spec, plant)
     tunables = plant.tunables()
 
-    objective = [Term(term.metric, _value_fn(METRICS[term.metric](), term),
+    lifted = LiftedOptions()
+    objective = [Term(term.metric, lifted.value_fn(f"objective{i}", METRICS[term.metric](), term),
                       term.weight if term.goal == "minimize" else -term.weight)
-                 for term in spec.objective]
-    constraints = [Bound(_label(c.metric, _options_dict(c)), _value_fn(METRICS[c.metric](), c),
-                         c.min, c.max) for c in spec.constraints]
+                 for i, term in enumerate(spec.objective)]
+    constraints = [Bound(_label(c.metric, _options_dict(c)),
+                         lifted.value_fn(f"constraint{i}", METRICS[c.metric](), c), c.min, c.max)
+                   for i, c in enumerate(spec.constraints)]
     probe_loop = plant.loop({name: hi for name, (lo, hi) in box.items()}, box)
     report_sets = _report_sets(spec, probe_loop)
     reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
@@ -200,15 +245,18 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
             scale = HORIZON_GROWTH**refinement
 
             def make_loop(values, numbers=None, scale=scale):
-                if numbers:  # plant numbers as NLP parameters (see feedtune.plants.base)
-                    return plant.loop(values, box, horizon_scale=scale, numbers=numbers)
-                return plant.loop(values, box, horizon_scale=scale)
+                def build(own):  # plant numbers as NLP parameters (see feedtune.plants.base)
+                    if own:
+                        return plant.loop(values, box, horizon_scale=scale, numbers=own)
+                    return plant.loop(values, box, horizon_scale=scale)
+
+                return lifted.make_loop(build, numbers) if numbers else build(None)
 
             # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
             try:
                 problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
                                                     constraints, reports, settings,
-                                                    numbers=plant_numbers)
+                                                    numbers={**plant_numbers, **lifted.numbers})
             except HorizonError as exc:
                 if refinement == 0:
                     raise
