@@ -3,11 +3,13 @@ tuner a loop factory and metric callables, and turns its outcome into a TuneResu
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
+from feedtune.expr import Crossing, Magnitude, Supremum
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
@@ -56,10 +58,6 @@ def _options_dict(term) -> dict:
 
 def _label(name: str, options: dict) -> str:
     return name if not options else name + "(" + ",".join(f"{k}={v}" for k, v in options.items()) + ")"
-
-
-def _value_fn(metric, options) -> Callable:
-    return lambda loop: metric.evaluate(loop, options)
 
 
 class LiftedOptions:
@@ -113,6 +111,52 @@ def _report_fn(metric, options) -> Callable:
             return ca.MX(math.nan)
 
     return evaluate
+
+
+class Reports:
+    """The reported metrics' callables, which evaluate all of them together on a loop of
+    numbers.
+
+    The tuner asks for each report of the tuned design in turn and evaluates each
+    expression on its own; many share the loop's costly parts (the step-response fold
+    behind IAE, ISE and ITAE and their natural-time variants, the characteristic
+    polynomial behind ζ and ω_n). So the first request on a loop builds every report's
+    expression and evaluates them all in one CasADi Function, shared parts once, and each
+    callable returns its number (a Magnitude's absolute value). A report that raises, or
+    a loop with free symbols, keeps the plain one-by-one evaluation.
+    """
+
+    def __init__(self, sets: dict[str, tuple]):
+        self.fns = {key: _report_fn(metric, options) for key, (metric, options) in sets.items()}
+        self._loops: dict[int, tuple[object, dict]] = {}  # id(loop) → (loop, key → value)
+
+    def callables(self) -> dict[str, Callable]:
+        """Report name → ``loop → value``, for the tuner."""
+        return {key: functools.partial(self._value, key) for key in self.fns}
+
+    def _value(self, key: str, loop):
+        if id(loop) not in self._loops:
+            self._loops[id(loop)] = (loop, self._evaluate_all(loop))  # the loop kept: its id stays its own
+        values = self._loops[id(loop)][1]
+        return values[key] if key in values else self.fns[key](loop)
+
+    def _evaluate_all(self, loop) -> dict:
+        """Report name → its number as a DM, for every report whose expression builds."""
+        exprs = {}
+        for key, fn in self.fns.items():
+            try:
+                value = fn(loop)
+            except Exception:  # noqa: BLE001 — raised again when the tuner asks for it
+                continue
+            if isinstance(value, Magnitude):
+                value = ca.fabs(value.expr)
+            elif isinstance(value, (Supremum, Crossing)):
+                value = value.exact
+            if isinstance(value, (ca.MX, ca.DM, int, float)):
+                exprs[key] = ca.MX(value)
+        if not exprs or ca.symvar(ca.veccat(*exprs.values())):
+            return {}
+        return dict(zip(exprs, ca.Function("reports", [], list(exprs.values())).call([])))
 
 
 def _variants(default) -> list:
@@ -234,7 +278,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                    for i, c in enumerate(spec.constraints)]
     probe_loop = plant.loop({name: hi for name, (lo, hi) in box.items()}, box)
     report_sets = _report_sets(spec, probe_loop)
-    reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
+    reports = Reports(report_sets).callables()
     plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}
     s = spec.solver
     try:
