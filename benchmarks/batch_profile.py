@@ -5,11 +5,12 @@ Runs ``solve`` (what a batch worker runs: parse, tune, validate, result JSON, su
 in this process on the first ``--specs`` specs of ``benchmarks/batch_throughput.py``'s
 generated set, after one untimed solve of each kind, with one BLAS thread (as the
 ``feedtune`` command sets it). Each phase is timed by wrapping the function that does it
-(inclusive wall time; phases nest as indented), so the numbers add up to the total only
-along one level. It also prints the solver-cache hit rate over the timed specs and the
-number of IPOPT calls and restorations.
+(inclusive CPU time of this single-threaded process, which a loaded machine inflates far
+less than wall time; phases nest as indented), so the numbers add up to the total only
+along one level. It also prints the solver-cache hit rate over the timed specs.
 
     .venv/bin/python benchmarks/batch_profile.py --specs 150
+    FEEDTUNE_BENCH_TREE=/tmp/old .venv/bin/python benchmarks/batch_profile.py   # another tree
 """
 
 from __future__ import annotations
@@ -27,9 +28,13 @@ import time  # noqa: E402
 from collections import defaultdict  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+#: the feedtune profiled: this checkout, or another tree (FEEDTUNE_BENCH_TREE, e.g. a
+#: ``git archive`` of an older revision, as batch_throughput.py --baseline makes one)
+TREE = Path(os.environ.get("FEEDTUNE_BENCH_TREE") or Path(__file__).resolve().parents[1])
+sys.path.insert(0, str(TREE))
+sys.path.insert(1, str(Path(__file__).resolve().parent))
 
+import feedtune  # noqa: E402  (from TREE, before batch_throughput adds its own checkout)
 from batch_throughput import _structure, generate  # noqa: E402
 
 import feedtune.batch.job as job  # noqa: E402
@@ -66,11 +71,11 @@ PHASES = [
 def _timed(label: str, fn):
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
-        started = time.perf_counter()
+        started = time.process_time()
         try:
             return fn(*args, **kwargs)
         finally:
-            TOTALS[label] += time.perf_counter() - started
+            TOTALS[label] += time.process_time() - started
             CALLS[label] += 1
 
     return wrapper
@@ -94,17 +99,18 @@ def main(argv: list[str] | None = None) -> int:
     nlp.clear_solver_cache()
     data = [json.dumps(s).encode() for s in specs[:args.specs]]
     load = os.getloadavg()[0]
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     for d in data:
         job.solve(d)
-    wall = time.perf_counter() - started
+    wall, cpu = time.perf_counter() - started, time.process_time() - cpu
     n = len(data)
-    print(f"{n} specs in one process, {wall / n * 1e3:.1f} ms/spec wall (timers included); "
-          f"load average {load:.2f} before, {os.getloadavg()[0]:.2f} after")
+    print(f"{n} specs in one process, feedtune from {TREE}: {cpu / n * 1e3:.1f} ms/spec CPU, "
+          f"{wall / n * 1e3:.1f} ms/spec wall (timers included); load average {load:.2f} "
+          f"before, {os.getloadavg()[0]:.2f} after")
     print()
-    print("| phase | calls/spec | ms/spec | share |")
+    print("| phase | calls/spec | CPU ms/spec | share |")
     print("|---|---|---|---|")
-    total = TOTALS["solve (one batch spec)"] or wall
+    total = TOTALS["solve (one batch spec)"] or cpu
     for label, _, _, depth in PHASES:
         if CALLS.get(label):
             print(f"| {'. ' * depth}{label} | {CALLS[label] / n:.2f} | "
