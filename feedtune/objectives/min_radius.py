@@ -122,6 +122,6 @@ def _exact(excess, low: float) -> float:
                               method="bounded", options={"xatol": 1e-12})
         if -res.fun > 0:
             worst = max(worst, float(res.x))
-    above = u[u > worst]
-    upper = above[np.argmax(excess(above) <= 0)]
+    above = u > worst  # the scan's own values there: no second pass over the grid
+    upper = u[above][np.argmax(values[above] <= 0)]
     return math.exp(brentq(lambda x: excess(np.array([x]))[0], worst, upper, xtol=1e-15))
