@@ -189,6 +189,8 @@ def test_judging_scans_the_criterion_once_for_its_three_levels(monkeypatch):
     assert len([size for size in scans if size > 1]) == 1  # the grid, once
     monkeypatch.setattr(ServoModel, "blu_criterion", original)
     for level, radius in [(BLU / 2, value), (BLU / 2 - 1e-3 * BLU, edge)]:
+        ServoModel._criterion_scan.cache_clear()  # kept per equal model: start afresh
+        ServoModel._criterion_peak.cache_clear()
         fresh = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M)
         assert fresh.min_radius(level) == radius
     assert gap == pytest.approx(abs(edge - value), rel=1e-15)
