@@ -175,6 +175,8 @@ def test_judging_scans_the_criterion_once_for_its_three_levels(monkeypatch):
     """min_radius_judged asks for r_min at BLU/2 and at BLU/2 ± BLU/1000: one scan of the
     criterion over the radii and one refinement per peak serve all three (the issue's
     loop, whose dip gives a peak to refine), and each radius equals a fresh model's."""
+    ServoModel._criterion_scan.cache_clear()  # equal models share them: other tests' too
+    ServoModel._criterion_peak.cache_clear()
     model = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M)
     scans = []
     original = ServoModel.blu_criterion
