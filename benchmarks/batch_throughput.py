@@ -33,8 +33,16 @@ its joined worker processes), which tell contention on a shared machine from ove
 With ``feedtune.tuner.cache.solver_cache_info()`` (when it exists) it also prints this
 process's solver-cache hit rate over the single solves.
 
+With ``--baseline REV`` it measures git revision REV's ``feedtune`` (exported with
+``git archive`` into a temporary directory) and this checkout's, alternately, ``--rounds``
+times, each run in a fresh process, and prints the ratios mode by mode (current over
+baseline: specs/s, and CPU per spec the other way round, so > 1 is better for both),
+with the load average of each run: on a shared machine the runs of a pair see nearly the
+same load.
+
     .venv/bin/python benchmarks/batch_throughput.py                 # 2000 specs
     .venv/bin/python benchmarks/batch_throughput.py --specs 300 --workers 1 2 --keep
+    .venv/bin/python benchmarks/batch_throughput.py --specs 300 --workers 1 2 --baseline main
 """
 
 from __future__ import annotations
@@ -52,7 +60,9 @@ from collections import Counter
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
+#: the feedtune measured: this checkout, or another one's tree (set by --baseline)
+TREE = Path(os.environ.get("FEEDTUNE_BENCH_TREE") or REPO)
+sys.path.insert(0, str(TREE))
 
 from feedtune.__main__ import BLAS_THREADS, pin_blas_threads  # noqa: E402
 from feedtune.batch.local import LocalExecutor, default_workers  # noqa: E402
@@ -212,7 +222,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="specs solved one by one in this process (default 100)")
     parser.add_argument("--keep", action="store_true",
                         help="keep the generated specs and results (the directory is printed)")
+    parser.add_argument("--baseline", metavar="REV",
+                        help="also measure git revision REV's feedtune, alternating with this one")
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="with --baseline: pairs of runs (baseline, current)")
+    parser.add_argument("--json", metavar="FILE", help=argparse.SUPPRESS)  # for --baseline
     args = parser.parse_args(argv)
+    if args.baseline:
+        return compare(args, sys.argv[1:] if argv is None else argv)
     cores = default_workers()
     workers = args.workers or sorted({1, cores})
     if 1 not in workers:
@@ -226,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
         for spec in specs:
             (spec_dir / f"{spec['name']}.json").write_text(json.dumps(spec, indent=1))
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-        print(f"{args.specs} specs, {cores} cores available, load {load:.2f}, "
+        print(f"{args.specs} specs, feedtune from {TREE}, {cores} cores available, load {load:.2f}, "
               f"python {sys.version.split()[0]}", file=sys.stderr)
 
         single = single_solves(specs, min(args.sample, args.specs))
@@ -277,11 +294,74 @@ def main(argv: list[str] | None = None) -> int:
         cache = single["cache"]
         print("solver cache, single solves: " + (cache if cache else
               "feedtune.tuner.cache has no solver_cache_info(); not reported"))
+        if args.json:
+            modes = {"single": single, **{f"batch, {w} worker(s)": runs[w] for w in workers},
+                     f"batch, {last} worker(s), one BLAS thread": pinned, "resumed": resumed}
+            Path(args.json).write_text(json.dumps({
+                "tree": str(TREE), "load": [load, load_after], "cache": cache,
+                "modes": {label: {"specs_per_s": m["count"] / m["wall"],
+                                  "cpu_ms": m["cpu"] / m["count"] * 1e3,
+                                  "statuses": dict(m["statuses"])}
+                          for label, m in modes.items()}}))
         if args.keep:
             print(f"kept: {root}")
     finally:
         if not args.keep:
             shutil.rmtree(root, ignore_errors=True)
+    return 0
+
+
+def compare(args, argv: list[str]) -> int:
+    """Run the benchmark on ``args.baseline``'s tree and on this one, alternately, and
+    print the ratios per mode (see the module docstring)."""
+    import subprocess
+
+    forwarded, skip = [], False
+    for arg in argv:  # everything but --baseline/--rounds and their values
+        if skip:
+            skip = False
+        elif arg in ("--baseline", "--rounds"):
+            skip = True
+        elif not arg.startswith(("--baseline=", "--rounds=")):
+            forwarded.append(arg)
+    root = Path(tempfile.mkdtemp(prefix="feedtune-batch-baseline-"))
+    try:
+        archive = subprocess.run(["git", "-C", str(REPO), "archive", args.baseline, "feedtune"],
+                                 check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(root)], input=archive, check=True)
+        revision = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", args.baseline],
+                                  check=True, capture_output=True, text=True).stdout.strip()
+        current = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"],
+                                 check=True, capture_output=True, text=True).stdout.strip()
+        pairs = []
+        for round_ in range(args.rounds):
+            pair = []
+            for tree in (root, REPO):
+                out = root / f"run-{round_}-{'baseline' if tree == root else 'current'}.json"
+                env = {**os.environ, "FEEDTUNE_BENCH_TREE": str(tree)}
+                subprocess.run([sys.executable, __file__, *forwarded, "--json", str(out)],
+                               check=True, env=env)
+                pair.append(json.loads(out.read_text()))
+            pairs.append(pair)
+        print()
+        print(f"baseline {args.baseline} ({revision}) against this checkout ({current}, "
+              "uncommitted changes included), current/baseline:")
+        print()
+        print("| round | mode | baseline specs/s | current specs/s | ratio | baseline CPU ms/spec "
+              "| current CPU ms/spec | CPU ratio | load (baseline, current) |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for round_, (old, new) in enumerate(pairs, start=1):
+            for label, a in old["modes"].items():
+                b = new["modes"][label]
+                print(f"| {round_} | {label} | {a['specs_per_s']:.1f} | {b['specs_per_s']:.1f} | "
+                      f"{b['specs_per_s'] / a['specs_per_s']:.2f} | {a['cpu_ms']:.1f} | "
+                      f"{b['cpu_ms']:.1f} | {a['cpu_ms'] / b['cpu_ms']:.2f} | "
+                      f"{old['load'][0]:.1f}–{old['load'][1]:.1f}, "
+                      f"{new['load'][0]:.1f}–{new['load'][1]:.1f} |")
+        for name, run in (("baseline", pairs[-1][0]), ("current", pairs[-1][1])):
+            print(f"solver cache, single solves, {name}: {run['cache']}")
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
     return 0
 
 

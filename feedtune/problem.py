@@ -3,11 +3,13 @@ tuner a loop factory and metric callables, and turns its outcome into a TuneResu
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
+from feedtune.expr import Crossing, Magnitude, Supremum
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
@@ -58,8 +60,47 @@ def _label(name: str, options: dict) -> str:
     return name if not options else name + "(" + ",".join(f"{k}={v}" for k, v in options.items()) + ")"
 
 
-def _value_fn(metric, options) -> Callable:
-    return lambda loop: metric.evaluate(loop, options)
+class LiftedOptions:
+    """Metric options offered to the tuner as NLP parameters, beside the plant's numbers.
+
+    A metric names in ``lifted_options`` the options that enter its expression only through
+    arithmetic (a circle's radius and feed: ω = feed/radius); as constants of the graph they
+    would give every circle its own solver (feedtune.tuner.nlp, "Solver reuse"). Each such
+    option of each objective term and constraint becomes a number ``PREFIX.OPTION``
+    (``objective0.radius``) that the tuner lifts like a plant's; the loops the tuner builds
+    with those parameters are remembered, and a term evaluated on one of them reads its
+    options as the parameters. On any other loop (the exact evaluation of a tuned design)
+    it reads the spec's numbers, so both evaluate the same expression at the same values.
+    """
+
+    def __init__(self):
+        self.numbers: dict[str, float] = {}  # parameter name → the spec's value
+        self._loops: dict[int, tuple[object, dict]] = {}  # id(loop) → (loop, parameters)
+
+    def value_fn(self, prefix: str, metric, options) -> Callable:
+        """``loop → metric.evaluate(loop, options)``, the lifted options as parameters on a
+        loop built by :meth:`make_loop`."""
+        names = {field: f"{prefix}.{field}" for field in metric.lifted_options
+                 if isinstance(getattr(options, field, None), (int, float))}
+        self.numbers.update({name: float(getattr(options, field)) for field, name in names.items()})
+
+        def evaluate(loop):
+            _, parameters = self._loops.get(id(loop), (None, None))
+            if parameters is None or not names:
+                return metric.evaluate(loop, options)
+            lifted = options.model_copy(update={f: parameters[n] for f, n in names.items()})
+            return metric.evaluate(loop, lifted)
+
+        return evaluate
+
+    def make_loop(self, build: Callable, numbers: dict) -> object:
+        """``build(plant_numbers)`` (None when there are none), remembered with ``numbers``
+        (the tuner's parameters by name) when any of them is a lifted option."""
+        own = {name: value for name, value in numbers.items() if name not in self.numbers}
+        loop = build(own or None)
+        if len(own) < len(numbers):
+            self._loops[id(loop)] = (loop, numbers)  # the loop kept: its id stays its own
+        return loop
 
 
 def _report_fn(metric, options) -> Callable:
@@ -70,6 +111,52 @@ def _report_fn(metric, options) -> Callable:
             return ca.MX(math.nan)
 
     return evaluate
+
+
+class Reports:
+    """The reported metrics' callables, which evaluate all of them together on a loop of
+    numbers.
+
+    The tuner asks for each report of the tuned design in turn and evaluates each
+    expression on its own; many share the loop's costly parts (the step-response fold
+    behind IAE, ISE and ITAE and their natural-time variants, the characteristic
+    polynomial behind ζ and ω_n). So the first request on a loop builds every report's
+    expression and evaluates them all in one CasADi Function, shared parts once, and each
+    callable returns its number (a Magnitude's absolute value). A report that raises, or
+    a loop with free symbols, keeps the plain one-by-one evaluation.
+    """
+
+    def __init__(self, sets: dict[str, tuple]):
+        self.fns = {key: _report_fn(metric, options) for key, (metric, options) in sets.items()}
+        self._loops: dict[int, tuple[object, dict]] = {}  # id(loop) → (loop, key → value)
+
+    def callables(self) -> dict[str, Callable]:
+        """Report name → ``loop → value``, for the tuner."""
+        return {key: functools.partial(self._value, key) for key in self.fns}
+
+    def _value(self, key: str, loop):
+        if id(loop) not in self._loops:
+            self._loops[id(loop)] = (loop, self._evaluate_all(loop))  # the loop kept: its id stays its own
+        values = self._loops[id(loop)][1]
+        return values[key] if key in values else self.fns[key](loop)
+
+    def _evaluate_all(self, loop) -> dict:
+        """Report name → its number as a DM, for every report whose expression builds."""
+        exprs = {}
+        for key, fn in self.fns.items():
+            try:
+                value = fn(loop)
+            except Exception:  # noqa: BLE001 — raised again when the tuner asks for it
+                continue
+            if isinstance(value, Magnitude):
+                value = ca.fabs(value.expr)
+            elif isinstance(value, (Supremum, Crossing)):
+                value = value.exact
+            if isinstance(value, (ca.MX, ca.DM, int, float)):
+                exprs[key] = ca.MX(value)
+        if not exprs or ca.symvar(ca.veccat(*exprs.values())):
+            return {}
+        return dict(zip(exprs, ca.Function("reports", [], list(exprs.values())).call([])))
 
 
 def _variants(default) -> list:
@@ -182,14 +269,16 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     variables, fixed, box = resolve_tunables(spec, plant)
     tunables = plant.tunables()
 
-    objective = [Term(term.metric, _value_fn(METRICS[term.metric](), term),
+    lifted = LiftedOptions()
+    objective = [Term(term.metric, lifted.value_fn(f"objective{i}", METRICS[term.metric](), term),
                       term.weight if term.goal == "minimize" else -term.weight)
-                 for term in spec.objective]
-    constraints = [Bound(_label(c.metric, _options_dict(c)), _value_fn(METRICS[c.metric](), c),
-                         c.min, c.max) for c in spec.constraints]
+                 for i, term in enumerate(spec.objective)]
+    constraints = [Bound(_label(c.metric, _options_dict(c)),
+                         lifted.value_fn(f"constraint{i}", METRICS[c.metric](), c), c.min, c.max)
+                   for i, c in enumerate(spec.constraints)]
     probe_loop = plant.loop({name: hi for name, (lo, hi) in box.items()}, box)
     report_sets = _report_sets(spec, probe_loop)
-    reports = {key: _report_fn(metric, options) for key, (metric, options) in report_sets.items()}
+    reports = Reports(report_sets).callables()
     plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}
     s = spec.solver
     try:
@@ -200,15 +289,18 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
             scale = HORIZON_GROWTH**refinement
 
             def make_loop(values, numbers=None, scale=scale):
-                if numbers:  # plant numbers as NLP parameters (see feedtune.plants.base)
-                    return plant.loop(values, box, horizon_scale=scale, numbers=numbers)
-                return plant.loop(values, box, horizon_scale=scale)
+                def build(own):  # plant numbers as NLP parameters (see feedtune.plants.base)
+                    if own:
+                        return plant.loop(values, box, horizon_scale=scale, numbers=own)
+                    return plant.loop(values, box, horizon_scale=scale)
+
+                return lifted.make_loop(build, numbers) if numbers else build(None)
 
             # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
             try:
                 problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
                                                     constraints, reports, settings,
-                                                    numbers=plant_numbers)
+                                                    numbers={**plant_numbers, **lifted.numbers})
             except HorizonError as exc:
                 if refinement == 0:
                     raise

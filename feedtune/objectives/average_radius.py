@@ -30,6 +30,7 @@ class AverageRadius(Metric):
     description = "Radius of the circle with the area of the interpolated polygon (Sato eq 3)"
     reference = "Sato et al. eqs 1–3"
     Options = CircleOptions
+    lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
     def supports(self, loop, options=None):
         return loop.interpolator is not None

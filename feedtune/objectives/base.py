@@ -30,6 +30,10 @@ class Metric:
     description: ClassVar[str]
     reference: ClassVar[str] = ""
     Options: ClassVar[type[SpecModel]] = NoOptions
+    #: options that enter :meth:`evaluate` only through arithmetic (never a grid size, a
+    #: band or a branch), so the tuner may hold them as NLP parameters and reuse one solver
+    #: for specs that differ in them (feedtune.problem.LiftedOptions)
+    lifted_options: ClassVar[tuple[str, ...]] = ()
 
     def unit_of(self, options, position_unit: str = "m") -> str:
         """SI unit of the value for these options on an axis whose position is in

@@ -62,9 +62,8 @@ class MinRadius(Metric):
         low = ca.log(v / loop.velocity_constant)
         free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
         excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
-        if not free:
-            return ca.DM(_exact(lambda u: np.array(excess_fn.map(np.size(u))(u)).ravel(),
-                                float(ca.evalf(low))))
+        if not free:  # a loop of numbers: scalar arithmetic, evaluated faster as SX
+            return ca.DM(_exact(_vectorised(excess_fn.expand()), float(ca.evalf(low))))
         count = PER_DECADE_SYMBOLIC * SPAN
         cell = math.log(10) / PER_DECADE_SYMBOLIC
         grid = low + ca.DM(np.arange(count + 1) * cell).T
@@ -80,6 +79,20 @@ class MinRadius(Metric):
         refine = ca.rootfinder("min_radius", "newton", excess_fn,
                                {"abstol": 1e-12, "max_iter": 20, "error_on_fail": False})
         return ca.exp(refine((lower + upper) / 2, *free))
+
+
+def _vectorised(fn: ca.Function):
+    """``fn`` of one scalar as a function of a numpy array, mapped once per array size
+    (a scan maps hundreds of points, the refinements call it one point at a time)."""
+    maps = {}
+
+    def evaluate(u: np.ndarray) -> np.ndarray:
+        size = np.size(u)
+        if size not in maps:
+            maps[size] = fn if size == 1 else fn.map(size)
+        return np.array(maps[size](np.reshape(u, (1, size))), dtype=float).ravel()
+
+    return evaluate
 
 
 def _exact(excess, low: float) -> float:
@@ -109,6 +122,6 @@ def _exact(excess, low: float) -> float:
                               method="bounded", options={"xatol": 1e-12})
         if -res.fun > 0:
             worst = max(worst, float(res.x))
-    above = u[u > worst]
-    upper = above[np.argmax(excess(above) <= 0)]
+    above = u > worst  # the scan's own values there: no second pass over the grid
+    upper = u[above][np.argmax(values[above] <= 0)]
     return math.exp(brentq(lambda x: excess(np.array([x]))[0], worst, upper, xtol=1e-15))

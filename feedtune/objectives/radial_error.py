@@ -18,6 +18,7 @@ class RadialError(Metric):
     description = "Steady-state radial error magnitude on a circle (exact, not only eq 28)"
     reference = "Koren 1979 eqs 28, 37 (exact form)"
     Options = CircleOptions
+    lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
     def evaluate(self, loop, options):
         return Magnitude(options.radius * radius_gain_excess(loop, options.feed / options.radius))

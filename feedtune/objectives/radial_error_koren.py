@@ -23,6 +23,7 @@ class RadialErrorKoren(Metric):
     description = "Radial error on a circle by Koren's eq 28/29 (sampled) or eq 37 (continuous)"
     reference = "Koren 1979 eqs 28, 29, 37"
     Options = CircleOptions
+    lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
     def supports(self, loop, options=None):
         # K/(s(1+sτ)) closed continuously or sampled without delay: order two (not a Padé loop)

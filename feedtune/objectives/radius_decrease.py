@@ -21,6 +21,7 @@ class RadiusDecrease(Metric):
     description = "Decrease in radius of the interpolated circle, |r − r̄·|G(jω)|| (Sato eq 7)"
     reference = "Sato et al. eqs 3, 6, 7"
     Options = CircleOptions
+    lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
     def supports(self, loop, options=None):
         return loop.interpolator is not None

@@ -57,6 +57,7 @@ class SurfaceRoughness(Metric):
     description = "Surface roughness of the interpolated circle, ripple gain sum (Sato eq 10)"
     reference = "Sato et al. eqs 1, 9, 10, Table 1"
     Options = CircleOptions
+    lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
     def supports(self, loop, options=None):
         return loop.interpolator is not None

@@ -492,15 +492,10 @@ class ServoModel:
         crossing above the largest failing radius.
         """
         level = self.blu / 2 if level is None else level
-        low = self.max_velocity * self.ramp_following_error()  # V_m/C_v
-        grid = np.geomspace(low, low * 10.0**MIN_RADIUS_SPAN,
-                            RADII_PER_DECADE * MIN_RADIUS_SPAN + 1)
-        values = self.blu_criterion(grid)
-        for _ in range(MIN_RADIUS_EXTENSIONS):  # a slow loop: further up, until a circle passes
-            if values[-1] <= level:
+        for extensions in range(MIN_RADIUS_EXTENSIONS + 1):  # a slow loop: further up
+            grid, values = self._criterion_scan(extensions)
+            if values[-1] <= level:  # until a circle passes
                 break
-            more = grid[1:] * (grid[-1] / grid[0])
-            grid, values = np.concatenate([grid, more]), np.concatenate([values, self.blu_criterion(more)])
         if values[-1] > level:
             raise NotCovered("no radius in the bracket meets the BLU/2 criterion")
         if values[0] <= level:
@@ -510,15 +505,36 @@ class ServoModel:
         for i in peaks:
             if values[i] > level or grid[i + 1] <= worst:
                 continue
-            res = minimize_scalar(lambda u: -self.blu_criterion(math.exp(u))[0],
-                                  bounds=(math.log(grid[i - 1]), math.log(grid[i + 1])),
-                                  method="bounded", options={"xatol": 1e-12})
-            if -res.fun > level:
-                worst = max(worst, math.exp(float(res.x)))
-        above = grid[grid > worst]
-        upper = float(above[np.argmax(self.blu_criterion(above) <= level)])
+            where, peak = self._criterion_peak(float(grid[i - 1]), float(grid[i + 1]))
+            if peak > level:
+                worst = max(worst, where)
+        above = grid > worst
+        upper = float(grid[above][np.argmax(values[above] <= level)])
         return float(brentq(lambda r: self.blu_criterion(r)[0] - level, worst, upper,
                             xtol=1e-15 * worst))
+
+    @functools.lru_cache(maxsize=MIN_RADIUS_EXTENSIONS + 1)
+    def _criterion_scan(self, extensions: int) -> tuple[np.ndarray, np.ndarray]:
+        """(radii [m], :meth:`blu_criterion` [m]) of the minimum-radius scan, extended
+        ``extensions`` times by MIN_RADIUS_SPAN decades. Kept: :meth:`min_radius_judged`
+        asks for three levels on the same scan."""
+        if extensions == 0:
+            low = self.max_velocity * self.ramp_following_error()  # V_m/C_v
+            grid = np.geomspace(low, low * 10.0**MIN_RADIUS_SPAN,
+                                RADII_PER_DECADE * MIN_RADIUS_SPAN + 1)
+            return grid, self.blu_criterion(grid)
+        grid, values = self._criterion_scan(extensions - 1)
+        more = grid[1:] * (grid[-1] / grid[0])
+        return np.concatenate([grid, more]), np.concatenate([values, self.blu_criterion(more)])
+
+    @functools.lru_cache(maxsize=64)
+    def _criterion_peak(self, lower: float, upper: float) -> tuple[float, float]:
+        """(radius [m], :meth:`blu_criterion` [m]) of the criterion's largest value between
+        the radii ``lower`` and ``upper`` [m] (bounded Brent on ln r), for any level."""
+        res = minimize_scalar(lambda u: -self.blu_criterion(math.exp(u))[0],
+                              bounds=(math.log(lower), math.log(upper)),
+                              method="bounded", options={"xatol": 1e-12})
+        return math.exp(float(res.x)), float(-res.fun)
 
     def min_radius_judged(self, reported: float) -> tuple[float, tuple[float, str]]:
         """(r_min [m], (allowed gap [m], its label)): a reported radius agrees when it lies

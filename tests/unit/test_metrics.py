@@ -317,3 +317,28 @@ def test_radius_gain_excess_sampled_tends_to_eq28_at_tiny_omega_t(gain, period):
     loop = _loop("sampled_data", gain, period)
     expected = _koren_l(gain, period) / 2 * (omega * period) ** 2
     assert float(ca.evalf(radius_gain_excess(loop, omega))) == pytest.approx(expected, rel=1e-8, abs=0)
+
+
+def test_min_radius_of_a_loop_of_numbers_scans_the_radii_once(monkeypatch):
+    """The exact minimum radius evaluates the criterion over its grid of radii once (the
+    radii above the largest failing one are read from that scan), then point by point for
+    the refinements; the value is the scan's own."""
+    import feedtune.objectives.min_radius as min_radius
+
+    sizes = []
+    vectorised = min_radius._vectorised
+
+    def counted(fn):
+        evaluate = vectorised(fn)
+
+        def wrapper(u):
+            sizes.append(np.size(u))
+            return evaluate(u)
+
+        return wrapper
+
+    monkeypatch.setattr(min_radius, "_vectorised", counted)
+    got = _value(METRICS["min_radius"]().evaluate(_loop("sampled_data", 18.0, 1 / 64), None))
+    assert [s for s in sizes if s > 1] == [min_radius.PER_DECADE_EXACT * min_radius.SPAN + 1]
+    expected = _largest_root(lambda r: r * abs(abs(_h_sampled(18.0, 1 / 64, 0, V_M / r)) - 1))
+    assert got == pytest.approx(expected, rel=_min_radius_tolerance(expected))

@@ -84,6 +84,65 @@ def test_reused_solver_gives_the_result_of_a_fresh_one(example, changes):
     assert _without_timing(reused) == _without_timing(fresh)
 
 
+def _circles(data: dict, radius: float, feed: float) -> dict:
+    """``data`` with every circle's radius [m] and feed [m/s] replaced."""
+    data = copy.deepcopy(data)
+    data["name"] += f"-r{radius}-v{feed}"
+    for term in data["objective"] + data.get("constraints", []):
+        if "radius" in term:
+            term.update(radius=radius, feed=feed)
+    return data
+
+
+@pytest.mark.parametrize("example, radius, feed", [
+    # ω = feed/radius in the objective (Koren's radial error): 8 mm at 40 mm/s → 15 mm at
+    # 30 mm/s (ω 5 → 2 rad/s), both loops' ω and r parameters of one solver
+    ("koren-1979-sampled-data.json", 0.015, 0.03),
+    ("koren-1979-reference-pulse.json", 0.004, 0.03),
+    # in the objective and in a constraint (Sato's roughness, decrease in radius ≤ 10 µm)
+    ("sato-finish.json", 0.04, 0.06),
+])
+def test_specs_that_differ_in_their_circles_share_a_solver(example, radius, feed):
+    """A circle's radius and feed enter the metrics through arithmetic only, so they are
+    NLP parameters (feedtune.problem.LiftedOptions): a second circle runs on the first
+    one's solver and gets the result a fresh solver gives."""
+    a = _example(example)
+    b = _circles(a, radius, feed)
+    reused, info = _tune_after(a, b)
+    assert info["hits"] == 1 and info["misses"] == 1, info
+    fresh, info = _tune_after(None, b)
+    assert info["hits"] == 0 and info["misses"] == 1, info
+    assert reused.success and fresh.success
+    assert _without_timing(reused) == _without_timing(fresh)
+
+
+def test_lifted_circle_gives_the_result_of_the_spec_numbers():
+    """The objective evaluated on the tuner's loop with the circle as parameters equals
+    the same metric evaluated with the spec's numbers embedded, at the same point."""
+    import casadi as ca
+
+    from feedtune.objectives import METRICS
+    from feedtune.problem import LiftedOptions, resolve_tunables
+
+    spec = parse_spec(_example("koren-1979-sampled-data.json"))
+    plant = plant_for(spec.plant)
+    _, _, box = resolve_tunables(spec, plant)
+    term = spec.objective[0]
+    lifted = LiftedOptions()
+    value = lifted.value_fn("objective0", METRICS[term.metric](), term)
+    assert lifted.numbers == {"objective0.radius": 0.008, "objective0.feed": 0.04}
+    gain = ca.MX.sym("gain")
+    symbols = {name: ca.MX.sym(name) for name in lifted.numbers}
+    values = {"position_gain": gain, "sampling_period": 0.015625}
+    loop = lifted.make_loop(lambda own: plant.loop(values, box), symbols)
+    expr = value(loop).expr
+    assert set(ca.symvar(expr)) >= set(symbols.values())  # ω is no constant of the graph
+    got = ca.Function("lifted", [gain, *symbols.values()], [expr])(18.0, 0.008, 0.04)
+    plain = value(plant.loop(values, box)).expr
+    expected = ca.Function("plain", [gain], [plain])(18.0)
+    assert float(got) == pytest.approx(float(expected), rel=1e-14)
+
+
 def test_a_number_that_shapes_the_graph_makes_a_new_solver():
     """τ sizes the step-response horizon of a minimum-IAE loop (its sample count): a
     different τ is a different structure, never a parameter of the same solver."""

@@ -169,3 +169,30 @@ def test_a_minimum_radius_outside_the_scan_leaves_out_that_entry_only():
     block = validate_result(result)
     assert block["covered"] and block["ok"] is True
     assert {e["metric"] for e in block["entries"]} == {"damping_ratio", "poles", "stable"}
+
+
+def test_judging_scans_the_criterion_once_for_its_three_levels(monkeypatch):
+    """min_radius_judged asks for r_min at BLU/2 and at BLU/2 ± BLU/1000: one scan of the
+    criterion over the radii and one refinement per peak serve all three (the issue's
+    loop, whose dip gives a peak to refine), and each radius equals a fresh model's."""
+    ServoModel._criterion_scan.cache_clear()  # equal models share them: other tests' too
+    ServoModel._criterion_peak.cache_clear()
+    model = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M)
+    scans = []
+    original = ServoModel.blu_criterion
+
+    def counted(self, radii):
+        scans.append(np.size(radii))
+        return original(self, radii)
+
+    monkeypatch.setattr(ServoModel, "blu_criterion", counted)
+    value, (gap, _) = model.min_radius_judged(0.1629)
+    edge = model.min_radius(BLU / 2 - 1e-3 * BLU)
+    assert len([size for size in scans if size > 1]) == 1  # the grid, once
+    monkeypatch.setattr(ServoModel, "blu_criterion", original)
+    for level, radius in [(BLU / 2, value), (BLU / 2 - 1e-3 * BLU, edge)]:
+        ServoModel._criterion_scan.cache_clear()  # kept per equal model: start afresh
+        ServoModel._criterion_peak.cache_clear()
+        fresh = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M)
+        assert fresh.min_radius(level) == radius
+    assert gap == pytest.approx(abs(edge - value), rel=1e-15)

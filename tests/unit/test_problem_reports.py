@@ -1,0 +1,70 @@
+"""feedtune.problem.Reports: every reported metric of a loop of numbers evaluated in one
+CasADi Function gives, to the last bit, what evaluating each on its own gives."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import casadi as ca
+import pytest
+
+from feedtune.problem import Reports, _report_sets, build_plant, resolve_tunables
+from feedtune.spec import parse_spec
+from feedtune.tuner.nlp import _magnitude
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def _one_by_one(value) -> float:
+    """A report's number as the tuner took it before: each expression on its own."""
+    expr, magnitude = _magnitude(value)
+    return float(ca.fabs(ca.evalf(expr)) if magnitude else ca.evalf(expr))
+
+
+def _setup(example: str):
+    spec = parse_spec(json.loads((EXAMPLES / example).read_text()))
+    plant = build_plant(spec)
+    _, _, box = resolve_tunables(spec, plant)
+    sets = _report_sets(spec, plant.loop({n: hi for n, (lo, hi) in box.items()}, box))
+    return plant, box, sets
+
+
+@pytest.mark.parametrize("example, point", [
+    ("koren-1979-sampled-data.json", {"position_gain": 18.17, "sampling_period": 0.015625}),
+    ("koren-1979-reference-pulse.json", {"position_gain": 25.25}),
+    ("sato-finish.json", {"position_gain": 40.0, "sampling_period": 0.004,
+                          "reference_interval": 0.02}),
+])
+def test_reports_evaluated_together_equal_each_on_its_own(example, point):
+    plant, box, sets = _setup(example)
+    fns = Reports(sets).callables()
+    loop = plant.loop(point, box)
+    together = {key: float(ca.evalf(fn(loop))) for key, fn in fns.items()}
+    alone = {key: _one_by_one(metric.evaluate(plant.loop(point, box), options))
+             for key, (metric, options) in sets.items()}
+    assert together.keys() == alone.keys() and len(alone) > 10
+    assert together == alone  # shared parts evaluated once, the same operations
+
+
+def test_a_report_that_raises_raises_when_asked_and_the_others_still_evaluate(monkeypatch):
+    plant, box, sets = _setup("koren-1979-sampled-data.json")
+    metric, options = sets["damping_ratio"]
+
+    def broken(loop, options):
+        raise ZeroDivisionError("a metric's own failure")
+
+    monkeypatch.setattr(metric, "evaluate", broken)
+    fns = Reports(sets).callables()
+    loop = plant.loop({"position_gain": 18.17, "sampling_period": 0.015625}, box)
+    assert float(ca.evalf(fns["velocity_constant"](loop))) == pytest.approx(18.17, rel=1e-15)
+    with pytest.raises(ZeroDivisionError):
+        fns["damping_ratio"](loop)
+
+
+def test_a_symbolic_loop_gets_the_expressions_themselves():
+    plant, box, sets = _setup("koren-1979-sampled-data.json")
+    gain = ca.MX.sym("gain")
+    loop = plant.loop({"position_gain": gain, "sampling_period": 0.015625}, box)
+    value = Reports(sets).callables()["velocity_constant"](loop)
+    assert ca.depends_on(value, gain)
