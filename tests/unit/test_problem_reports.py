@@ -11,14 +11,14 @@ import pytest
 
 from feedtune.problem import Reports, _report_sets, build_plant, resolve_tunables
 from feedtune.spec import parse_spec
-from feedtune.tuner.nlp import _magnitude
+from feedtune.tuner.terms import exact_value
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def _one_by_one(value) -> float:
     """A report's number as the tuner took it before: each expression on its own."""
-    expr, magnitude = _magnitude(value)
+    expr, magnitude = exact_value(value)
     return float(ca.fabs(ca.evalf(expr)) if magnitude else ca.evalf(expr))
 
 

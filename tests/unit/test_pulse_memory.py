@@ -10,7 +10,7 @@ import weakref
 
 from feedtune.objectives import METRICS
 from feedtune.plants.pulse_generator import PulseGenerator, PulseGeneratorParams
-from feedtune.tuner.nlp import Bound, Settings, Term, Variable
+from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import SearchProblem
 
 DELTA = 430.0 / 140e3  # rad per pulse (Tian §4)
