@@ -13,8 +13,9 @@ the expressions may depend on the NLP's symbols or be plain numbers.
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
+
+from feedtune.lazy import ca
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40

@@ -2,9 +2,9 @@
 
 import math
 
-import casadi as ca
 import numpy as np
 
+from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import radius_gain_excess
 
