@@ -13,9 +13,7 @@ the expressions may depend on the NLP's symbols or be plain numbers.
 
 from __future__ import annotations
 
-import numpy as np
-
-from feedtune.lazy import ca
+from feedtune.lazy import ca, np
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40

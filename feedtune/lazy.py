@@ -1,21 +1,37 @@
-"""CasADi, imported when first used: a command that only checks a spec (``feedtune
-validate``) never builds an expression, so it never pays for the import (issue 15).
+"""CasADi and numpy, imported when first used: a command that only checks a spec
+(``feedtune validate``) builds no expression and computes no array, so it never pays for
+their import (issue 15).
 
-Modules that build expressions write ``from feedtune.lazy import ca`` and use ``ca`` as
-the casadi module.
+Modules on that path write ``from feedtune.lazy import ca`` (or ``np``) and use the name
+as the module.
 """
 
 from __future__ import annotations
 
 
-class _Casadi:
-    """The casadi module, imported when an attribute is first read."""
+class _Lazy:
+    """A module, imported by ``load()`` when an attribute is first read."""
+
+    def __init__(self, load):
+        self._load = load
 
     def __getattr__(self, name: str):
-        import casadi
+        module = self._load()
+        self.__dict__.update(vars(module))  # later reads find the attribute directly
+        return getattr(module, name)
 
-        self.__dict__.update(vars(casadi))  # later reads find the attribute directly
-        return getattr(casadi, name)
+
+def _casadi():
+    import casadi
+
+    return casadi
 
 
-ca = _Casadi()
+def _numpy():
+    import numpy
+
+    return numpy
+
+
+ca = _Lazy(_casadi)
+np = _Lazy(_numpy)

@@ -21,10 +21,8 @@ import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
-import numpy as np
-
 from feedtune import linalg
-from feedtune.lazy import ca
+from feedtune.lazy import ca, np
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                               second_order_error_integrals)
 
