@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import math
 
-import casadi as ca
-import numpy as np
+from feedtune.lazy import ca, np
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40

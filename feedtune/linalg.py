@@ -6,7 +6,7 @@ same expression serves the NLP and the evaluation of a tuned design.
 
 from __future__ import annotations
 
-import casadi as ca
+from feedtune.lazy import ca
 
 
 def characteristic_polynomial(matrix) -> list:

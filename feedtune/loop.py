@@ -21,10 +21,8 @@ import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
-import casadi as ca
-import numpy as np
-
 from feedtune import linalg
+from feedtune.lazy import ca, np
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                               second_order_error_integrals)
 
@@ -412,6 +410,11 @@ class SampledLoop(_LoopBase):
     discrete = True
 
     @property
+    def order(self) -> int:
+        """States: the plant's and one per sample of delay (no matrix is built)."""
+        return self.plant.order + self.delay
+
+    @property
     def velocity_constant(self):
         """C_v = K [1/s]: the open loop K·ZOH·1/(s(1+sτ)) (or K·ZOH/s) is type 1 with gain K."""
         return self.gain
@@ -535,14 +538,22 @@ class SampledLoop(_LoopBase):
         response has decayed by SETTLED (from the spectral radius), so what a result
         reports is exact even for lightly damped loops.
         """
-        samples = math.ceil(self.horizon / self.period_min)
-        limit = MAX_HORIZON_SAMPLES
         radius = self._numeric_spectral_radius
-        if radius is not None:
-            samples = math.ceil(self.horizon / float(ca.evalf(self.period)))
-            if 0 < radius < 1:
-                samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
-            limit = 10 * MAX_HORIZON_SAMPLES
+        if radius is None:
+            return self.symbolic_horizon_samples
+        samples = math.ceil(self.horizon / float(ca.evalf(self.period)))
+        if 0 < radius < 1:
+            samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
+        return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
+
+    @property
+    def symbolic_horizon_samples(self) -> int:
+        """:attr:`horizon_samples` of this loop built on symbols, ``horizon / period_min``,
+        from the numbers alone (no expression is built)."""
+        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
+
+    def _within_limit(self, samples: int, limit: int) -> int:
+        """``samples``, or HorizonError when above ``limit``."""
         if samples > limit:
             raise HorizonError(
                 f"a step response over {self.horizon:.3g} s at periods down to "
@@ -629,6 +640,11 @@ class TransferLoop(_LoopBase):
     def characteristic_polynomial(self) -> list:
         lead = self.closed_denominator[0]
         return [c / lead for c in self.closed_denominator]
+
+    @property
+    def order(self) -> int:
+        """Degree of the characteristic polynomial (no matrix is built)."""
+        return len(self.closed_denominator) - 1
 
     @cached_property
     def state_matrix(self):

@@ -57,8 +57,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Sequence
 
-import numpy as np
-
+from feedtune.lazy import np
 from feedtune.loop import Drive
 
 #: automatic horizon: this many times the time a step needs by the plain estimate

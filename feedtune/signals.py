@@ -15,7 +15,7 @@ from __future__ import annotations
 import functools
 from typing import NamedTuple
 
-import casadi as ca
+from feedtune.lazy import ca
 
 _TINY = 1e-300
 _NEWTON_STEPS = 8

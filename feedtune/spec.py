@@ -487,18 +487,17 @@ def tunable_box(raw_tunables: Any, tunables: dict) -> tuple[dict, list[tuple[str
     return box, errors, complete
 
 
-def _tuner_loop(plant, box: dict):
-    """The loop as the tuner builds it at step-response horizon scale 1: tunables and plant
-    numbers as symbols when any tunable is free, else a loop of numbers."""
-    import casadi as ca  # only a spec with a summed step response needs it
+def _tuner_horizon_samples(plant, box: dict, loop) -> int:
+    """Samples the tuner's loop sums at step-response horizon scale 1 (HorizonError above
+    the limit). With a tunable free the tuner builds it on symbols: ``loop`` (the same plant
+    and box) answers from its numbers. With every tunable fixed, a loop of those numbers is
+    built, as the tuner does."""
+    if any(lower != upper for lower, upper in box.values()):
+        return loop.symbolic_horizon_samples
+    import casadi as ca  # the spectral radius of a loop of numbers
 
-    if all(lower == upper for lower, upper in box.values()):
-        return plant.loop({name: ca.MX(lower) for name, (lower, _) in box.items()}, box)
-    values = {name: ca.MX.sym(name) for name in box}
-    numbers = plant.numbers() if hasattr(plant, "numbers") else {}
-    if numbers:
-        return plant.loop(values, box, numbers={name: ca.MX.sym(name) for name in numbers})
-    return plant.loop(values, box)
+    return plant.loop({name: ca.MX(lower) for name, (lower, _) in box.items()},
+                      box).horizon_samples
 
 
 def _default_options(metric):
@@ -545,7 +544,6 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
         errors.append(("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints with "
                                        "integer_ratio, which adds one (q = a whole number)"))
     loop = plant.loop({n: hi for n, (lo, hi) in box.items()}, box)
-    tuner_loop = None  # built when a term sums a step response
     supported = optimisable = None  # computed when a message needs them
     for section, adapter in _TERM.items():
         terms = raw.get(section)
@@ -574,11 +572,10 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
                                f"{', '.join(optimisable) or 'none'}"))
             elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
                   and has_exact_step(loop, term)):
-                tuner_loop = tuner_loop if tuner_loop is not None else _tuner_loop(plant, box)
-                if not hasattr(type(tuner_loop), "horizon_samples"):
+                if not hasattr(type(loop), "horizon_samples"):
                     continue  # a continuous loop's integrals are closed-form lobe sums
                 try:
-                    tuner_loop.horizon_samples  # noqa: B018 — raises when over the limit
+                    _tuner_horizon_samples(plant, box, loop)
                 except HorizonError as exc:
                     errors.append((where, f"{name} sums the step response sample by sample: "
                                           f"{exc}"))

@@ -74,7 +74,7 @@ import math
 from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 
-import numpy as np
+from feedtune.lazy import np
 
 DECAY = 1e-12  # a mode is followed until it has decayed to this fraction of its largest size
 #: a mode's contribution is dropped once below this fraction of its largest size (far below

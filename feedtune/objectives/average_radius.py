@@ -1,7 +1,6 @@
 """Sato's average radius: the circle a linearly interpolated polygon is equivalent to (eq 3)."""
 
-import casadi as ca
-
+from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
 

@@ -1,8 +1,8 @@
 """Options shared by the circular-motion metrics, and the radius gain |H| − 1."""
 
-import casadi as ca
 from pydantic import Field, PositiveFloat
 
+from feedtune.lazy import ca
 from feedtune.model import SpecModel
 
 

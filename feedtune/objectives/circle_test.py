@@ -38,9 +38,7 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
-import casadi as ca
-import numpy as np
-
+from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
 

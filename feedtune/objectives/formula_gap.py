@@ -1,10 +1,11 @@
 """What radius_decrease_gap and surface_roughness_gap share: a paper formula against its
 exact circle-test counterpart."""
 
+from __future__ import annotations
+
 import math
 
-import casadi as ca
-
+from feedtune.lazy import ca
 from feedtune.objectives.circle_test import CircleTestMetric
 
 

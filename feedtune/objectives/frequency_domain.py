@@ -1,6 +1,6 @@
 """What the frequency-domain metrics share: which loops they read, and |T|², L(jω)."""
 
-import casadi as ca
+from feedtune.lazy import ca
 
 
 def has_frequency_band(loop) -> bool:

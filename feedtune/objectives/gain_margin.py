@@ -1,8 +1,7 @@
 """Gain margin of the open loop (Bhatia 1971, Ch. IV F; ≈ 1.2 uncompensated)."""
 
-import casadi as ca
-
 from feedtune.frequency import first_crossing
+from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import has_open_loop, phase_crossover_indicator
 

@@ -1,9 +1,8 @@
 """Resonance peak M_peak of the closed loop (Bhatia 1971, Ch. IV A a)."""
 
-import casadi as ca
-
 from feedtune.expr import Supremum
 from feedtune.frequency import log_grid, peak
+from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import has_frequency_band, normalised_gain_squared
 

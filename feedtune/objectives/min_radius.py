@@ -2,9 +2,7 @@
 
 import math
 
-import casadi as ca
-import numpy as np
-
+from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import radius_gain_excess
 

@@ -1,7 +1,6 @@
 """Peak commanded acceleration of a pulse generator (Tian et al. eqs 1–2)."""
 
-import numpy as np
-
+from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
 
 

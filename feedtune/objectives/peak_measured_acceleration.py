@@ -1,7 +1,6 @@
 """Peak acceleration measured on the pulse train over a counting window (Tian et al. Fig 4)."""
 
-import numpy as np
-
+from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric, WindowOptions
 
 

@@ -2,9 +2,8 @@
 
 import math
 
-import casadi as ca
-
 from feedtune.frequency import first_crossing
+from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_gain_squared
 

@@ -1,7 +1,6 @@
 """Largest commanded velocity of a pulse generator (Tian et al. §3, Koren eq 1)."""
 
-import numpy as np
-
+from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
 
 

@@ -1,8 +1,7 @@
 """Rise time of a pulse generator's step response (Tian et al. §4, Fig 4)."""
 
+from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
-
-import numpy as np
 
 
 class PulseRiseTime(PulseMetric):

@@ -1,7 +1,6 @@
 """Settling time of a pulse generator's step response (Tian et al. §4, Fig 4)."""
 
-import numpy as np
-
+from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric, StepBandOptions
 
 

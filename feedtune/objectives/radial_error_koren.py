@@ -1,7 +1,6 @@
 """Koren's closed-form radial error: eq 28–29 (sampled data) or eq 37 (reference pulse)."""
 
-import casadi as ca
-
+from feedtune.lazy import ca
 from feedtune.objectives.base import Magnitude, Metric
 from feedtune.objectives.circle import CircleOptions
 

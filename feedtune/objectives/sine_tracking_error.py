@@ -2,8 +2,7 @@
 
 import math
 
-import numpy as np
-
+from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
 
 

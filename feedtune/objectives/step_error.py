@@ -16,10 +16,10 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-import casadi as ca
 from pydantic import Field
 
 from feedtune import timeresponse
+from feedtune.lazy import ca
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric

@@ -1,7 +1,6 @@
 """Sato's surface roughness of a linearly interpolated circle (eq 10, Table 1)."""
 
-import casadi as ca
-
+from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
 

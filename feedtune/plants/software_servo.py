@@ -31,11 +31,10 @@ import json
 import math
 from typing import Literal, Mapping
 
-import casadi as ca
-import numpy as np
 from pydantic import Field, PositiveFloat, model_validator
 
 from feedtune import linalg
+from feedtune.lazy import ca, np
 from feedtune.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
                            SampledLoop, TransferLoop)
 from feedtune.model import SpecModel

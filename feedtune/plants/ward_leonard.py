@@ -51,10 +51,10 @@ from __future__ import annotations
 
 from typing import Literal, Mapping
 
-import numpy as np
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from feedtune import linalg
+from feedtune.lazy import np
 from feedtune.loop import TransferLoop
 from feedtune.model import SpecModel
 from feedtune.plants.base import Tunable
