@@ -1,5 +1,7 @@
 """Smallest radius above which every circle at full speed stays within half a BLU."""
 
+from __future__ import annotations
+
 import math
 
 from feedtune.lazy import ca, np
