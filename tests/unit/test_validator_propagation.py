@@ -1,0 +1,103 @@
+"""feedtune.validate.continuous._propagate (issue 15): the validator's exact time responses
+propagate runs of equal steps in blocks of powers of e^{Mh} instead of one matrix-vector
+product per step. Against the previous step-by-step product (kept here as the reference):
+
+* a grid without a run of 2·RUN_BLOCK equal steps is the same product, to the last bit;
+* on the stored Bhatia and Ward-Leonard results the responses differ only by rounding:
+  |Δθ| ≤ 1e-12 of the response's own scale (max |θ| in rad, or rad/(N·m) per unit load;
+  measured ≤ 1.6e-13 of it), and every validated value by ≤ 1e-3 of the tolerance the
+  validator judges it with (the ramp's ITAE weighs the 1e-13 rad noise of t − θ by t:
+  measured ≤ 5e-4 of its tolerance), with the same verdicts.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+import feedtune.validate.continuous as continuous
+from feedtune.validate import validate_result
+from feedtune.validate.models import model_for
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+RESULTS = ["bhatia-1971-hydraulic", "ward-leonard-feed-drive"]
+
+
+def _step_by_step(m, z0, steps):
+    """The validator's propagation before issue 15: z ← e^{Mh} z, one step at a time."""
+    states = [z0]
+    z, cache = z0, {}
+    for h in steps:
+        step = cache.get(h)
+        if step is None:
+            step = cache[h] = expm(m * h)
+        z = step @ z
+        states.append(z)
+    return np.array(states)
+
+
+def _model(name):
+    data = json.loads((DATA / f"{name}.result.json").read_text())
+    tuned = {key: t["value"] for key, t in data["tuned"].items()}
+    return model_for(data["spec"]["plant"], tuned, data.get("stability"))
+
+
+def test_short_runs_are_the_step_by_step_product_to_the_last_bit():
+    rng = np.random.default_rng(15)
+    m = rng.normal(size=(5, 5)) - 3 * np.eye(5)
+    z0 = rng.normal(size=5)
+    steps = np.repeat([1e-3, 2e-3, 1.5e-3, 4e-3], [3, 2 * continuous.RUN_BLOCK - 1, 1, 40])
+    assert np.array_equal(continuous._propagate(m, z0, steps), _step_by_step(m, z0, steps))
+
+
+@pytest.mark.parametrize("length", [2 * continuous.RUN_BLOCK, 5 * continuous.RUN_BLOCK + 7])
+def test_a_long_run_is_the_product_up_to_rounding(length):
+    """A stable 5-state system over runs of one step: the block powers match step by step
+    to 1e-13 of the state's scale."""
+    rng = np.random.default_rng(length)
+    m = rng.normal(size=(5, 5)) - 4 * np.eye(5)
+    z0 = rng.normal(size=5)
+    steps = np.concatenate([np.full(3, 1e-3), np.full(length, 2e-3), np.full(5, 3e-3)])
+    new, old = continuous._propagate(m, z0, steps), _step_by_step(m, z0, steps)
+    assert new.shape == old.shape
+    assert np.max(np.abs(new - old)) <= 1e-13 * np.max(np.abs(old))
+
+
+@pytest.mark.parametrize("name", RESULTS)
+@pytest.mark.parametrize("kind", ["step", "ramp", "load"])
+def test_responses_of_the_stored_results_differ_by_rounding(name, kind, monkeypatch):
+    model = _model(name)
+    t, theta, _ = model._simulate(kind)
+    assert t.size > 10_000  # long runs of equal steps: the block path is taken
+    monkeypatch.setattr(continuous, "_propagate", _step_by_step)
+    t_old, theta_old, _ = model._simulate(kind)
+    assert np.array_equal(t, t_old)
+    assert np.max(np.abs(theta - theta_old)) <= 1e-12 * np.max(np.abs(theta_old))
+
+
+@pytest.mark.parametrize("name", RESULTS)
+def test_validated_values_move_by_a_thousandth_of_their_tolerance(name, monkeypatch):
+    result = json.loads((DATA / f"{name}.result.json").read_text())
+    new = validate_result(result)
+    monkeypatch.setattr(continuous, "_propagate", _step_by_step)
+    old = validate_result(result)
+    assert new["ok"] is True and old["ok"] is True
+    assert len(new["entries"]) == len(old["entries"]) > 10
+    for a, b in zip(new["entries"], old["entries"]):
+        assert (a["metric"], a["options"], a["ok"]) == (b["metric"], b["options"], b["ok"])
+        if isinstance(b["validated"], float):
+            assert abs(a["validated"] - b["validated"]) <= 1e-3 * b["tolerance"], a["metric"]
+
+
+@pytest.mark.parametrize("name", RESULTS)
+def test_the_time_grid_is_computed_once_per_model(name, monkeypatch):
+    model = _model(name)
+    calls = []
+    graded = model._graded_steps
+    monkeypatch.setattr(model, "_graded_steps", lambda: calls.append(1) or graded())
+    model.responses()
+    assert len(calls) == 1
