@@ -66,6 +66,19 @@ def siso(numerator: list, denominator: list) -> Block:
 
 
 
+def _run(t: float, h: float, limit: float) -> tuple[np.ndarray, float]:
+    """The steps h taken from time t while t < limit (t advanced by t += h after each, as
+    a step-by-step loop would: np.cumsum adds in the same order), and the time after them."""
+    steps = np.empty(0)
+    while t < limit:
+        count = int(min((limit - t) / h, 1e7)) + 2
+        times = np.cumsum(np.concatenate([[t], np.full(count, h)]))
+        taken = int(np.argmax(times >= limit)) if times[-1] >= limit else count
+        steps = np.concatenate([steps, np.full(taken, h)])
+        t = float(times[taken])
+    return steps, t
+
+
 #: a run of equal steps is propagated RUN_BLOCK states at a time (see :func:`_propagate`)
 RUN_BLOCK = 128
 
@@ -264,14 +277,18 @@ class ContinuousModel:
         # a mode is alive until e^{−decay·t} = ALIVE
         dies = math.log(1 / ALIVE) / decay[order]
         steps, t, h = [], 0.0, FINE / float(speeds[order[0]])
-        k = 0
+        k, last = 0, len(order) - 1
         while t < end:
-            while k < len(order) - 1 and dies[k] <= t:
+            while k < last and dies[k] <= t:
                 k += 1
-            h = min(h * GROWTH, FINE / float(speeds[order[k]]))
+            cap = FINE / float(speeds[order[k]])
+            h = min(h * GROWTH, cap)
             steps.append(h)
             t += h
-        return np.asarray(steps)
+            if h == cap:  # h stays at cap while this mode lives: the run at once
+                run, t = _run(t, cap, end if k == last else min(end, float(dies[k])))
+                steps.append(run)
+        return np.concatenate([np.atleast_1d(np.asarray(s, dtype=float)) for s in steps])
 
     def _simulate(self, kind: str):
         """(t, θ, exact) on the graded grid; exact(t) evaluates θ anywhere."""
