@@ -89,9 +89,11 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
     """
     (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     grid = np.log(log_grid(band))
-    values = f.map(len(grid))(ca.DM(grid).T, *free)
     if not free:  # a loop of numbers: the same steps in floats, without a graph to build
-        return ca.MX(_first_crossing_of_numbers(f, slope, grid, np.asarray(values).ravel()))
+        f, slope = _expanded(f), _expanded(slope)
+        values = np.asarray(f.map(len(grid))(ca.DM(grid).T)).ravel()
+        return ca.MX(_first_crossing_of_numbers(f, slope, grid, values))
+    values = f.map(len(grid))(ca.DM(grid).T, *free)
     below = values < 0
     # first index below the level: scan from the top so the lowest one wins
     low, high, found = ca.MX(grid[-1]), ca.MX(grid[-1]), ca.MX(0)
@@ -115,7 +117,8 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     """:func:`first_crossing` for a function of ln ω without free symbols: the lowest grid
     interval whose upper end is below 0, bisected and finished by Newton steps exactly as
     the symbolic version does, in floats (building its graph of ≈ 3 if_else nodes per grid
-    point cost 0.1 s a call on Bhatia's loop). Returns ω [rad/s]."""
+    point cost 0.1 s a call on Bhatia's loop); ``f`` and ``slope`` come SX-expanded
+    (:func:`_expanded`). Returns ω [rad/s]."""
     below = np.flatnonzero(values[1:] < 0)
     if below.size == 0:
         return math.exp(grid[-1])
