@@ -37,7 +37,7 @@ def validate_result(result) -> dict:
 
     No wall time in it: a result is the same bytes whoever solves it (batch executors,
     stdin/file); the re-simulation takes 3–50 ms on Koren's, Sato's and Tian's examples and
-    0.2–0.4 s on Bhatia's (whose tuning takes 20 s).
+    ≈ 0.04 s on Bhatia's and Ward-Leonard's (one BLAS thread; benchmarks/README.md).
 
     ``{"validator", "covered", "reason", "ok", "entries": [{"metric", "options",
     "reported", "validated", "unit", "gap", "tolerance", "basis", "ok"}, ...]}`` (gap and
