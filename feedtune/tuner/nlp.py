@@ -37,7 +37,7 @@ from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scalar import ScalarSearch
 from feedtune.tuner.scalar import applies as scalar_search_applies
-from feedtune.tuner.stability import add_stability_rows, feasibility, restore
+from feedtune.tuner.stability import add_stability_rows, feasibility, poles_stable, restore
 from feedtune.tuner.starts import starting_points
 from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points, make_scan
 from feedtune.tuner.terms import add_bound, add_term, exact_value
@@ -235,6 +235,7 @@ class Problem:
             iterations = exchanged = 0
             attempts = (["scalar"] if self.scalar is not None else
                         self.hessians if self.has_nlp else [None])
+            resume = None  # where the previous attempt of this start ended, if stable there
             for hessian in attempts:
                 if hessian == "scalar":
                     z_opt, return_status, iterations, exchanged, _ = self.scalar.solve_from(
@@ -243,7 +244,7 @@ class Problem:
                 elif hessian is not None:
                     solver = self._solver(hessian)
                     z_opt, return_status, its, exchanged, solution = self._solve_from(
-                        z0, started, solver)
+                        z0, started, solver, resume)
                     iterations += its
                     solutions[index] = (solver, solution)
                     status = STATUS.get(return_status, "error")
@@ -253,6 +254,12 @@ class Problem:
                 feasible, _ = self._feasible(bounds, conditions, matrices)
                 if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
                     break
+                # the next Hessian goes on from a stable end point, with its exchange
+                # points (measured: the limited-memory run stops near the optimum at its
+                # iteration limit, or with a peak just over its bound); from an unstable
+                # one it starts afresh
+                resume = (self._last_state if hessian not in (None, "scalar")
+                          and self._stable(z_opt) else None)
             elapsed = time.perf_counter() - started
             if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
                 objective = None
@@ -318,7 +325,7 @@ class Problem:
             flat_tunables=flat if success else None,
             method="brent" if self.scalar is not None else "ipopt")
 
-    def _solve_from(self, start: np.ndarray, started: float, solver) -> tuple:
+    def _solve_from(self, start: np.ndarray, started: float, solver, resume=None) -> tuple:
         """One start: IPOPT (``solver``), then exchange rounds while a refined peak or dip
         violates its bound.
 
@@ -328,14 +335,24 @@ class Problem:
         solve ends the start with its status; so do the start's time limit
         (``time_limit``), running out of exchange points, and a start that restoration
         cannot make stable.
+
+        ``resume`` (a previous attempt's ``_last_state``: x, objective scale, exchange
+        slots, row bounds and points used per group) goes on from where that attempt
+        ended instead of from ``start``.
         """
-        z0 = self._stable_start(start)
-        if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)
-            return start, "No_Stable_Start", 0, 0, None
-        slots = self.slot_defaults.copy()
-        lbg, ubg = self.lbg.copy(), self.ubg.copy()
-        used = [0] * len(self.exchange_groups)
-        x0, p_scale, iterations = self._x0(z0), self._scale_at(z0), 0
+        if resume is not None:
+            x0, p_scale, slots, lbg, ubg, used = (np.array(resume[0]), resume[1],
+                                                  resume[2].copy(), resume[3].copy(),
+                                                  resume[4].copy(), list(resume[5]))
+            iterations = 0
+        else:
+            z0 = self._stable_start(start)
+            if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)
+                return start, "No_Stable_Start", 0, 0, None
+            slots = self.slot_defaults.copy()
+            lbg, ubg = self.lbg.copy(), self.ubg.copy()
+            used = [0] * len(self.exchange_groups)
+            x0, p_scale, iterations = self._x0(z0), self._scale_at(z0), 0
         while True:
             p = np.concatenate([[p_scale], slots, self.param_values])
             result = solver(x0=x0, p=p, lbx=self.lbw, ubx=self.ubw, lbg=lbg, ubg=ubg)
@@ -347,6 +364,7 @@ class Problem:
             solution = Solution(x0, p, np.asarray(result["lam_g"], dtype=float).ravel(),
                                 np.asarray(result["lam_x"], dtype=float).ravel(), lbg.copy(),
                                 ubg.copy())
+            self._last_state = (x0, p_scale, slots.copy(), lbg.copy(), ubg.copy(), list(used))
             if STATUS.get(return_status) not in SOLVED:
                 break
             z = x0[:self.n_z]
@@ -364,6 +382,12 @@ class Problem:
                 return_status = "Maximum_WallTime_Exceeded"
                 break
         return x0[:self.n_z], return_status, iterations, sum(used), solution
+
+    def _stable(self, z: np.ndarray) -> bool:
+        """Every stability condition and every matrix's poles hold at the log tunables z."""
+        conditions, *matrices = self.stability_check(z, self.param_values)
+        return bool(np.all(np.asarray(conditions, dtype=float) > 0) and all(
+            poles_stable(np.asarray(m, dtype=float), self.discrete)["stable"] for m in matrices))
 
     def _stable_start(self, z0: np.ndarray) -> np.ndarray | None:
         """``z0`` if its loop is stable, else a stable point near it (see

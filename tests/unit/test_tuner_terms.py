@@ -89,3 +89,37 @@ def test_flat_directions_with_either_hessian(hessian):
     unique = solve(lambda loop: (loop.values["k1"] - 2) ** 2 + (loop.values["k2"] - 3) ** 2)
     assert unique.flat_tunables == []
     assert unique.values["k1"] == pytest.approx(2.0, rel=1e-6)
+
+
+def test_the_next_hessian_goes_on_from_a_stable_end_point(monkeypatch):
+    """A start the first Hessian leaves unsolved at a stable point (here: its iteration
+    limit) is continued by the next one from that point, not solved again from the start
+    (which, deterministic, would only end where the first run did)."""
+    variables = [Variable("k1", 0.1, 10.0, initial=0.2), Variable("k2", 0.1, 10.0, initial=5.0)]
+    settings = Settings(multistart=1, max_iter=3)
+    problem = Problem(variables, {}, Loop,
+                      [Term("f", lambda loop: (loop.values["k1"] - 2) ** 2
+                            + 10 * (loop.values["k2"] - loop.values["k1"] ** 2) ** 2)],
+                      [], {}, settings)
+    problem.hessians = ["exact", "exact"]  # two attempts, as limited-memory then exact
+    calls = []
+    solve_from = Problem._solve_from
+
+    def spy(self, start, started, solver, *args):
+        out = solve_from(self, start, started, solver, *args)
+        calls.append((args[0] if args else None, out))
+        return out
+
+    monkeypatch.setattr(Problem, "_solve_from", spy)
+    outcome = problem.solve()
+    assert len(calls) == 2
+    first_end = calls[0][1][0]
+    assert calls[0][1][1] == "Maximum_Iterations_Exceeded"
+    resume = calls[1][0]
+    assert resume is not None
+    np.testing.assert_array_equal(resume[0][:2], first_end)
+    assert outcome.starts[0].iterations == 6
+    # it went on: the second run ends elsewhere, nearer the optimum (2, 4)
+    second_end = calls[1][1][0]
+    optimum = np.log([2.0, 4.0])
+    assert np.linalg.norm(second_end - optimum) < np.linalg.norm(first_end - optimum)
