@@ -11,7 +11,7 @@ Work goes out in chunks: one spec at first, then as many as take about
 ``CHUNK_SECONDS`` at the mean time per spec measured so far (never more than a fair share
 of what is left, so the last chunks still spread over every worker). Each worker is a
 long-lived process, so the solvers it builds are reused for every later spec of the same
-structure (see ``feedtune.tuner.nlp``).
+structure (see ``feedtune.tuner.cache``).
 """
 
 from __future__ import annotations

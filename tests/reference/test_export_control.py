@@ -3,7 +3,7 @@ checked against the result's own numbers.
 
 For every bundled example a result is made from the example's spec with every tunable
 fixed at a tuned value (so tuning only evaluates: the whole module runs in seconds; the
-two Bhatia cascades take 40–70 s to tune from scratch), written to a file, read back with
+two Bhatia cascades take 1–3 s each to tune from scratch), written to a file, read back with
 ``feedtune.load_result`` and exported. On the export python-control alone then computes
 the closed-loop poles, the velocity constant, and where the result reports them M_peak,
 the −3 dB bandwidth, gain and phase margins and the gain crossover; each is compared with
