@@ -150,7 +150,7 @@ class Problem:
         self.stability_check = entry.functions["stability_check"]
         self.solver_reused = entry.reused
         self.scalar = ScalarSearch.for_problem(self) if scalar else None
-        if self.scalar is not None and not self.scalar.feasible.any():
+        if self.scalar is not None and not self.scalar.solvable:
             # no feasible grid point (an equality constraint, a narrow feasible band, no
             # stable loop): IPOPT, with restoration, looks between the points
             self.scalar = None

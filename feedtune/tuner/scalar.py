@@ -90,10 +90,10 @@ class Refined:
 class ScalarSearch:
     """Grid, bracketing and Brent on a problem with one free tunable (see module docstring).
 
-    ``evaluate(zs)`` returns (objective, violation, stable) arrays at the points ``zs`` [ln
-    tunable]: a point is feasible when its violation is ≤ 0 and its objective finite;
-    ``stable`` says whether its stability conditions hold (settling conditions and
-    constraints aside).
+    ``evaluate(zs)`` returns (objective, violation) arrays at the points ``zs`` [ln
+    tunable]: a point is feasible when its violation is ≤ 0 and its objective finite. The
+    tuner uses the search only when a grid point is feasible (:attr:`solvable`); without
+    one, IPOPT and its restoration look between the points.
     """
 
     evaluate: object
@@ -106,7 +106,6 @@ class ScalarSearch:
     values: np.ndarray = field(init=False)
     feasible: np.ndarray = field(init=False)
     violations: np.ndarray = field(init=False)
-    stable: np.ndarray = field(init=False)
     evaluations: int = field(init=False, default=0)
     refined: dict = field(init=False, default_factory=dict)  # z of an optimum → Refined
     deadline: float = field(init=False, default=math.inf)  # [s] perf_counter of this start
@@ -114,7 +113,7 @@ class ScalarSearch:
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([[self.lower, self.upper],
                                               np.clip(self.starts, self.lower, self.upper)]))
-        self.values, self.violations, self.stable = self.evaluate(self.grid)
+        self.values, self.violations = self.evaluate(self.grid)
         self.evaluations += len(self.grid)
         self.feasible = (self.violations <= 0) & np.isfinite(self.values)
 
@@ -135,8 +134,7 @@ class ScalarSearch:
             conditions = np.array([s.stability for s in seen], dtype=float).reshape(len(zs), -1).T
             settling = np.array([np.asarray(problem.settling(z, p), dtype=float).ravel()
                                  for z in zs]).reshape(len(zs), -1).T
-            stable = np.all(conditions > 0, axis=0)
-            return objective, violation(bounds, conditions, settling, problem.bounds), stable
+            return objective, violation(bounds, conditions, settling, problem.bounds)
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
                    np.asarray(problem.starts, dtype=float)[:, 0], problem.settings.multistart,
@@ -146,7 +144,7 @@ class ScalarSearch:
 
     def _classify(self, zs):
         self._check_time()
-        values, violations, _ = self.evaluate(zs)
+        values, violations = self.evaluate(zs)
         self.evaluations += len(np.atleast_1d(zs))
         feasible = (violations <= 0) & np.isfinite(values)
         return values, feasible
@@ -164,18 +162,14 @@ class ScalarSearch:
         local = [i for i in local if not (i > 0 and i - 1 in local and v[i - 1] == v[i])]
         return sorted(local, key=lambda i: (v[i], i))[:max(self.count, 1)]
 
+    @property
+    def solvable(self) -> bool:
+        """Some grid point is feasible: the search has a start."""
+        return bool(self.feasible.any())
+
     def start_points(self) -> np.ndarray:
-        """The grid minima as starts (rows of one ln tunable). When no grid point is
-        feasible: the stable grid point with the smallest violation (its search reports the
-        problem infeasible there, and the tuner lengthens a horizon whose settling
-        conditions bind, as after IPOPT), else the first start (no stable start)."""
-        minima = self.minima()
-        if minima:
-            return self.grid[minima].reshape(-1, 1)
-        candidates = np.flatnonzero(self.stable & np.isfinite(self.values))
-        if candidates.size:
-            return self.grid[[candidates[np.argmin(self.violations[candidates])]]].reshape(-1, 1)
-        return self.starts[:1].reshape(-1, 1)
+        """The grid minima as starts (rows of one ln tunable)."""
+        return self.grid[self.minima()].reshape(-1, 1)
 
     # -- one start ---------------------------------------------------------------------
 
@@ -204,9 +198,7 @@ class ScalarSearch:
 
         index = int(np.argmin(np.abs(self.grid - z0)))
         if not self.feasible[index]:
-            status = ("Infeasible_Problem_Detected" if self.stable[index]
-                      and np.isfinite(self.values[index]) else "No_Stable_Start")
-            return Refined(np.array([z0]), status, 0, False)
+            raise ValueError(f"start {z0} is not a feasible grid point (see start_points)")
         ends = []  # (point, on a feasibility boundary, objective there), below and above
         for neighbour in (index - 1, index + 1):
             if not 0 <= neighbour < len(self.grid):
@@ -222,7 +214,7 @@ class ScalarSearch:
 
         def objective(z):
             self._check_time()
-            value, violation, _ = self.evaluate(np.array([z]))
+            value, violation = self.evaluate(np.array([z]))
             self.evaluations += 1
             if violation[0] > 0 or not np.isfinite(value[0]):
                 return penalty
@@ -288,7 +280,7 @@ class ScalarSearch:
         """d²(f/|reference|)/d(ln x)² at ``z`` by a central second difference
         (CURVATURE_STEP); +inf where a neighbour is infeasible."""
         h = CURVATURE_STEP
-        values, violations, _ = self.evaluate(np.array([z - h, z, z + h]))
+        values, violations = self.evaluate(np.array([z - h, z, z + h]))
         self.evaluations += 3
         if np.any(violations > 0) or not np.all(np.isfinite(values)):
             return math.inf
