@@ -59,6 +59,8 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from baseline import export_package, short_revision
+
 REPO = Path(__file__).resolve().parents[1]
 #: the feedtune measured: this checkout, or another one's tree (set by --baseline)
 TREE = Path(os.environ.get("FEEDTUNE_BENCH_TREE") or REPO)
@@ -160,8 +162,12 @@ def single_solves(specs: list[dict], sample: int) -> dict:
 
 
 def _nlp():
-    import feedtune.tuner.cache as cache
-
+    """The module holding the solver cache: feedtune.tuner.cache, or feedtune.tuner.nlp in a
+    tree before issue 15's restructuring (a --baseline)."""
+    try:
+        import feedtune.tuner.cache as cache
+    except ImportError:
+        import feedtune.tuner.nlp as cache
     return cache
 
 
@@ -326,13 +332,8 @@ def compare(args, argv: list[str]) -> int:
             forwarded.append(arg)
     root = Path(tempfile.mkdtemp(prefix="feedtune-batch-baseline-"))
     try:
-        archive = subprocess.run(["git", "-C", str(REPO), "archive", args.baseline, "feedtune"],
-                                 check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(root)], input=archive, check=True)
-        revision = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", args.baseline],
-                                  check=True, capture_output=True, text=True).stdout.strip()
-        current = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"],
-                                 check=True, capture_output=True, text=True).stdout.strip()
+        export_package(args.baseline, root)
+        revision, current = short_revision(args.baseline), short_revision("HEAD")
         pairs = []
         for round_ in range(args.rounds):
             pair = []

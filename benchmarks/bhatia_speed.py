@@ -40,8 +40,11 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+
+from baseline import export_package, short_revision  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SPECS = ("bhatia-1971-hydraulic", "ward-leonard-feed-drive")
@@ -161,12 +164,8 @@ class Baseline:
     """The previous code in a child process: ``git archive REV`` unpacked into a temp dir."""
 
     def __init__(self, rev: str):
-        self.dir = tempfile.mkdtemp(prefix="feedtune-baseline-")
-        archive = subprocess.run(["git", "-C", ROOT, "archive", rev, "feedtune"],
-                                 check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", self.dir], input=archive, check=True)
-        self.rev = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", rev], check=True,
-                                  capture_output=True, text=True).stdout.strip()
+        self.dir = str(export_package(rev, Path(tempfile.mkdtemp(prefix="feedtune-baseline-"))))
+        self.rev = short_revision(rev)
 
     def spec(self, name: str) -> dict:
         """The bundled spec ``name`` as it was at the baseline (its own solver settings)."""

@@ -38,6 +38,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from baseline import export_package
+
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "examples" / "tian-vf-pulse.json"
 BASELINE = "65fdeaa"  # main before the pulse generator's issue 15 work
@@ -92,14 +94,6 @@ def run(code: str, path: Path, multistart: int | None = None) -> tuple[dict, flo
     return json.loads(out.strip().splitlines()[-1]), usage.ru_maxrss / 1024.0  # kB on Linux
 
 
-def export(revision: str, into: Path) -> Path:
-    """The ``feedtune`` package of ``revision`` under ``into`` (git archive, no checkout)."""
-    archive = subprocess.run(["git", "-C", str(REPO), "archive", revision, "feedtune"],
-                             capture_output=True, check=True).stdout
-    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
-    return into
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="tunings per side [count]")
@@ -109,7 +103,7 @@ def main() -> None:
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())} "
           f"({os.cpu_count()} CPUs)")
     with tempfile.TemporaryDirectory() as tmp:
-        old = export(args.baseline, Path(tmp))
+        old = export_package(args.baseline, Path(tmp))
         sides = {f"old ({args.baseline})": (old, None), "new (this tree)": (REPO, None),
                  "new, 2 starts": (REPO, 2)}
         runs: dict[str, list[tuple[dict, float]]] = {name: [] for name in sides}

@@ -1,0 +1,23 @@
+"""The ``feedtune`` package of an older git revision, for the benchmarks' side-by-side runs."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def export_package(revision: str, into: Path) -> Path:
+    """Unpack ``revision``'s ``feedtune/`` under ``into`` (``git archive``: nothing in the
+    work tree changes) and return ``into``, to put first on a child's PYTHONPATH."""
+    archive = subprocess.run(["git", "-C", str(REPO), "archive", revision, "feedtune"],
+                             capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return into
+
+
+def short_revision(revision: str) -> str:
+    """``git rev-parse --short revision``."""
+    return subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", revision],
+                          check=True, capture_output=True, text=True).stdout.strip()
