@@ -9,7 +9,6 @@ from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
-from feedtune.expr import Crossing, Magnitude, Supremum
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
@@ -19,6 +18,7 @@ from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, Solver
 from feedtune.spec import Spec, SpecError, parse_spec, tunable_box
 from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import problem_class
+from feedtune.tuner.terms import exact_value
 
 
 #: the NLP's objective and constraints must match their exact evaluation this closely (relative)
@@ -148,10 +148,8 @@ class Reports:
                 value = fn(loop)
             except Exception:  # noqa: BLE001 — raised again when the tuner asks for it
                 continue
-            if isinstance(value, Magnitude):
-                value = ca.fabs(value.expr)
-            elif isinstance(value, (Supremum, Crossing)):
-                value = value.exact
+            expr, magnitude = exact_value(value)
+            value = ca.fabs(expr) if magnitude else expr
             if isinstance(value, (ca.MX, ca.DM, int, float)):
                 exprs[key] = ca.MX(value)
         if not exprs or ca.symvar(ca.veccat(*exprs.values())):
