@@ -57,8 +57,8 @@ def second_order_error_integrals(a1, a0, e0, de0) -> ErrorIntegrals:
     Parameters are CasADi expressions or numbers; a1 [1/s], a0 [1/s²], e0 [m], de0 [m/s].
 
     Built once per process on SX symbols (:func:`_second_order_function`) and applied to
-    the arguments, as :func:`sample_error_integrals` is (MX arguments get a call node,
-    numbers DM values): building it took 10–20 ms, every loop that needed it.
+    the arguments (MX arguments get a call node, numbers DM values): building it took
+    10–20 ms, every loop that needed it.
     """
     return ErrorIntegrals(*_second_order_function()(a1, a0, e0, de0))
 
@@ -175,22 +175,9 @@ def sample_error_integrals(alpha, beta, gamma, h, time_scale, t_start) -> ErrorI
     ``time_scale`` is τ [s], ``h`` = T/τ. The sample is cut at the stationary point of f
     and at the (at most two) zeros, so each piece has one sign and |∫| = ∫|·|.
 
-    The expression is built once per process on SX symbols (:func:`_sample_function`) and
-    applied to the arguments: SX arguments get it inlined, numbers get DM values, MX
-    arguments a call node. Building it in Python took 12 ms, every loop that needed it.
+    Built on whatever it is given; the sampled loop builds it once per process, on SX
+    symbols, inside :func:`feedtune.loop._sample_step`.
     """
-    return ErrorIntegrals(*_sample_function()(alpha, beta, gamma, h, time_scale, t_start))
-
-
-@functools.cache
-def _sample_function() -> ca.Function:
-    """:func:`_sample_error_integrals` as an SX Function of its six scalar arguments."""
-    args = [ca.SX.sym(name) for name in ("alpha", "beta", "gamma", "h", "time_scale", "t_start")]
-    return ca.Function("sample_error_integrals", args, list(_sample_error_integrals(*args)))
-
-
-def _sample_error_integrals(alpha, beta, gamma, h, time_scale, t_start) -> ErrorIntegrals:
-    """The expressions of :func:`sample_error_integrals`, built on whatever it is given."""
     f = lambda s: alpha + beta * s + gamma * ca.exp(-s)  # noqa: E731
     ratio_ok = gamma * beta > 0
     stationary = ca.if_else(ratio_ok, ca.log(ca.fmax(gamma / ca.if_else(ratio_ok, beta, 1), _TINY)), h)

@@ -267,26 +267,6 @@ def test_sample_error_integrals_have_finite_matching_derivatives(alpha, beta, ga
             assert result[1][i] == pytest.approx(numeric, rel=1e-5, abs=1e-10)
 
 
-def test_sample_error_integrals_from_the_cached_function_equal_a_direct_build():
-    """The expression is built once per process and applied to each call's arguments
-    (speed: 12 ms a build); on symbols, numbers and their derivatives it is the very
-    expression built directly from the arguments, to the last bit."""
-    from feedtune.signals import _sample_error_integrals
-
-    x = ca.SX.sym("x", 6)
-    cached = ca.vertcat(*sample_error_integrals(*ca.vertsplit(x)))
-    direct = ca.vertcat(*_sample_error_integrals(*ca.vertsplit(x)))
-    f = ca.Function("f", [x], [cached, ca.jacobian(cached, x), direct, ca.jacobian(direct, x)])
-    for case in SAMPLE_CASES:
-        alpha, beta, gamma, h, _ = case.values
-        point = [alpha, beta, gamma, h, 0.02, 0.37]
-        values, jac, values_direct, jac_direct = (np.array(v, dtype=float) for v in f(point))
-        numeric = np.array([as_number(v) for v in sample_error_integrals(*point)])
-        np.testing.assert_array_equal(values, values_direct)
-        np.testing.assert_array_equal(jac, jac_direct)
-        np.testing.assert_array_equal(numeric, values_direct.ravel())
-
-
 def test_second_order_integrals_from_the_cached_function_equal_a_direct_build():
     """Built once per process like the per-sample integrals: on symbols, numbers and
     derivatives the same values as the expression built directly, to the last bit."""
