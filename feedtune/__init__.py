@@ -49,9 +49,9 @@ def __getattr__(name: str):
     """``feedtune.tune`` and the other public names: :mod:`feedtune.api`, imported now."""
     if name not in _API:
         raise AttributeError(f"module 'feedtune' has no attribute {name!r}")
-    from feedtune import api
+    import feedtune.api
 
-    value = getattr(api, name)
+    value = getattr(feedtune.api, name)
     globals()[name] = value  # later reads find it directly
     return value
 
