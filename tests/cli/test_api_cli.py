@@ -93,3 +93,27 @@ def test_the_python_example_tunes_and_plots(tmp_path):
     # README: the gain with zero radial error on the 8 mm circle at 40 mm/s (within the
     # tuner's 1e-9 tolerance, far below the 1 % separating the neighbouring closed forms)
     assert result.values["position_gain"] == pytest.approx(18.17336, rel=1e-5)
+
+
+def test_the_readmes_python_api_example_runs(tmp_path, monkeypatch):
+    """The first Python block of README.md's "Python API" section, run as written (in an
+    empty directory, where it writes result.json and report/), then the loop it exports
+    closed by signal names as "Continuing in python-control" says."""
+    import control
+    import numpy as np
+
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    section = readme[readme.index("## Python API"):readme.index("## Continuing in python-control")]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 — our own README
+    result, systems = scope["result"], scope["systems"]
+    assert result.success and (tmp_path / "report" / "report.html").is_file()
+    assert feedtune.load_result(tmp_path / "result.json").to_json() == result.to_json()
+    closed = control.interconnect(
+        [systems.open_loop, control.summing_junction(["reference", "-position"], "error")],
+        inputs="reference", outputs="position")
+    z = np.exp(1j * np.geomspace(0.1, 100, 20) * systems.dt)
+    np.testing.assert_allclose([complex(closed(x)) for x in z],
+                               [complex(systems.closed_loop(x)) for x in z], rtol=1e-9)

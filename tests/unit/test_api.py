@@ -86,6 +86,8 @@ def test_every_public_name_resolves_and_help_lists_it():
     ("Result.to_json", ("Returns",)),
     ("ControlSystems", ("Attributes",)),
     ("Report", ("Attributes",)),
+    ("Spec", ("Parameters", "Examples")),
+    ("SpecError", ("Attributes",)),
 ])
 def test_public_names_have_numpydoc_sections(obj, sections):
     target = feedtune
