@@ -72,6 +72,8 @@ def tune(spec: Spec | Mapping[str, Any] | str | os.PathLike, *,
         problem, as ``feedtune validate`` prints them.
     FileNotFoundError, IsADirectoryError, PermissionError
         ``spec`` is a path that cannot be read.
+    TypeError
+        ``spec`` is of another type, or a str holding JSON text rather than a path.
 
     Examples
     --------
@@ -103,12 +105,16 @@ def as_spec(spec: Spec | Mapping[str, Any] | str | os.PathLike) -> Spec:
     SpecError
         With (JSON pointer, message) for every problem.
     TypeError
-        ``spec`` is none of the forms (bytes included: give a path or a dict).
+        ``spec`` is none of the forms (bytes included: give a path or a dict), or a str
+        holding JSON text rather than a path.
     """
     if isinstance(spec, Spec):  # built in code: the registry checks have not run yet
         return parse_spec(spec.model_dump(mode="json"))
     if isinstance(spec, Mapping):
         return parse_spec(dict(spec))
+    if isinstance(spec, str) and spec.lstrip().startswith("{"):
+        raise TypeError("a str is the path of a spec file; for JSON text give "
+                        "json.loads(text) or feedtune.Spec.model_validate_json(text)")
     if isinstance(spec, (str, os.PathLike)):
         with open(spec, "rb") as handle:  # the caller's path, never one from a spec
             data = handle.read(MAX_SPEC_BYTES + 1)

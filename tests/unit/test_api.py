@@ -158,6 +158,8 @@ def test_a_path_that_cannot_be_read_raises_the_os_error(tmp_path):
         feedtune.tune(big)
     with pytest.raises(TypeError, match="not bytes"):
         feedtune.tune(EXAMPLE.read_bytes())
+    with pytest.raises(TypeError, match="for JSON text give json.loads"):
+        feedtune.tune(EXAMPLE.read_text())
 
 
 # -- the result object ---------------------------------------------------------------------
