@@ -28,7 +28,7 @@ ResultError
     A file that is not a feedtune result.
 ControlSystems
     What ``Result.to_control`` returns.
-Report
+ReportFiles
     What ``Result.report`` wrote.
 
 They are imported on first use (module ``__getattr__``), so ``import feedtune`` loads
@@ -40,7 +40,7 @@ __version__ = "0.1.0"
 
 #: the public API, defined in :mod:`feedtune.api` and loaded when first read
 _API = ("tune", "load_result", "Result", "Spec", "SpecError", "ResultError", "ControlSystems",
-        "Report")
+        "ReportFiles")
 
 __all__ = ["__version__", *_API]
 

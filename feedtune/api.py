@@ -29,7 +29,7 @@ from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, TunedV
                              TuneResult)
 from feedtune.spec import MAX_SPEC_BYTES, Spec, SpecError, load_json, parse_spec
 
-__all__ = ["ControlSystems", "Report", "Result", "ResultError", "Spec", "SpecError",
+__all__ = ["ControlSystems", "ReportFiles", "Result", "ResultError", "Spec", "SpecError",
            "load_result", "tune"]
 
 
@@ -145,7 +145,7 @@ def blas_threads(threads: int | None) -> Iterator[None]:
 
 
 @dataclass(frozen=True)
-class Report:
+class ReportFiles:
     """What :meth:`Result.report` wrote.
 
     Attributes
@@ -332,7 +332,7 @@ class Result:
         write_atomic(path, self.to_json().encode("utf-8"))
         return path
 
-    def report(self, directory: str | os.PathLike) -> Report:
+    def report(self, directory: str | os.PathLike) -> ReportFiles:
         """Draw the report of ``feedtune report`` (and ``feedtune tune --report``) into
         ``directory``: ``report.html`` and the PNG figures (README, "Reports").
 
@@ -343,7 +343,7 @@ class Result:
 
         Returns
         -------
-        Report
+        ReportFiles
             The page, the figures written and those left out with the reason.
 
         Raises
@@ -359,7 +359,7 @@ class Result:
         plant = describe_plants().get(((result.get("spec") or {}).get("plant") or {}).get("type"))
         figures = build_figures(result)
         written = write_report(result, Path(directory), figures, plant and plant["parameters"])
-        return Report(page=written[0], figures=written[1:],
+        return ReportFiles(page=written[0], figures=written[1:],
                       left_out={stem: why for stem, _, png, why in figures if png is None})
 
     # -- the loop ----------------------------------------------------------------------------

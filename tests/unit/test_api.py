@@ -85,7 +85,7 @@ def test_every_public_name_resolves_and_help_lists_it():
     ("Result.to_control", ("Returns", "Raises", "Examples")),
     ("Result.to_json", ("Returns",)),
     ("ControlSystems", ("Attributes",)),
-    ("Report", ("Attributes",)),
+    ("ReportFiles", ("Attributes",)),
     ("Spec", ("Parameters", "Examples")),
     ("SpecError", ("Attributes",)),
 ])
