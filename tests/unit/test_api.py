@@ -257,8 +257,8 @@ def blas_threads() -> set[int]:
 
 
 @pytest.mark.skipif(not blas_threads(), reason="no BLAS that threadpoolctl can see")
-@pytest.mark.parametrize("threads, inside", [(1, {1}), (None, {2})])
-def test_threads_pin_blas_within_the_call_and_restore_it(monkeypatch, threads, inside):
+@pytest.mark.parametrize("threads", [1, None])
+def test_threads_pin_blas_within_the_call_and_restore_it(monkeypatch, threads):
     """With a caller's BLAS on 2 threads, ``threads=1`` runs the tuning on one and gives the
     2 back; ``threads=None`` leaves them."""
     seen = []
@@ -270,7 +270,9 @@ def test_threads_pin_blas_within_the_call_and_restore_it(monkeypatch, threads, i
 
     monkeypatch.setattr(feedtune.problem, "tune", recording)
     with threadpool_limits(limits=2, user_api="blas"):
+        outer = blas_threads()
+        if outer == {1}:
+            pytest.skip("this BLAS runs one thread at most")
         feedtune.tune(spec_dict(multistart=1), threads=threads)
-        assert blas_threads() == {2}
-    assert seen == [inside]
-
+        assert blas_threads() == outer
+    assert seen == [{1} if threads == 1 else outer]
