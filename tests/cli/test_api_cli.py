@@ -4,7 +4,6 @@ the wall-clock fields, the same summary, the same report; and the Python example
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import subprocess
