@@ -165,87 +165,6 @@ def _unit(unit: str) -> str:
     return f"[{unit}]"
 
 
-def _options_label(name: str, options: dict) -> str:
-    if not options:
-        return name
-    return name + "(" + ", ".join(f"{k}={v}" for k, v in options.items()) + ")"
-
-
-def _summary(result) -> list[str]:
-    """Human-readable lines describing a TuneResult (for stderr)."""
-    from feedtune.objectives import METRICS
-
-    lines = [f"{result.name}: {result.status}"
-             f"{'' if result.success else ' (not successful)'} — {result.message}"]
-    lines.append("tuned:")
-    width = max((len(n) for n in result.tuned), default=0)
-    for name, tuned in result.tuned.items():
-        notes = []
-        if tuned.fixed:
-            notes.append("fixed")
-        if tuned.at_bound:
-            bound = tuned.min if tuned.at_bound == "min" else tuned.max
-            notes.append(f"at {tuned.at_bound} bound {_g(bound)}")
-        note = f"  ({', '.join(notes)})" if notes else ""
-        lines.append(f"  {name:<{width}}  {_g(tuned.value)} {_unit(tuned.unit)}{note}")
-    lines.append(f"objective: {_g(result.objective)}")
-    lines += _optimum_lines(result.optimum)
-    if result.metrics:
-        lines.append("metrics:")
-        width = max(len(k) for k in result.metrics)
-        for key, metric in result.metrics.items():
-            lines.append(f"  {key:<{width}}  {_g(metric.value)} {_unit(metric.unit)}")
-    stable = (result.stability or {}).get("stable")
-    if result.constraints:
-        lines.append("constraints:")
-        for c in result.constraints:
-            bounds = []
-            if c.min is not None:
-                bounds.append(f"min {_g(c.min)}")
-            if c.max is not None:
-                bounds.append(f"max {_g(c.max)}")
-            metric = METRICS.get(c.metric)
-            unit = f" {_unit(metric.unit)}" if metric is not None else ""
-            verdict = ("OK" if c.satisfied else
-                       "NOT MET (loop unstable)" if c.value is None and not stable else "VIOLATED")
-            lines.append(f"  {_options_label(c.metric, c.options)} = {_g(c.value)}{unit}"
-                         f"  ({', '.join(bounds)})  {verdict}")
-    stability = result.stability or {}
-    text = "stable" if stable else ("UNSTABLE" if stable is not None else "unknown")
-    if "spectral_radius" in stability:
-        text += f", spectral radius {_g(stability['spectral_radius'])} [1] (z-plane poles)"
-    elif "spectral_abscissa" in stability:
-        text += f", spectral abscissa {_g(stability['spectral_abscissa'])} [1/s] (s-plane poles)"
-    lines.append(f"stability: {text}")
-    s = result.solver
-    method = {"ipopt": "IPOPT", "brent": "Brent"}.get(s.method, s.method.replace("_", " "))
-    unit = "generations" if s.method == "differential_evolution" else "iterations"
-    lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
-                 f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
-    return lines
-
-
-def _optimum_lines(optimum) -> list[str]:
-    """The summary's word on uniqueness: said only when the optimum is not unique."""
-    if optimum is None or optimum.unique is not False:
-        return []
-    lines = ["optimum: NOT UNIQUE"]
-    if optimum.flat:
-        lines.append(f"  the objective is flat along a direction of {', '.join(optimum.flat)} "
-                     "(reduced Hessian at the optimum)")
-    if optimum.spread:
-        starts = ", ".join(str(i) for i in optimum.starts)
-        lines.append(f"  starts {starts} reach the same objective at different tunables:")
-    for name, spread in optimum.spread.items():
-        lines.append(f"    {name}  {_g(spread.min)} … {_g(spread.max)} {_unit(spread.unit)}")
-    lines.append(f"  to pick one: {optimum.advice}")
-    return lines
-
-
-def _result_bytes(result) -> bytes:
-    return (result.model_dump_json(indent=2) + "\n").encode("utf-8")
-
-
 # -- describing registries ---------------------------------------------------------------
 
 _UNIT = re.compile(r"\[([^\[\]]+)\]")
@@ -482,10 +401,11 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> 
     try:
         with _stdout_to_stderr():
             parsed = _parse(spec)
-            from feedtune.problem import tune as run_tune  # after parsing: slow import
+            from feedtune.api import tune as run_tune  # after parsing: slow import
 
+            # the CLI's own process pins BLAS by its environment (feedtune.__main__)
             result = run_tune(parsed, progress=None if quiet else _report_start,
-                              notify=None if quiet else _err)
+                              notify=None if quiet else _err, threads=None)
     except SpecError as exc:
         _spec_errors(_label(spec), exc.errors)
     except KeyboardInterrupt:
@@ -494,10 +414,10 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> 
         traceback.print_exc()
         _fail(f"internal error in feedtune {__version__} ({type(exc).__name__}: {exc}); "
               "please report it with the spec", EXIT_INTERNAL)
-    _emit(_result_bytes(result), target)  # first: a closed stderr must not lose the result
+    # first: a closed stderr must not lose the result
+    _emit(result.to_json().encode("utf-8"), target)
     if not quiet:
-        for line in _summary(result):
-            _err(line)
+        _err(result.summary())
     if target is not None and not quiet:
         _err(f"wrote {target}")
     from feedtune.validate import warning_lines
@@ -507,7 +427,7 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> 
     for line in result.warnings:
         _err(f"warning: implausible: {line}")
     if report_path is not None:
-        _write_report(result.model_dump(mode="json"), report_path, quiet)
+        _write_report(result, report_path, quiet)
     raise SystemExit(EXIT_OK if result.success else EXIT_NOT_SUCCESS)
 
 
@@ -532,19 +452,18 @@ def _check_report_dir(report_dir: str | None, option: str = "--report") -> Path 
     return path
 
 
-def _write_report(result: dict, out: Path, quiet: bool) -> None:
-    from feedtune.report import ReportDirError, build_figures, write_report
+def _write_report(result, out: Path, quiet: bool) -> None:
+    """Draw ``result``'s report (:meth:`feedtune.api.Result.report`) into ``out``."""
+    from feedtune.report import ReportDirError
 
-    plant = describe_plants().get(((result.get("spec") or {}).get("plant") or {}).get("type"))
-    figures = build_figures(result)
     try:
-        written = write_report(result, out, figures, plant and plant["parameters"])
+        written = result.report(out)
     except ReportDirError as exc:  # a file appeared since the check
         _fail(str(exc))
     if not quiet:
-        drawn = len(written) - 1
-        left_out = [f"{stem} ({why})" for stem, _, png, why in figures if png is None]
-        _err(f"wrote {written[0]} ({drawn} figure{'s' if drawn != 1 else ''})"
+        drawn = len(written.figures)
+        left_out = [f"{stem} ({why})" for stem, why in written.left_out.items()]
+        _err(f"wrote {written.page} ({drawn} figure{'s' if drawn != 1 else ''})"
              + ("; not drawn: " + "; ".join(left_out) if left_out else ""))
 
 
@@ -568,14 +487,14 @@ def report(result_file: str, out: str, quiet: bool) -> None:
     validator model of the plant; a figure a plant cannot offer is left out with the
     reason on the page.
     """
-    from feedtune.export import ResultError, load_result
+    from feedtune.api import ResultError, load_result
 
     path = _check_report_dir(out, "--out")
     try:
         loaded = load_result(result_file)
     except (FileNotFoundError, ResultError) as exc:
         _fail(str(exc))
-    _write_report(loaded.result.model_dump(mode="json"), path, quiet)
+    _write_report(loaded, path, quiet)
     raise SystemExit(EXIT_OK)
 
 

@@ -33,7 +33,15 @@ _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 
 
 class SpecError(ValueError):
-    """A spec that cannot be used; ``errors`` is a list of (JSON pointer, message)."""
+    """A spec that cannot be used (``feedtune tune`` and ``validate``: exit status 2).
+
+    Attributes
+    ----------
+    errors : list of (str, str)
+        (JSON pointer, message) for every problem found, e.g.
+        ``("/plant/time_constant", "should be greater than 0")``; the pointer is ``""``
+        for the spec as a whole.
+    """
 
     def __init__(self, errors: list[tuple[str, str]]):
         self.errors = errors
@@ -204,7 +212,38 @@ ConstraintSpec = _tagged_union(tuple(_constraint_model(n, m) for n, m in METRICS
 
 
 class Spec(SpecModel):
-    """A tuning problem: plant, tunables, objective, constraints, solver."""
+    """A tuning problem: plant, tunables, objective, constraints, solver.
+
+    The pydantic model of a spec file (``feedtune schema`` prints its JSON Schema, units in
+    every description). Build one in code from the same structure, SI units throughout,
+    and give it to :func:`feedtune.tune`, which checks it as ``feedtune validate`` checks a
+    file; the model alone checks only types and ranges (frozen: change a copy with
+    ``model_copy(update=...)``).
+
+    Parameters
+    ----------
+    name : str
+        Names the problem and its batch result file [text].
+    plant : dict
+        ``{"type": ...}`` and the plant's parameters (``feedtune plants``).
+    tunables : dict, optional
+        Per tunable ``{"value": ...}`` (fixed) or ``{"min": ..., "max": ...}`` [its unit].
+    objective : list of dict
+        ``{"metric": ..., "weight": ...}`` and the metric's options (``feedtune metrics``).
+    constraints : list of dict, optional
+        ``{"metric": ..., "min": ..., "max": ...}`` [the metric's unit].
+    solver : dict, optional
+        ``multistart`` [count], ``max_iter`` [count], ``tol`` [1], ``time_limit`` [s], ...
+
+    Examples
+    --------
+    >>> spec = feedtune.Spec.model_validate({                      # doctest: +SKIP
+    ...     "name": "servo",
+    ...     "plant": {"type": "software_servo", "technique": "reference_pulse",
+    ...               "time_constant": 0.02, "blu": 5e-6, "max_velocity": 0.04},
+    ...     "objective": [{"metric": "iae"}]})
+    >>> feedtune.tune(spec.model_copy(update={"name": "servo-2"}))   # doctest: +SKIP
+    """
 
     name: str = Field(min_length=1, max_length=200,
                       description="Name of this tuning problem (also names its batch result "

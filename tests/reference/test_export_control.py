@@ -27,7 +27,8 @@ from scipy.optimize import brentq, minimize_scalar
 
 import feedtune
 from conftest import load_example, tune_dict
-from feedtune.export import LoadedResult, ResultError, loop_to_control
+from feedtune.api import Result, ResultError
+from feedtune.export import loop_to_control
 from feedtune.loop import ContinuousLoop
 from feedtune.plants.software_servo import koren_step_response
 
@@ -88,7 +89,7 @@ def write_result(directory, spec: dict):
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
-    """name → (LoadedResult read from its file, ControlSystems), built once per module."""
+    """name → (Result read from its file, ControlSystems), built once per module."""
     directory = tmp_path_factory.mktemp("results")
     cache = {}
 
@@ -101,8 +102,8 @@ def exported(tmp_path_factory):
     return get
 
 
-def metric(loaded: LoadedResult, key: str):
-    value = loaded.result.metrics[key].value
+def metric(loaded: Result, key: str):
+    value = loaded.data.metrics[key].value
     assert value is not None, key
     return value
 
@@ -152,8 +153,8 @@ def velocity_constant(open_loop) -> float:
     return np.polyval(num, p) / (np.polyval(np.polyder(den), p) * scale)
 
 
-def result_poles(loaded: LoadedResult) -> np.ndarray:
-    return np.array([complex(re, im) for re, im in loaded.result.stability["poles"]])
+def result_poles(loaded: Result) -> np.ndarray:
+    return np.array([complex(re, im) for re, im in loaded.data.stability["poles"]])
 
 
 def assert_same_poles(found, expected, rtol):
@@ -195,7 +196,7 @@ def test_export_kind_units_and_closed_loop(exported, name):
     (dt = 0) otherwise; T = L/(1 + L) and S = 1 − T hold on the export (compared on a
     grid to 1e-9: the three are evaluated separately, from different matrices)."""
     loaded, systems = exported(name)
-    assert loaded.result.success and loaded.result.stability["stable"]
+    assert loaded.data.success and loaded.data.stability["stable"]
     assert systems.position_unit == ("rad" if name in {"bhatia-1971-hydraulic",
                                                        "ward-leonard-feed-drive"} else "m")
     if name in DISCRETE:
@@ -216,6 +217,31 @@ def test_export_kind_units_and_closed_loop(exported, name):
     np.testing.assert_allclose(closed, open_ / (1 + open_), rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(error, 1 - closed, rtol=1e-9, atol=1e-12)
     assert control.dcgain(systems.closed_loop) == pytest.approx(1, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_signals_are_named_and_the_loop_closes_by_name(exported, name):
+    """Every system carries its name and its signals' names (not ``u[0]``/``y[0]``), so
+    python-control closes the loop by name alone: reference − position → error → L →
+    position is T (compared on a grid to 1e-9, as above: separately evaluated matrices)."""
+    _, systems = exported(name)
+    expected = {"closed_loop": (["reference"], ["position"]),
+                "open_loop": (["error"], ["position"]),
+                "error": (["reference"], ["error"])}
+    if systems.load is not None:
+        expected["load"] = (["load_torque"], ["position"])
+    assert {attr: (getattr(systems, attr).input_labels, getattr(systems, attr).output_labels)
+            for attr in expected} == expected
+    assert all(getattr(systems, attr).name == attr for attr in expected)
+    junction = control.summing_junction(inputs=["reference", "-position"], output="error")
+    closed = control.interconnect([systems.open_loop, junction], inputs="reference",
+                                  outputs="position")
+    if systems.discrete:
+        s = np.exp(1j * np.geomspace(1e-2, 0.99 * math.pi / systems.dt, 30) * systems.dt)
+    else:
+        s = 1j * np.geomspace(1e-2, 1e5, 30)
+    np.testing.assert_allclose([complex(closed(x)) for x in s],
+                               [complex(systems.closed_loop(x)) for x in s], rtol=1e-9, atol=1e-12)
 
 
 @pytest.mark.parametrize("name", EXAMPLES)
@@ -287,7 +313,7 @@ def test_koren_sampled_loop_in_the_z_plane(exported):
     closed = systems.closed_loop
     assert closed.dt == 0.015625 and closed.nstates == 2
     assert_same_poles(closed.poles(), result_poles(loaded), rtol=1e-12)
-    assert max(abs(closed.poles())) == pytest.approx(loaded.result.stability["spectral_radius"],
+    assert max(abs(closed.poles())) == pytest.approx(loaded.data.stability["spectral_radius"],
                                                      rel=1e-12)
     assert control.dcgain(closed) == pytest.approx(1, rel=1e-12)
     response = control.step_response(closed, T=np.arange(400) * closed.dt)
@@ -345,18 +371,18 @@ def test_a_result_of_a_real_tuning_exports_the_same_loop(tmp_path):
     the export is the loop at the tuned gain: its poles are the result's."""
     spec = dict(load_example("koren-1979-sampled-data"), solver={"multistart": 1})
     loaded = feedtune.load_result(write_result(tmp_path, spec))
-    assert not loaded.result.tuned["position_gain"].fixed
+    assert not loaded.data.tuned["position_gain"].fixed
     systems = loaded.to_control()
     assert_same_poles(systems.closed_loop.poles(), result_poles(loaded), rtol=1e-9)
     assert velocity_constant(systems.open_loop) == pytest.approx(
-        loaded.result.tuned["position_gain"].value, rel=1e-9)
+        loaded.data.tuned["position_gain"].value, rel=1e-9)
 
 
 def test_loaded_result_rebuilds_the_loop_and_values(exported):
     loaded, _ = exported("ward-leonard-feed-drive")
     assert loaded.values == TUNED["ward-leonard-feed-drive"]
     assert loaded.spec.name == "ward-leonard-feed-drive"
-    assert loaded.loop().order == len(loaded.result.stability["poles"])
+    assert loaded.loop().order == len(loaded.data.stability["poles"])
     assert loaded.path.name == "ward-leonard-feed-drive.json"
 
 

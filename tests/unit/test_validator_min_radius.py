@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from feedtune.export import load_result
+from feedtune import load_result
 from feedtune.objectives import METRICS
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.problem import tune

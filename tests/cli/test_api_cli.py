@@ -1,0 +1,118 @@
+"""``feedtune tune`` and ``feedtune.tune`` are one code path: the same JSON bytes apart from
+the wall-clock fields, the same summary, the same report; and the Python example script
+(examples/tune_from_python.py) runs."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import matplotlib.image
+import pytest
+
+import feedtune
+
+REPO = Path(__file__).resolve().parents[2]
+EXAMPLES = sorted((REPO / "examples").glob("*.json"))
+#: the wall-clock fields of a result [s]: solver.solve_time, solver.build_time,
+#: solver.evaluation_time and each solver.starts[i].solve_time; everything else is
+#: deterministic
+TIME_FIELDS = ("solve_time", "build_time", "evaluation_time")
+_TIMES = re.compile(r'"(' + "|".join(TIME_FIELDS) + r')": [0-9.e+-]+')
+
+
+def without_times(text: str) -> str:
+    """The result JSON with every time field's number replaced by 0, all else byte for byte."""
+    return _TIMES.sub(lambda m: f'"{m.group(1)}": 0', text)
+
+
+def feedtune_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
+                          text=True, cwd=REPO, timeout=300,
+                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_the_api_and_the_command_line_write_the_same_bytes_apart_from_times(path, tmp_path):
+    proc = feedtune_cli("tune", str(path), "-o", str(tmp_path / "cli.json"), "-q")
+    written = (tmp_path / "cli.json").read_text(encoding="utf-8")
+    result = feedtune.tune(path)
+    assert proc.returncode == (0 if result.success else 1), proc.stderr
+    assert len(_TIMES.findall(written)) == 3 + len(result.data.solver.starts)
+    assert without_times(result.to_json()) == without_times(written)
+
+
+def test_the_command_lines_summary_is_the_results(tmp_path):
+    path = REPO / "examples" / "koren-1979-sampled-data.json"
+    proc = feedtune_cli("tune", str(path), "-o", str(tmp_path / "result.json"))
+    assert proc.returncode == 0, proc.stderr
+    summary = feedtune.load_result(tmp_path / "result.json").summary()
+    assert summary + "\n" in proc.stderr
+    assert summary.splitlines()[0].startswith("koren-1979-sampled-data: optimal")
+
+
+def test_the_api_report_is_feedtune_reports(tmp_path):
+    """``Result.report(dir)`` and ``feedtune report RESULT --out DIR`` write the same files,
+    byte for byte (a report is deterministic)."""
+    result = feedtune.tune(REPO / "examples" / "sato-table2-a.json")
+    result.save(tmp_path / "result.json")
+    api = result.report(tmp_path / "api")
+    proc = feedtune_cli("report", str(tmp_path / "result.json"), "--out", str(tmp_path / "cli"))
+    assert proc.returncode == 0, proc.stderr
+    names = sorted(p.name for p in (tmp_path / "cli").iterdir())
+    assert names == sorted(p.name for p in (tmp_path / "api").iterdir())
+    drawn = [stem for stem in ("responses", "bode", "circle", "poles") if stem not in api.left_out]
+    assert [api.page.name, *(p.name for p in api.figures)] == [
+        "report.html", *(f"{stem}.png" for stem in drawn)]
+    for stem, why in api.left_out.items():  # the command names what it left out, and why
+        assert f"{stem} ({why})" in proc.stderr
+    for name in names:
+        assert (tmp_path / "api" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
+
+
+def test_the_python_example_tunes_and_plots(tmp_path):
+    """examples/tune_from_python.py: Koren's sampled servo built in code, tuned, exported to
+    python-control and plotted into the file named on its command line."""
+    figure, saved = tmp_path / "servo.png", tmp_path / "result.json"
+    proc = subprocess.run([sys.executable, str(REPO / "examples" / "tune_from_python.py"),
+                           str(figure), "--result", str(saved)], capture_output=True,
+                          text=True, cwd=tmp_path, timeout=300,
+                          env={**os.environ, "MPLBACKEND": "", "DISPLAY": ""})
+    assert proc.returncode == 0, proc.stderr
+    assert "sampled-servo-from-python: optimal" in proc.stdout
+    assert re.search(r"gain margin \d+(\.\d+)? \[1\], phase margin \d+(\.\d+)? \[deg\]",
+                     proc.stdout)
+    image = matplotlib.image.imread(figure)
+    assert image.shape[0] > 400 and image.shape[1] > 400
+    result = feedtune.load_result(saved)
+    assert result.success and result.name == "sampled-servo-from-python"
+    # README: the gain with zero radial error on the 8 mm circle at 40 mm/s (within the
+    # tuner's 1e-9 tolerance, far below the 1 % separating the neighbouring closed forms)
+    assert result.values["position_gain"] == pytest.approx(18.17336, rel=1e-5)
+
+
+def test_the_readmes_python_api_example_runs(tmp_path, monkeypatch):
+    """The first Python block of README.md's "Python API" section, run as written (in an
+    empty directory, where it writes result.json and report/), then the loop it exports
+    closed by signal names as "Continuing in python-control" says."""
+    import control
+    import numpy as np
+
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    section = readme[readme.index("## Python API"):readme.index("## Continuing in python-control")]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)  # noqa: S102 — our own README
+    result, systems = scope["result"], scope["systems"]
+    assert result.success and (tmp_path / "report" / "report.html").is_file()
+    assert feedtune.load_result(tmp_path / "result.json").to_json() == result.to_json()
+    closed = control.interconnect(
+        [systems.open_loop, control.summing_junction(["reference", "-position"], "error")],
+        inputs="reference", outputs="position")
+    z = np.exp(1j * np.geomspace(0.1, 100, 20) * systems.dt)
+    np.testing.assert_allclose([complex(closed(x)) for x in z],
+                               [complex(systems.closed_loop(x)) for x in z], rtol=1e-9)
