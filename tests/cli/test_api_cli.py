@@ -4,6 +4,7 @@ the wall-clock fields, the same summary, the same report; and the Python example
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -35,8 +36,30 @@ def feedtune_cli(*args: str) -> subprocess.CompletedProcess:
                           env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
 
 
+#: tuned from scratch on both paths: one example per plant type and technique (sampled
+#: software servo, Padé model, pulse generator, Bhatia's cascade), so the solver's starts,
+#: statuses and optimum notes are compared too
+SOLVED = ("koren-1979-sampled-data", "sato-table2-b", "tian-vf-pulse", "bhatia-1971-hydraulic")
+
+
+def spec_file(path: Path, directory: Path) -> Path:
+    """The example itself if it is in SOLVED; otherwise a copy with every tunable fixed at
+    its initial value, so both paths only evaluate (every metric and report of the example
+    still goes through both writers, at a fraction of a tuning's time: the two paths are one
+    code path, and tuning all 12 twice took about 2 min of the suite at load 9)."""
+    if path.stem in SOLVED:
+        return path
+    spec = json.loads(path.read_text(encoding="utf-8"))
+    spec["tunables"] = {name: {"value": t.get("initial", t.get("value", t.get("min")))}
+                        for name, t in spec["tunables"].items()}
+    fixed = directory / path.name
+    fixed.write_text(json.dumps(spec), encoding="utf-8")
+    return fixed
+
+
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_the_api_and_the_command_line_write_the_same_bytes_apart_from_times(path, tmp_path):
+    path = spec_file(path, tmp_path)
     proc = feedtune_cli("tune", str(path), "-o", str(tmp_path / "cli.json"), "-q")
     written = (tmp_path / "cli.json").read_text(encoding="utf-8")
     result = feedtune.tune(path)
