@@ -301,3 +301,57 @@ def test_validator_flags_a_wrong_reported_margin():
                                               "value": reported, "unit": "1"}}}
         (entry,) = model.measure(result)
         assert entry["metric"] == "gain_margin" and entry["ok"] is ok, json.dumps(entry)
+
+
+# -- tuning ----------------------------------------------------------------------------------
+
+def tuned(spec: dict):
+    from feedtune.problem import tune
+    from feedtune.spec import parse_spec
+    return tune(parse_spec(spec))
+
+
+def servo_spec(tunables, objective, constraints, delay=1):
+    return {"name": "sampled-frequency",
+            "plant": {"type": "software_servo", "technique": "sampled_data",
+                      "time_constant": TAU, "computation_delay": delay},
+            "tunables": tunables, "objective": objective, "constraints": constraints,
+            "solver": {"multistart": 2}}
+
+
+def test_widest_bandwidth_with_gain_and_period_free():
+    """Max bandwidth s.t. M_peak ≤ 1.3, PM ≥ 45°, GM ≥ 2 and T ≥ τ/4, K and T free: the
+    peak bound is active (the exchange method holds it within 1e-6, the tuner's feasibility
+    tolerance), T sits on its bound (faster sampling only helps), and python-control's
+    margins and the validator agree with the reported values."""
+    result = tuned(servo_spec(
+        {"position_gain": {"min": 1, "max": 200}, "sampling_period": {"min": 0.002, "max": 0.02}},
+        [{"metric": "bandwidth", "goal": "maximize"}],
+        [{"metric": "m_peak", "max": 1.3}, {"metric": "phase_margin", "min": 45},
+         {"metric": "gain_margin", "min": 2}, {"metric": "sampling_ratio", "min": 0.25}]))
+    assert result.success
+    gain = result.tuned["position_gain"].value
+    period = result.tuned["sampling_period"].value
+    metrics = {k: m.value for k, m in result.metrics.items()}
+    assert metrics["m_peak"] == pytest.approx(1.3, abs=1e-6)
+    assert period == pytest.approx(0.25 * TAU, rel=1e-6)
+    gm, pm, _, wc = control.margin(control_open_loop(gain, period, 1, TAU))
+    assert metrics["gain_margin"] == pytest.approx(gm, rel=1e-9) and gm >= 2
+    assert metrics["phase_margin"] == pytest.approx(pm, abs=1e-9 * 180) and pm >= 45 - 1e-6
+    assert metrics["crossover_frequency"] == pytest.approx(wc, rel=1e-9)
+    entries = {e["metric"]: e for e in result.validation["entries"]}
+    for name in FREQUENCY + ["overshoot", "settling_time"]:
+        assert entries[name]["ok"], entries[name]
+
+
+def test_phase_margin_bound_with_the_period_fixed():
+    """Min IAE with PM ≥ 60° at Koren's f_s = 64 Hz: the margin bound is active (IAE falls
+    with K until the margin binds) and equals python-control's to 1e-9 × 180°."""
+    result = tuned(servo_spec(
+        {"position_gain": {"min": 1, "max": 200}, "sampling_period": {"value": 1 / 64}},
+        [{"metric": "iae"}], [{"metric": "phase_margin", "min": 60}], delay=0))
+    assert result.success
+    gain = result.tuned["position_gain"].value
+    _, pm, _, _ = control.margin(control_open_loop(gain, 1 / 64, 0, TAU))
+    assert pm == pytest.approx(60, abs=1e-6 * 180)  # active, to the tuner's tolerance
+    assert result.metrics["phase_margin"].value == pytest.approx(pm, abs=1e-9 * 180)
