@@ -482,12 +482,14 @@ class SampledLoop(_LoopBase):
         return self._matrices[2], self._matrices[3]
 
     def frequency_response(self, omega):
-        """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]."""
-        n = self.order
-        wt = omega * self.period
-        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
-                                      ca.sin(wt) * ca.DM.eye(n), self.input_matrix)
-        return re[0], im[0]
+        """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]:
+        H = N/(D + N) of the pulse transfer L = N/D (:attr:`pulse_transfer`)."""
+        numerator, denominator = self.pulse_transfer
+        theta = omega * self.period
+        n_re, n_im = _poly_on_circle(numerator, theta)
+        d_re, d_im = _poly_on_circle(linalg.poly_add(denominator, numerator), theta)
+        d2 = d_re**2 + d_im**2
+        return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
 
     @property
     def nyquist_frequency(self):

@@ -23,6 +23,7 @@ Entry point: :func:`measure`, called by ``ServoModel.measure`` for the names in
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -41,8 +42,11 @@ MEASURES = ("m_peak", "bandwidth", "crossover_frequency", "phase_margin", "gain_
             "overshoot", "settling_time")
 
 
-def _grid(model) -> np.ndarray:
-    """ω [rad/s] from the slowest pole / GRID_SPAN to π/T, π/T itself the last point."""
+@functools.lru_cache(maxsize=8)
+def _scan(model) -> tuple[np.ndarray, np.ndarray, float]:
+    """(grid, L on it, H(1)) of a model: ω [rad/s] from the slowest pole / GRID_SPAN to
+    π/T, π/T itself the last point; H(z = 1) = C(I − F)⁻¹G of the closed loop (1 for a
+    type-1 loop). Computed once per model (the metrics share it)."""
     z = model.poles().astype(complex)
     speeds = np.abs(np.log(z[np.abs(z) > 1e-12]) / model.period)
     speeds = speeds[speeds > 0]
@@ -51,24 +55,20 @@ def _grid(model) -> np.ndarray:
     count = int(POINTS_PER_DECADE * math.log10(nyquist / low)) + 2
     grid = np.geomspace(low, nyquist, count)
     grid[-1] = nyquist
-    return grid
-
-
-def _dc_gain(model) -> float:
-    """H(z = 1) = C(I − F)⁻¹G of the closed loop (1 for a type-1 loop)."""
     f, g = model.closed_loop()
-    return float(np.linalg.solve(np.eye(f.shape[0]) - f, g[:, 0])[0])
+    dc = float(np.linalg.solve(np.eye(f.shape[0]) - f, g[:, 0])[0])
+    return grid, model.open_loop(grid), dc
 
 
 def _gain_squared(model, omega) -> np.ndarray:
     """|H(e^{jωT})/H(1)|²."""
-    return np.abs(model.complementary(omega) / _dc_gain(model)) ** 2
+    return np.abs(model.complementary(omega) / _scan(model)[2]) ** 2
 
 
 def m_peak(model) -> float:
     """sup over 0 ≤ ω ≤ π/T of |H/H(1)| [1]."""
-    grid = _grid(model)
-    g = _gain_squared(model, grid)
+    grid, open_loop, dc = _scan(model)
+    g = np.abs(open_loop / (1 + open_loop) / dc) ** 2
     best = max(1.0, float(np.sqrt(np.max(g))))
     padded = np.concatenate([[-np.inf], g, [-np.inf]])
     for i in np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:])):
@@ -79,10 +79,9 @@ def m_peak(model) -> float:
     return best
 
 
-def _first_crossing(fn, grid: np.ndarray) -> float | None:
-    """Lowest ω of ``grid`` where ``fn`` (> 0 below) falls to 0, by brentq in ln ω; None
-    when it does not."""
-    values = fn(grid)
+def _first_crossing(fn, grid: np.ndarray, values: np.ndarray) -> float | None:
+    """Lowest ω of ``grid`` where ``fn`` (> 0 below; ``values`` on the grid) falls to 0, by
+    brentq in ln ω; None when it does not."""
     below = np.flatnonzero(values <= 0)
     if below.size == 0:
         return None
@@ -95,14 +94,18 @@ def _first_crossing(fn, grid: np.ndarray) -> float | None:
 
 def bandwidth(model) -> float:
     """Lowest ω [rad/s] with |H/H(1)|² = ½; π/T when there is none below Nyquist."""
-    grid = _grid(model)
-    found = _first_crossing(lambda w: _gain_squared(model, w) - 0.5, grid)
+    grid, open_loop, dc = _scan(model)
+    values = np.abs(open_loop / (1 + open_loop) / dc) ** 2 - 0.5
+    found = _first_crossing(lambda w: _gain_squared(model, w) - 0.5, grid, values)
     return grid[-1] if found is None else found
 
 
+@functools.lru_cache(maxsize=8)
 def crossover(model) -> float:
     """Lowest ω [rad/s] with |L| = 1, below π/T."""
-    found = _first_crossing(lambda w: np.log(np.abs(model.open_loop(w))), _grid(model))
+    grid, open_loop, _ = _scan(model)
+    found = _first_crossing(lambda w: np.log(np.abs(model.open_loop(w))), grid,
+                            np.log(np.abs(open_loop)))
     if found is None:
         raise NotCovered("|L| stays above 1 up to the Nyquist frequency")
     return found
@@ -117,8 +120,7 @@ def phase_margin(model) -> float:
 def gain_margin(model) -> float:
     """1/|L| [1] where the unwrapped phase of L first reaches −180° below π/T, else at π/T
     when L(−1) < 0."""
-    grid = _grid(model)
-    lo = model.open_loop(grid)
+    grid, lo, _ = _scan(model)
     phase = np.unwrap(np.angle(lo)) + math.pi
     inner = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))  # π/T itself apart
     if inner.size:
@@ -175,9 +177,14 @@ class StepPosition:
         return float((expm(self.big * sigma)[0] @ self.starts[i]))
 
 
+@functools.lru_cache(maxsize=8)
+def _step_position(model) -> StepPosition:
+    return StepPosition(model)
+
+
 def overshoot(model) -> float:
     """max over t of x(t) − 1 [1] after a unit step, 0 if none."""
-    x = StepPosition(model)
+    x = _step_position(model)
     t = x.times().ravel()
     values = x.dense.ravel()
     k = int(np.argmax(values))
@@ -189,7 +196,7 @@ def overshoot(model) -> float:
 
 def settling_time(model, band: float) -> float:
     """Last t [s] with |1 − x(t)| = ``band`` after a unit step (0 if never outside)."""
-    x = StepPosition(model)
+    x = _step_position(model)
     t = x.times().ravel()
     error = 1.0 - x.dense.ravel()
     outside = np.flatnonzero(np.abs(error) > band)

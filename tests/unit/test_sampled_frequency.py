@@ -111,16 +111,22 @@ def test_peak_and_bandwidth_agree_with_python_control(gain, period, delay, tau):
     assert value("bandwidth", lp) == pytest.approx(bandwidth, rel=1e-9)
 
 
-def test_open_loop_times_closed_loop_identity():
-    """H = L/(1 + L) at z = e^{jωT}: the open loop (pulse transfer) and the closed loop
-    (state space) are two formulations of one discrete loop."""
+def test_pulse_transfer_matches_the_state_space_loop():
+    """H = N/(D + N) from the pulse transfer L = N/D (what the frequency metrics read)
+    equals C(zI − Φ)⁻¹Γ of the loop's closed-loop matrices (what its step integrals and
+    poles come from), and L = H/(1 − H), at z = e^{jωT} up to π/T."""
     lp = loop(40.0, 0.005, 1)
+    phi = np.array(ca.evalf(lp.state_matrix))
+    gamma = np.array(ca.evalf(lp.input_matrix)).ravel()
     for omega in np.geomspace(0.1, math.pi / 0.005, 50):
-        l_re, l_im = (float(ca.evalf(v)) for v in lp.open_loop_response(omega))
+        z = np.exp(1j * omega * 0.005)
+        state_space = np.linalg.solve(z * np.eye(phi.shape[0]) - phi, gamma)[0]
         h_re, h_im = (float(ca.evalf(v)) for v in lp.frequency_response(omega))
-        open_loop = complex(l_re, l_im)
-        # 1e-10 of |H(1)| = 1: rounding of the 3×3 complex solve near z = 1 (measured 7.7e-12)
-        assert abs(complex(h_re, h_im) - open_loop / (1 + open_loop)) <= 1e-10
+        l_re, l_im = (float(ca.evalf(v)) for v in lp.open_loop_response(omega))
+        # 1e-10 of |H(1)| = 1: rounding of the complex solve near z = 1 (measured 7.7e-12)
+        assert abs(complex(h_re, h_im) - state_space) <= 1e-10
+        assert abs(complex(l_re, l_im) - state_space / (1 - state_space)) <= 1e-10 * abs(
+            complex(l_re, l_im))
 
 
 def test_gain_margin_at_the_nyquist_frequency():
