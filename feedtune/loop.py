@@ -185,6 +185,14 @@ def _poly_on_circle(p: list, theta):
     return re, im
 
 
+def _ratio_on_circle(numerator: list, denominator: list, theta):
+    """Re and Im of numerator/denominator at z = e^{jθ} (polynomials, highest power first)."""
+    n_re, n_im = _poly_on_circle(numerator, theta)
+    d_re, d_im = _poly_on_circle(denominator, theta)
+    d2 = d_re**2 + d_im**2
+    return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
+
+
 @dataclass(frozen=True)
 class Drive:
     """Physical data of the axis that some metrics need, beyond the loop dynamics.
@@ -485,16 +493,8 @@ class SampledLoop(_LoopBase):
         """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]:
         H = N/(D + N) of the pulse transfer L = N/D (:attr:`pulse_transfer`)."""
         numerator, denominator = self.pulse_transfer
-        theta = omega * self.period
-        n_re, n_im = _poly_on_circle(numerator, theta)
-        d_re, d_im = _poly_on_circle(linalg.poly_add(denominator, numerator), theta)
-        d2 = d_re**2 + d_im**2
-        return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
-
-    @property
-    def nyquist_frequency(self):
-        """π/T [rad/s]: the discrete loop's frequency responses are exact up to here."""
-        return math.pi / self.period
+        return _ratio_on_circle(numerator, linalg.poly_add(denominator, numerator),
+                                omega * self.period)
 
     @cached_property
     def pulse_transfer(self) -> tuple[list, list]:
@@ -516,17 +516,13 @@ class SampledLoop(_LoopBase):
     def open_loop_response(self, omega):
         """Re and Im of L(e^{jωT}) = K·e^{−jdωT}·P(e^{jωT}), ω [rad/s]: exact, hold and
         computation delay included, periodic in ω with period 2π/T."""
-        numerator, denominator = self.pulse_transfer
-        n_re, n_im = _poly_on_circle(numerator, omega * self.period)
-        d_re, d_im = _poly_on_circle(denominator, omega * self.period)
-        d2 = d_re**2 + d_im**2
-        return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
+        return _ratio_on_circle(*self.pulse_transfer, omega * self.period)
 
     def dc_gain(self):
-        """H(z = 1) = C(I − Φ)⁻¹Γ [1]: 1 for this type-1 loop, kept as an expression for the
-        normalisation |H/H(1)|."""
-        n = self.order
-        return linalg.solve(ca.DM.eye(n) - self.state_matrix, self.input_matrix)[0]
+        """H(z = 1) = N(1)/(D(1) + N(1)) [1]: 1 for this type-1 loop (D(1) = 0), kept as an
+        expression for the normalisation |H/H(1)|."""
+        numerator, denominator = self.pulse_transfer
+        return sum(numerator) / (sum(denominator) + sum(numerator))
 
     def numeric_hold(self):
         """(Φ, Γ, k_x, k_r, T, τ) as numpy floats, for time responses evaluated on a loop of
