@@ -77,7 +77,7 @@ def control_peak_and_bandwidth(closed, period):
         return float(np.abs(closed(np.exp(1j * w * period))))
 
     dc = float(np.abs(closed(1.0)))
-    mag = np.array([gain(w) for w in grid]) / dc
+    mag = np.abs(np.asarray(closed(np.exp(1j * grid * period))).ravel()) / dc
     k = int(np.argmax(mag))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     polished = minimize_scalar(lambda u: -gain(math.exp(u)) / dc, method="bounded",
