@@ -235,10 +235,10 @@ def test_overshoot_and_settling_time_agree_with_python_control(gain, period, del
     side = math.copysign(0.02, 1.0 - at(stop - period / 2))
     dense = np.linspace(stop - period, stop, 201)
     outside = [t for t in dense if abs(1.0 - at(t)) > 0.02]
-    if outside:
-        t0 = max(outside)
-        exit_time = brentq(lambda t: 1.0 - at(t) - side, t0, t0 + period / 200, xtol=1e-15)
-        assert settling == pytest.approx(exit_time, abs=1e-9 * period)
+    assert outside  # the sample before step_info's settling time is outside the band
+    t0 = max(outside)
+    exit_time = brentq(lambda t: 1.0 - at(t) - side, t0, t0 + period / 200, xtol=1e-15)
+    assert settling == pytest.approx(exit_time, abs=1e-9 * period)
 
 
 def test_ideal_drive_peaks_at_the_samples():
