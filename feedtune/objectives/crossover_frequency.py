@@ -6,7 +6,8 @@ from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_ga
 
 
 class CrossoverFrequency(Metric):
-    """ω_c [rad/s]: the lowest ω where |L(jω)| = 1."""
+    """ω_c [rad/s]: the lowest ω where |L(jω)| = 1 (a sampled loop: |L(e^{jωT})| = 1, π/T
+    when |L| stays above 1 up to the Nyquist frequency)."""
 
     name = "crossover_frequency"
     unit = "rad/s"

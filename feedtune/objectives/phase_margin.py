@@ -9,7 +9,8 @@ from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_ga
 
 
 class PhaseMargin(Metric):
-    """180° + arg L(jω_c) [deg] at the lowest gain crossover ω_c (|L| = 1)."""
+    """180° + arg L(jω_c) [deg] at the lowest gain crossover ω_c (|L| = 1); on a sampled
+    loop L(e^{jωT}), hold and computation delay included."""
 
     name = "phase_margin"
     unit = "deg"
