@@ -10,6 +10,7 @@ value below their level beyond π/T (:func:`below_nyquist`), so such a crossing 
 π/T itself (a bandwidth "at Nyquist": the loop passes everything it can represent).
 """
 
+from feedtune.frequency import first_crossing
 from feedtune.lazy import ca
 
 #: what a sampled loop's crossing functions read beyond π/T by default: −1, below the
@@ -70,3 +71,15 @@ def log_open_loop_gain_squared(loop):
         return ca.log(re**2 + im**2)
 
     return below_nyquist(loop, gain)
+
+
+def gain_crossover(loop):
+    """ω_c [rad/s]: the lowest ω where |L| = 1 (π/T on a sampled loop whose |L| stays above
+    1 up to Nyquist). Located once per loop (kept in its ``__dict__``, as a cached
+    property is): the crossover frequency and the phase margin share it."""
+    found = loop.__dict__.get("_gain_crossover")
+    if found is None:
+        found = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
+                               "gain_crossover")
+        loop.__dict__["_gain_crossover"] = found
+    return found
