@@ -361,3 +361,21 @@ def test_phase_margin_bound_with_the_period_fixed():
     _, pm, _, _ = control.margin(control_open_loop(gain, 1 / 64, 0, TAU))
     assert pm == pytest.approx(60, abs=1e-6 * 180)  # active, to the tuner's tolerance
     assert result.metrics["phase_margin"].value == pytest.approx(pm, abs=1e-9 * 180)
+
+
+def test_widest_gain_margin_at_a_crossover_with_gain_and_period_free():
+    """Max gain margin s.t. crossover ≥ 30 rad/s and T ≥ τ/4, K and T free: a higher
+    crossover costs margin, so the crossover bound is active (to the tuner's 1e-6) and T
+    sits on its bound (a shorter dead time only helps); python-control agrees."""
+    result = tuned(servo_spec(
+        {"position_gain": {"min": 1, "max": 200}, "sampling_period": {"min": 0.002, "max": 0.02}},
+        [{"metric": "gain_margin", "goal": "maximize"}],
+        [{"metric": "crossover_frequency", "min": 30}, {"metric": "sampling_ratio", "min": 0.25}]))
+    assert result.success
+    gain = result.tuned["position_gain"].value
+    period = result.tuned["sampling_period"].value
+    assert period == pytest.approx(0.25 * TAU, rel=1e-6)
+    gm, _, _, wc = control.margin(control_open_loop(gain, period, 1, TAU))
+    assert wc == pytest.approx(30.0, rel=1e-6)
+    assert result.metrics["gain_margin"].value == pytest.approx(gm, rel=1e-9)
+    assert result.metrics["crossover_frequency"].value == pytest.approx(wc, rel=1e-9)
