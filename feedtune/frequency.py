@@ -108,7 +108,10 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
         high = ca.if_else(above, high, middle)
     u = (low + high) / 2
     for _ in range(2):
-        step = f(u, *free) / slope(u, *free)
+        g = slope(u, *free)
+        # no step where f is flat (a sampled loop's crossing cut at π/T, which the
+        # bisection already holds to 2^-32 of a grid step)
+        step = ca.if_else(g != 0, f(u, *free) / ca.if_else(g != 0, g, 1), 0)
         u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
     return ca.exp(ca.if_else(found, u, grid[-1]))
 
@@ -132,7 +135,8 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
             high = middle
     u = (low + high) / 2
     for _ in range(2):
-        step = float(f(u)) / float(slope(u))
+        g = float(slope(u))
+        step = float(f(u)) / g if g != 0 else 0.0  # as the symbolic version
         u = u - float(np.fmin(np.fmax(step, low - u), high - u))  # as ca.fmin/ca.fmax
     return math.exp(u)
 

@@ -172,6 +172,27 @@ def _pole_pair() -> ca.Function:
     return ca.Function("pole_pair", [c1, c0], [zeta, wn])
 
 
+def _poly_on_circle(p: list, theta):
+    """Re and Im of p(e^{jθ}), highest power first: Σ c_k (cos kθ + j sin kθ)."""
+    degree = len(p) - 1
+    re, im = 0, 0
+    for i, c in enumerate(p):
+        k = degree - i
+        if k == 0:
+            re = re + c
+        else:
+            re, im = re + c * ca.cos(k * theta), im + c * ca.sin(k * theta)
+    return re, im
+
+
+def _ratio_on_circle(numerator: list, denominator: list, theta):
+    """Re and Im of numerator/denominator at z = e^{jθ} (polynomials, highest power first)."""
+    n_re, n_im = _poly_on_circle(numerator, theta)
+    d_re, d_im = _poly_on_circle(denominator, theta)
+    d2 = d_re**2 + d_im**2
+    return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
+
+
 @dataclass(frozen=True)
 class Drive:
     """Physical data of the axis that some metrics need, beyond the loop dynamics.
@@ -397,6 +418,12 @@ class SampledLoop(_LoopBase):
     period_min : float
         Smallest period [s] the tuner may choose.
     interpolator : Interpolator or None
+    frequency_band : tuple or None
+        (low, high) [rad/s] numbers: ``low`` below every corner of the loop, ``high``
+        above the Nyquist frequency π/T of every period in the tuning box (a grid in rad/s
+        serves a tunable T: the responses are periodic in ω with period 2π/T and symmetric
+        about π/T, and the frequency metrics read nothing beyond π/T, see
+        :mod:`feedtune.objectives.frequency_domain`). None: no frequency metric.
     """
 
     plant: IntegratorLag | Integrator
@@ -407,6 +434,7 @@ class SampledLoop(_LoopBase):
     horizon: float = 1.0
     period_min: float = 1e-3
     interpolator: Interpolator | None = None
+    frequency_band: tuple | None = None
     discrete = True
 
     @property
@@ -462,12 +490,62 @@ class SampledLoop(_LoopBase):
         return self._matrices[2], self._matrices[3]
 
     def frequency_response(self, omega):
-        """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]."""
-        n = self.order
-        wt = omega * self.period
-        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
-                                      ca.sin(wt) * ca.DM.eye(n), self.input_matrix)
-        return re[0], im[0]
+        """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]:
+        H = N/(D + N) of the pulse transfer L = N/D (:attr:`pulse_transfer`)."""
+        numerator, denominator = self.pulse_transfer
+        return _ratio_on_circle(numerator, linalg.poly_add(denominator, numerator),
+                                omega * self.period)
+
+    @cached_property
+    def pulse_transfer(self) -> tuple[list, list]:
+        """(numerator, denominator) in z, highest power first, of the open loop
+        L(z) = K·z^{−d}·P(z), P(z) = C(zI − Φ_p)⁻¹Γ_p the ZOH-discretised drive (Koren
+        eqs 12–14): P = Γ/(z − Φ) for 1/s; for 1/(s(1 + sτ)) with Φ_p = [[1, a], [0, x]],
+        P = (γ₀(z − x) + a·γ₁)/((z − 1)(z − x)), a = τ(1 − x), x = e^{−T/τ}.
+        """
+        phi, gamma = self.plant.discretise(self.period)
+        k = self.gain
+        if self.plant.order == 1:
+            numerator, denominator = [k * gamma[0]], [1, -phi[0, 0]]
+        else:
+            x, a = phi[1, 1], phi[0, 1]
+            numerator = [k * gamma[0], k * (a * gamma[1] - x * gamma[0])]
+            denominator = linalg.poly_mul([1, -phi[0, 0]], [1, -x])
+        return numerator, denominator + [0] * self.delay  # z^d·den: the delay
+
+    def open_loop_response(self, omega):
+        """Re and Im of L(e^{jωT}) = K·e^{−jdωT}·P(e^{jωT}), ω [rad/s]: exact, hold and
+        computation delay included, periodic in ω with period 2π/T."""
+        return _ratio_on_circle(*self.pulse_transfer, omega * self.period)
+
+    def dc_gain(self):
+        """H(z = 1) = N(1)/(D(1) + N(1)) [1]: 1 for this type-1 loop (D(1) = 0), kept as an
+        expression for the normalisation |H/H(1)|."""
+        numerator, denominator = self.pulse_transfer
+        return sum(numerator) / (sum(denominator) + sum(numerator))
+
+    def numeric_hold(self):
+        """(Φ, Γ, k_x, k_r, T, τ) as numpy floats, for time responses evaluated on a loop of
+        numbers (:func:`feedtune.timeresponse.sampled_step_error`); τ None for the ideal
+        drive 1/s.
+
+        Raises
+        ------
+        TypeError
+            For a loop of symbols (inside the NLP): these responses are reported only.
+        """
+        phi, gamma, kx, kr = self._matrices
+        values = [ca.MX(v) for v in (phi, gamma, kx, kr, self.period)]
+        tau = self.plant.time_constant
+        if tau is not None:
+            values.append(ca.MX(tau))
+        if ca.symvar(ca.veccat(*[ca.vec(v) for v in values])):
+            raise TypeError("the sampled step response is evaluated on a loop of numbers "
+                            "only (reported on the tuned design, never in the NLP)")
+        arrays = [np.array(ca.evalf(v), dtype=float) for v in values]
+        phi, gamma, kx, kr, period = arrays[:5]
+        return (phi, gamma.ravel(), kx.ravel(), float(kr.item()), float(period.item()),
+                float(arrays[5].item()) if tau is not None else None)
 
     def error_response(self, omega):
         """Re and Im of S = 1 − H at z = e^{jωT}, without the cancellation of 1 − H at low ω.

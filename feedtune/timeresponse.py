@@ -574,3 +574,130 @@ def reference_error(error_numerator, denominator, input: str = "step") -> Respon
 def load_response(load_numerator, denominator) -> Response:
     """Position after a unit (1 N·m) load-torque step; steady = the static load error."""
     return step_response(load_numerator, denominator)
+
+
+# -- the sampled-data loop: exact between samples -------------------------------------------
+
+class SampledStepError:
+    """Position error e(t) = 1 − x(t) of a sampled loop after a unit position step, exact
+    at every t: samples from the loop's recurrence, and in closed form in between.
+
+    Over sample n the command u = k_x·ξ(n) + k_r is held (zero-order hold) and the drive
+    1/(s(1 + sτ)) moves from position x, velocity v as
+    e(σ) = α + β·s + γ·e^{−s}, s = σ/τ, with α = 1 − x − (v − u)τ, β = −uτ, γ = (v − u)τ
+    (Koren eqs 12–14); the ideal drive 1/s (τ None) gives e(σ) = 1 − x − uσ. Each sample
+    therefore has at most one interior extremum, at e^{−s} = β/γ, so extremes and the last
+    exit from a band are exact (Brent's method only on a monotone piece).
+
+    Parameters
+    ----------
+    phi, gamma, kx, kr, period, tau
+        Closed-loop Φ, Γ of ξ(n + 1) = Φξ(n) + Γ·r, the held command's k_x, k_r, the
+        period T [s] and τ [s] (None: ideal drive), from
+        :meth:`feedtune.loop.SampledLoop.numeric_hold`; the state starts at rest with the
+        drive's position and velocity first.
+    samples : int
+        Samples followed (until the free response has decayed far below any band).
+    """
+
+    def __init__(self, phi, gamma, kx, kr, period: float, tau: float | None, samples: int):
+        if np.max(np.abs(np.linalg.eigvals(phi)), initial=0.0) >= 1:
+            raise UnstableResponseError("the sampled loop is not stable: no response settles")
+        states = np.empty((samples, phi.shape[0]))
+        state = np.zeros(phi.shape[0])
+        for n in range(samples):
+            states[n] = state
+            state = phi @ state + gamma
+        u = states @ kx + kr
+        self.period, self.tau, self.samples = period, tau, samples
+        x = states[:, 0]
+        if tau is None:  # e = α + β·σ [σ in s]
+            self.alpha, self.beta, self.gamma = 1 - x, -u, np.zeros(samples)
+            self.end = period
+        else:
+            v = states[:, 1]
+            self.alpha, self.beta, self.gamma = 1 - x - (v - u) * tau, -u * tau, (v - u) * tau
+            self.end = period / tau
+
+    def _at(self, n, s):
+        """e in sample n at local coordinate s (σ/τ, or σ [s] for the ideal drive)."""
+        decay = np.exp(-s) if self.tau is not None else 0.0
+        return self.alpha[n] + self.beta[n] * s + self.gamma[n] * decay
+
+    def _turn(self):
+        """Local coordinate of each sample's interior extremum, NaN where there is none."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.log(self.gamma / self.beta)
+        inside = (self.tau is not None) & np.isfinite(s) & (s > 0) & (s < self.end)
+        return np.where(inside, s, np.nan)
+
+    def _time(self, n, s) -> float:
+        return n * self.period + s * (self.tau if self.tau is not None else 1.0)
+
+    def lowest(self) -> float:
+        """min over t ≥ 0 of e(t) [m], the final value 0 included."""
+        n = np.arange(self.samples)
+        turn = self._turn()
+        candidates = [self.alpha + self.gamma, np.where(np.isnan(turn), np.inf,
+                                                         self._at(n, np.nan_to_num(turn)))]
+        return float(min(0.0, *(np.min(c) for c in candidates)))
+
+    def last_exit(self, bound: float) -> float:
+        """Last time [s] at which |e| = ``bound`` (> 0): |e| ≤ bound ever after; 0 when
+        |e| never exceeds it.
+
+        Raises
+        ------
+        ValueError
+            When |e| still exceeds ``bound`` in the last sample followed.
+        """
+        if not bound > 0:
+            raise ValueError("the settling bound must be positive")
+        n = np.arange(self.samples)
+        turn = self._turn()
+        start, stop = self._at(n, 0.0), self._at(n, self.end)
+        inner = np.where(np.isnan(turn), 0.0, self._at(n, np.nan_to_num(turn)))
+        outside = np.flatnonzero((np.abs(start) > bound) | (np.abs(stop) > bound)
+                                 | (np.abs(inner) > bound))
+        if outside.size == 0:
+            return 0.0
+        k = int(outside[-1])
+        if k == self.samples - 1:
+            raise ValueError(f"a band of {bound:.3g} is below what the response resolves at "
+                             f"its horizon ({abs(stop[k]):.3g})")
+        # monotone pieces of sample k, the last first: [turn, end] then [0, turn]
+        edges = [0.0, self.end] if np.isnan(turn[k]) else [0.0, float(turn[k]), self.end]
+        from scipy.optimize import brentq  # imported when used (see above)
+
+        for a, b in reversed(list(zip(edges[:-1], edges[1:]))):
+            ea, eb = self._at(k, a), self._at(k, b)
+            roots = [brentq(lambda s: self._at(k, s) - level, a, b, xtol=1e-300,
+                            rtol=4 * np.finfo(float).eps)
+                     for level in (bound, -bound) if (ea - level) * (eb - level) < 0]
+            if roots:
+                return self._time(k, max(roots))
+            if max(abs(ea), abs(eb)) > bound:  # touches the band at a piece's end
+                return self._time(k, b if abs(eb) >= bound else a)
+        raise AssertionError("unreachable: sample k leaves the band")
+
+
+def has_sampled_step(loop) -> bool:
+    """The loop is a sampled-data loop whose step response :class:`SampledStepError` gives."""
+    return callable(getattr(loop, "numeric_hold", None))
+
+
+def sampled_step_error(loop) -> SampledStepError | None:
+    """The exact step error of a sampled loop of numbers; None when it is unstable.
+
+    Raises
+    ------
+    TypeError
+        For a loop of symbols (these metrics are reported on the tuned design only).
+    HorizonError
+        (from the loop) When the response needs more samples than the loop allows.
+    """
+    hold = loop.numeric_hold()
+    try:
+        return SampledStepError(*hold, samples=loop.horizon_samples + 1)
+    except UnstableResponseError:
+        return None

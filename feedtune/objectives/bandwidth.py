@@ -3,7 +3,8 @@
 from feedtune.expr import Crossing
 from feedtune.frequency import first_crossing, log_grid, lowest_value, relative_grid
 from feedtune.objectives.base import Metric
-from feedtune.objectives.frequency_domain import has_frequency_band, normalised_gain_squared
+from feedtune.objectives.frequency_domain import (below_nyquist, has_frequency_band,
+                                                  normalised_gain_squared)
 
 
 class Bandwidth(Metric):
@@ -14,6 +15,9 @@ class Bandwidth(Metric):
     dip rests exactly on −3 dB), and |T(jb)/T(0)|² = 1/2 where b must be the crossing
     itself, so a dip below −3 dB anywhere under b is never overlooked. The condition is written (g − ½)/(g + ½) with g = |T/T(0)|²: the same
     sign, but bounded in [−1, 1], so it stays finite where a pole nears the jω axis.
+
+    On a sampled loop T is the discrete loop's H(e^{jωT}); a loop whose gain stays above
+    −3 dB up to the Nyquist frequency has ω_b = π/T (nothing above it is represented).
     """
 
     name = "bandwidth"
@@ -25,7 +29,7 @@ class Bandwidth(Metric):
         return has_frequency_band(loop)
 
     def evaluate(self, loop, options):
-        gain = normalised_gain_squared(loop)
+        gain = below_nyquist(loop, normalised_gain_squared(loop), 0.0)  # |H|² = 0 beyond π/T
         band = loop.frequency_band
         omega = first_crossing(gain, band, 0.5, "bandwidth")
         count = len(log_grid(band))

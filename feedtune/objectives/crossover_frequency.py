@@ -1,12 +1,12 @@
 """Gain-crossover frequency of the open loop (Bhatia 1971, Ch. IV G)."""
 
-from feedtune.frequency import first_crossing
 from feedtune.objectives.base import Metric
-from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_gain_squared
+from feedtune.objectives.frequency_domain import gain_crossover, has_open_loop
 
 
 class CrossoverFrequency(Metric):
-    """ω_c [rad/s]: the lowest ω where |L(jω)| = 1."""
+    """ω_c [rad/s]: the lowest ω where |L(jω)| = 1 (a sampled loop: |L(e^{jωT})| = 1, π/T
+    when |L| stays above 1 up to the Nyquist frequency)."""
 
     name = "crossover_frequency"
     unit = "rad/s"
@@ -17,6 +17,4 @@ class CrossoverFrequency(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop, options):
-        omega = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
-                                  "gain_crossover")
-        return omega
+        return gain_crossover(loop)

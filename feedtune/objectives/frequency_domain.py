@@ -1,6 +1,21 @@
-"""What the frequency-domain metrics share: which loops they read, and |T|², L(jω)."""
+"""What the frequency-domain metrics share: which loops they read, and |T|², L(jω).
 
+A sampled loop's responses are those of the discrete loop at z = e^{jωT}, exact up to the
+Nyquist frequency π/T. Its band (numbers, :attr:`feedtune.loop.SampledLoop.frequency_band`)
+reaches above π/T for every period T of the box, so one grid in rad/s serves a tunable T.
+The responses are periodic in ω (period 2π/T) and symmetric about π/T, so a peak over the
+band is the peak up to π/T (its aliases repeat the same values). A crossing that does not
+happen under π/T does not happen at all; the functions crossings are located on take a
+value below their level beyond π/T (:func:`below_nyquist`), so such a crossing is found at
+π/T itself (a bandwidth "at Nyquist": the loop passes everything it can represent).
+"""
+
+from feedtune.frequency import first_crossing
 from feedtune.lazy import ca
+
+#: what a sampled loop's crossing functions read beyond π/T by default: −1, below the
+#: level of −Im L/|L| and of ln|L|² (0); |H/H(0)|² takes 0 there, below its level ½
+BEYOND_NYQUIST = -1.0
 
 
 def has_frequency_band(loop) -> bool:
@@ -12,8 +27,24 @@ def has_open_loop(loop) -> bool:
     return has_frequency_band(loop) and hasattr(loop, "open_loop_response")
 
 
+def below_nyquist(loop, fn, beyond: float = BEYOND_NYQUIST):
+    """``fn`` on a continuous loop; on a sampled loop ω ↦ fn(ω) for ωT ≤ π, else
+    ``beyond`` (ω [rad/s], T the loop's period, a number or an expression). For the
+    functions crossings are located on, never under a square root (its derivative at the
+    constant would be ∞·0)."""
+    if not loop.discrete:
+        return fn
+
+    def cut(omega):
+        return ca.if_else(omega * loop.period <= ca.pi, fn(omega), beyond)
+
+    return cut
+
+
 def normalised_gain_squared(loop):
-    """ω ↦ |T(jω)/T(0)|² [1]: the closed loop normalised to unit DC gain (Bhatia Ch. IV A)."""
+    """ω ↦ |T(jω)/T(0)|² [1]: the closed loop normalised to unit DC gain (Bhatia Ch. IV A);
+    on a sampled loop at z = e^{jωT} (periodic in ω: take :func:`below_nyquist` of it to
+    locate a crossing)."""
     dc = loop.dc_gain()
 
     def gain(omega):
@@ -24,12 +55,13 @@ def normalised_gain_squared(loop):
 
 
 def phase_crossover_indicator(loop):
-    """ω ↦ −Im L/|L| [1]: +1 at low ω for a type-1 loop, 0 where the phase reaches −180°."""
+    """ω ↦ −Im L/|L| [1]: +1 at low ω for a type-1 loop, 0 where the phase reaches −180°
+    (on a sampled loop also at π/T when L(−1) < 0: L is real there)."""
     def indicator(omega):
         re, im = loop.open_loop_response(omega)
         return -im / ca.sqrt(re**2 + im**2)
 
-    return indicator
+    return below_nyquist(loop, indicator)
 
 
 def log_open_loop_gain_squared(loop):
@@ -38,4 +70,16 @@ def log_open_loop_gain_squared(loop):
         re, im = loop.open_loop_response(omega)
         return ca.log(re**2 + im**2)
 
-    return gain
+    return below_nyquist(loop, gain)
+
+
+def gain_crossover(loop):
+    """ω_c [rad/s]: the lowest ω where |L| = 1 (π/T on a sampled loop whose |L| stays above
+    1 up to Nyquist). Located once per loop (kept in its ``__dict__``, as a cached
+    property is): the crossover frequency and the phase margin share it."""
+    found = loop.__dict__.get("_gain_crossover")
+    if found is None:
+        found = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
+                               "gain_crossover")
+        loop.__dict__["_gain_crossover"] = found
+    return found

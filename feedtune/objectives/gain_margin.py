@@ -7,7 +7,11 @@ from feedtune.objectives.frequency_domain import has_open_loop, phase_crossover_
 
 
 class GainMargin(Metric):
-    """1/|L(jω_180)| [1] at the lowest phase crossover ω_180 (arg L = −180°)."""
+    """1/|L(jω_180)| [1] at the lowest phase crossover ω_180 (arg L = −180°).
+
+    A sampled loop's L(e^{jωT}) is real at the Nyquist frequency: when it is negative there
+    and the phase has not reached −180° before, ω_180 = π/T (a ZOH loop without delay).
+    """
 
     name = "gain_margin"
     unit = "1"

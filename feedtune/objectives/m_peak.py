@@ -8,7 +8,11 @@ from feedtune.objectives.frequency_domain import has_frequency_band, normalised_
 
 
 class MPeak(Metric):
-    """M_peak = max_ω |T(jω)|/|T(0)| [1], located on a grid and refined by Newton's method."""
+    """M_peak = max_ω |T(jω)|/|T(0)| [1], located on a grid and refined by Newton's method.
+
+    On a sampled loop T(e^{jωT})/T(1) of the discrete loop, over 0 ≤ ω ≤ π/T (the band may
+    reach beyond π/T for a tunable T: the response repeats its values there).
+    """
 
     name = "m_peak"
     unit = "1"

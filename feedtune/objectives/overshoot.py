@@ -2,6 +2,7 @@
 
 from feedtune.objectives.base import Metric
 from feedtune.objectives.step_error import as_number, has_numeric_response, numeric_response
+from feedtune.timeresponse import has_sampled_step, sampled_step_error
 
 
 class Overshoot(Metric):
@@ -10,7 +11,9 @@ class Overshoot(Metric):
     y_ss = 1 for a type-1 loop, so this is how far the step response peaks above 1, as a
     fraction (0.05 = 5 %). Evaluated exactly on loops given by polynomials: every local
     extremum of the response located by Brent's method (:mod:`feedtune.timeresponse`);
-    reported only, never optimised. +∞ for an unstable loop.
+    on a sampled-data loop over continuous time, between samples too (the drive's position
+    in closed form, :class:`feedtune.timeresponse.SampledStepError`); reported only, never
+    optimised. +∞ for an unstable loop.
 
     References
     ----------
@@ -24,12 +27,15 @@ class Overshoot(Metric):
     reference = "Bhatia 1971 Ch. IV B"
 
     def supports(self, loop, options=None):
-        return has_numeric_response(loop)
+        return has_numeric_response(loop) or has_sampled_step(loop)
 
     def optimisable(self, loop, options=None):
         return False
 
     def evaluate(self, loop, options):
+        if has_sampled_step(loop):
+            error = sampled_step_error(loop)
+            return as_number(None if error is None else max(0.0, -error.lowest()))  # max y − 1
         response = numeric_response(loop, self.name, "step")
         if response is None:
             return as_number(None)

@@ -2,14 +2,14 @@
 
 import math
 
-from feedtune.frequency import first_crossing
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
-from feedtune.objectives.frequency_domain import has_open_loop, log_open_loop_gain_squared
+from feedtune.objectives.frequency_domain import gain_crossover, has_open_loop
 
 
 class PhaseMargin(Metric):
-    """180° + arg L(jω_c) [deg] at the lowest gain crossover ω_c (|L| = 1)."""
+    """180° + arg L(jω_c) [deg] at the lowest gain crossover ω_c (|L| = 1); on a sampled
+    loop L(e^{jωT}), hold and computation delay included."""
 
     name = "phase_margin"
     unit = "deg"
@@ -20,7 +20,5 @@ class PhaseMargin(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop, options):
-        omega = first_crossing(log_open_loop_gain_squared(loop), loop.frequency_band, 0.0,
-                                  "gain_crossover")
-        re, im = loop.open_loop_response(omega)
+        re, im = loop.open_loop_response(gain_crossover(loop))
         return ca.atan2(-im, -re) * (180 / math.pi)

@@ -6,6 +6,7 @@ from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric
 from feedtune.objectives.step_error import (InputKind, as_number, has_numeric_response,
                                              numeric_response)
+from feedtune.timeresponse import has_sampled_step, sampled_step_error
 
 
 class SettlingTimeOptions(SpecModel):
@@ -29,8 +30,10 @@ class SettlingTime(Metric):
     ramp it is ``band`` × e_ss around the steady following error e_ss = 1/C_v (a band on
     the ramp's size would be wider than the whole error of a stiff loop). 0 when the error
     never leaves the band. Evaluated exactly (:mod:`feedtune.timeresponse`: the last
-    crossing of the band edge, refined by Brent's method) on loops given by polynomials;
-    reported only, never optimised. +∞ for an unstable loop.
+    crossing of the band edge, refined by Brent's method) on loops given by polynomials,
+    and after a step on a sampled-data loop in continuous time, between samples too
+    (:class:`feedtune.timeresponse.SampledStepError`); reported only, never optimised. +∞
+    for an unstable loop.
 
     References
     ----------
@@ -46,12 +49,17 @@ class SettlingTime(Metric):
     Options = SettlingTimeOptions
 
     def supports(self, loop, options=None):
+        if has_sampled_step(loop):
+            return options is None or options.input == "step"
         return has_numeric_response(loop)
 
     def optimisable(self, loop, options=None):
         return False
 
     def evaluate(self, loop, options):
+        if has_sampled_step(loop):
+            error = sampled_step_error(loop)
+            return as_number(None if error is None else error.last_exit(options.band))
         response = numeric_response(loop, self.name, options.input)
         if response is None:
             return as_number(None)

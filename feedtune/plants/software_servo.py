@@ -43,6 +43,9 @@ from feedtune.plants.base import Tunable
 #: sampled step responses are summed sample by sample over this many times (2τ + dead time),
 #: the dead time (computation_delay + 1)·T at the smallest T of the box
 SETTLING_TIME_CONSTANTS = 20.0
+#: the sampled loop's frequency band ends this factor above π/T_min: the Nyquist frequency
+#: of the fastest sampling is then strictly inside it, in a grid interval of its own
+NYQUIST_MARGIN = 1.01
 
 
 class SoftwareServoParams(SpecModel):
@@ -180,7 +183,18 @@ class SoftwareServo:
         plant = IntegratorLag(tau) if tau is not None else Integrator()
         return SampledLoop(plant, gain, period, delay=p.computation_delay, drive=drive,
                            horizon=SETTLING_TIME_CONSTANTS * settle * horizon_scale,
-                           period_min=period_min, interpolator=interpolator)
+                           period_min=period_min, interpolator=interpolator,
+                           frequency_band=self._sampled_band(box))
+
+    def _sampled_band(self, box) -> tuple[float, float]:
+        """(low, high) [rad/s] of the sampled loop's frequency metrics: two decades below
+        its corners over the box (K_min, 1/τ, π/T_max), up to NYQUIST_MARGIN above π/T_min
+        so that the Nyquist frequency of every period in the box lies inside the band."""
+        (k_min, _), (t_min, t_max) = box["position_gain"], box["sampling_period"]
+        corners = [k_min, math.pi / t_max]
+        if self.params.time_constant is not None:
+            corners.append(1 / self.params.time_constant)
+        return min(corners) / 100, math.pi / t_min * NYQUIST_MARGIN
 
     def _pade_loop(self, gain, period, box, interpolator, tau, drive) -> TransferLoop:
         """Sato eqs 4–5: open loop K·(1 − Ls/2)/((1 + Ls/2)·s·(1 + sτ)), L = (d + ½)·T.

@@ -230,6 +230,49 @@ def bode_range(model) -> tuple[float, float]:
     return low, high
 
 
+def margin_marks(model, result: dict, low: float,
+                 high: float) -> dict[str, tuple[float, float]]:
+    """Where the margin arrows go: ``phase`` (ω_c [rad/s], −180° + reported phase margin
+    [deg]) at the gain crossover |L| = 1, ``gain`` (ω_180 [rad/s], −20·log10 of the reported
+    gain margin [dB]) at the lowest phase crossover arg L = −180°, each where the result
+    reports that margin. ω_c is the reported crossover frequency when there is one, else
+    located on the model's |L|; ω_180 is located on the model's unwrapped phase over
+    [``low``, ``high``] [rad/s] (the Bode range: up to π/T for a sampled loop, where L(−1)
+    real and negative is a crossover).
+    The arrows' lengths are the reported values: their tips sit on the model's curves when
+    the tuner and the model agree."""
+    marks = {}
+    omega = np.geomspace(low, high, int(SCAN_POINTS * math.log10(high / low)) + 2)
+    open_loop = model.frequency_response(omega)[0]
+
+    def at(w: float) -> complex:
+        return complex(model.frequency_response(np.array([w]))[0][0])
+
+    pm = metric(result, "phase_margin")
+    if pm is not None:
+        crossover = metric(result, "crossover_frequency")
+        if crossover is None:
+            found = _crossings(omega, np.log(np.abs(open_loop)), 0.0,
+                               lambda w: math.log(abs(at(w))))
+            crossover = found[0] if found else None
+        if crossover is not None:
+            marks["phase"] = (float(crossover), -180.0 + pm)
+    gm = metric(result, "gain_margin")
+    if gm is not None and gm > 0:
+        phase = np.unwrap(np.angle(open_loop)) + math.pi
+        turns = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))
+        where = None
+        if turns.size:
+            i = int(turns[0])
+            where = math.exp(brentq(lambda u: at(math.exp(u)).imag,
+                                    math.log(omega[i]), math.log(omega[i + 1]), xtol=1e-12))
+        elif model.sampled and open_loop[-1].real < 0:
+            where = high
+        if where is not None:
+            marks["gain"] = (where, -20 * math.log10(gm))
+    return marks
+
+
 def bode_figure(model, result: dict) -> Figure:
     """|L|, |H| [dB] and their phases [deg]; M_peak, bandwidth, crossover and margins."""
     low, high = bode_range(model)
@@ -256,6 +299,7 @@ def bode_figure(model, result: dict) -> Figure:
         for ax in (mag, phase):
             ax.axvline(crossover, color="C4", lw=0.8, ls=":")
         lines.append(f"crossover {_g(crossover)} rad/s")
+    marks = margin_marks(model, result, low, high)
     pm = metric(result, "phase_margin")
     if pm is not None:
         phase.axhline(-180 + pm, color="C4", lw=0.8, ls=":")
@@ -264,6 +308,18 @@ def bode_figure(model, result: dict) -> Figure:
     if gm is not None:
         mag.axhline(-20 * math.log10(gm), color="C5", lw=0.8, ls=":")
         lines.append(f"gain margin {_g(gm)} ({20 * math.log10(gm):.2f} dB)")
+    if "phase" in marks:  # the arrow from −180° up to the phase at the crossover
+        w, top = marks["phase"]
+        phase.annotate("", xy=(w, top), xytext=(w, -180.0),
+                       arrowprops={"arrowstyle": "->", "color": "C4", "lw": 1.2})
+        phase.annotate("PM", xy=(w, (top - 180.0) / 2), xytext=(4, 0),
+                       textcoords="offset points", color="C4", fontsize=8, va="center")
+    if "gain" in marks:  # the arrow from |L| at the phase crossover up to 0 dB
+        w, bottom = marks["gain"]
+        mag.annotate("", xy=(w, 0.0), xytext=(w, bottom),
+                     arrowprops={"arrowstyle": "->", "color": "C5", "lw": 1.2})
+        mag.annotate("GM", xy=(w, bottom / 2), xytext=(4, 0), textcoords="offset points",
+                     color="C5", fontsize=8, va="center")
     phase.axhline(-180, color="0.6", lw=0.6)
     if model.sampled:
         for ax in (mag, phase):

@@ -41,6 +41,7 @@ from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
+from feedtune.validate import sampled_frequency
 from feedtune.validate.continuous import ContinuousModel, siso
 from feedtune.validate.integrals import error_integrals
 from feedtune.validate.model import CircleTrace, NotCovered, Response
@@ -464,6 +465,11 @@ class ServoModel:
                 if key not in circles:
                     circles[key] = self.circle_statistics(*key)
                 value = circles[key][name]
+            elif self.sampled and name in sampled_frequency.MEASURES:
+                try:
+                    value = sampled_frequency.measure(self, name, options)
+                except NotCovered:
+                    continue
             else:
                 continue
             entries.append(judge(m, value, context, scale))

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from feedtune.report import build_figures, write_report
-from feedtune.report.figures import bode_range, characteristic_frequencies, metric
+from feedtune.report.figures import bode_figure, bode_range, characteristic_frequencies, metric
 from feedtune.validate.models import model_for
 from feedtune.validate.software_servo import ServoModel
 
@@ -31,6 +31,58 @@ def test_metric_picks_the_entry_whose_options_match():
 def test_a_sampled_bode_ends_at_the_nyquist_frequency():
     low, high = bode_range(ServoModel(18.0, 0.02, 0.015625))
     assert high == pytest.approx(math.pi / 0.015625, rel=1e-5) and low < high / 100
+
+
+def _arrows(figure) -> dict[str, tuple]:
+    """Label → (head (ω, value), tail (ω, value)) of the margin arrows on a Bode figure."""
+    arrows, labels = [], {}
+    for ax in figure.axes:
+        for text in ax.texts:
+            if text.get_text() in ("GM", "PM"):
+                labels[text.get_text()] = text.xy[0]
+            elif getattr(text, "arrow_patch", None) is not None:
+                arrows.append((tuple(text.xy), tuple(text.xyann)))
+    return {label: next(a for a in arrows if a[0][0] == w) for label, w in labels.items()}
+
+
+def _margins_result(gm, pm, crossover) -> dict:
+    return {"metrics": {name: {"metric": name, "value": v, "options": {}} for name, v in
+                        (("gain_margin", gm), ("phase_margin", pm),
+                         ("crossover_frequency", crossover))}}
+
+
+@pytest.mark.parametrize("gain, tau, period, delay", [(40.0, 0.02, 0.005, 1),
+                                                      (18.0, 0.02, 1 / 64, 0)])
+def test_a_sampled_bode_draws_its_margins_where_python_control_finds_them(gain, tau, period,
+                                                                          delay):
+    """The GM arrow rises from −GM dB to 0 dB at the phase crossover, the PM arrow from
+    −180° to −180° + PM at the gain crossover; python-control (c2d ZOH, margin) places
+    both crossovers (1e-9 relative: Brent on both sides)."""
+    import control
+
+    drive = control.tf([gain], [tau, 1.0, 0.0])
+    open_loop = (control.sample_system(drive, period, method="zoh")
+                 * control.tf([1.0], [1.0] + [0.0] * delay, period))
+    gm, pm, wg, wc = control.margin(open_loop)
+    figure = bode_figure(ServoModel(gain, tau, period, delay), _margins_result(gm, pm, wc))
+    arrows = _arrows(figure)
+    (head_w, head), (tail_w, tail) = arrows["GM"]
+    assert head_w == tail_w == pytest.approx(wg, rel=1e-9)
+    assert (head, tail) == pytest.approx((0.0, -20 * math.log10(gm)), abs=1e-12)
+    (head_w, head), (tail_w, tail) = arrows["PM"]
+    assert head_w == tail_w == pytest.approx(wc, rel=1e-9)
+    assert (head, tail) == pytest.approx((-180.0 + pm, -180.0), abs=1e-12)
+
+
+def test_a_gain_margin_at_the_nyquist_frequency_is_marked_there():
+    """K/s behind a ZOH: the phase reaches −180° at π/T (GM = 2/(KT)); the arrow stands at
+    the Bode plot's end, π/T."""
+    gain, period = 30.0, 0.01
+    figure = bode_figure(ServoModel(gain, None, period),
+                         _margins_result(2 / (gain * period), 60.0, None))
+    (head_w, _), (_, tail) = _arrows(figure)["GM"]
+    assert head_w == pytest.approx(math.pi / period, rel=1e-5)
+    assert tail == pytest.approx(-20 * math.log10(2 / (gain * period)), abs=1e-12)
 
 
 def test_the_bode_range_is_a_decade_around_the_loops_own_frequencies():

@@ -256,7 +256,7 @@ def test_schema_and_registry_errors_come_together():
     spec["objective"][0]["weight"] = -1
     spec["tunables"]["velocity_gain"] = {"min": 1, "max": 2}
     spec["tunables"]["position_gain"] = {"min": 300, "max": 200}
-    spec["constraints"].append({"metric": "m_peak", "max": 1.3})
+    spec["constraints"].append({"metric": "sensitivity", "min": 1000})
     spec["solver"]["ipopt_options"] = {"output_file": "/tmp/x"}
     with pytest.raises(SpecError) as info:
         parse_spec(spec)
@@ -270,19 +270,20 @@ def test_schema_and_registry_errors_come_together():
 
 def test_an_unsupported_metric_lists_the_metrics_this_plant_supports():
     spec = json.loads(EXAMPLE.read_text())
-    spec["constraints"] = [{"metric": "bandwidth", "min": 10}]
+    spec["constraints"] = [{"metric": "sensitivity", "min": 10}]
     with pytest.raises(SpecError) as info:
         parse_spec(spec)
     [(pointer, message)] = info.value.errors
     assert pointer == "/constraints/0/metric"
     listed = message.split("defined here: ")[1].split(", ")
-    assert "radial_error" in listed and "damping_ratio" in listed and "bandwidth" not in listed
+    assert "radial_error" in listed and "bandwidth" in listed and "sensitivity" not in listed
 
 
 def test_a_term_that_fails_the_schema_is_still_checked_against_the_plant():
-    """m_peak with a bad weight on Koren's sampled loop: both problems at once."""
+    """sensitivity (Bhatia's loops only) with a bad weight on Koren's sampled loop: both
+    problems at once."""
     spec = json.loads(EXAMPLE.read_text())
-    spec["objective"].append({"metric": "m_peak", "weight": "heavy"})
+    spec["objective"].append({"metric": "sensitivity", "weight": "heavy"})
     with pytest.raises(SpecError) as info:
         parse_spec(spec)
     errors = dict(info.value.errors)

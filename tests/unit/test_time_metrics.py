@@ -103,8 +103,13 @@ def test_koren_loops_keep_their_exact_step_integrals(technique, period):
         assert float(ca.evalf(ca.MX(value))) == float(ca.evalf(ca.MX(expected)))
         ramp = cls.Options(input="ramp")
         assert not cls().supports(loop, ramp) and not cls().optimisable(loop, ramp)
-    for name in ("settling_time", "overshoot", "load_rejection"):
-        assert not METRICS[name]().supports(loop, METRICS[name].Options())
+    assert not METRICS["load_rejection"]().supports(loop, METRICS["load_rejection"].Options())
+    # overshoot and settling time after a step: the sampled loop's exact response between
+    # samples (reported only); never after a ramp
+    for name in ("settling_time", "overshoot"):
+        assert METRICS[name]().supports(loop, METRICS[name].Options()) == (period is not None)
+    ramp = METRICS["settling_time"].Options(input="ramp")
+    assert not METRICS["settling_time"]().supports(loop, ramp)
 
 
 def test_load_rejection_needs_a_load_path():

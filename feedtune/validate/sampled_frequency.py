@@ -1,0 +1,227 @@
+"""The validator's frequency and step-shape metrics of the sampled-data software servo.
+
+numpy/scipy only, on :class:`feedtune.validate.software_servo.ServoModel` (the drive
+discretised by ``expm``, Van Loan), never on :mod:`feedtune.loop`:
+
+* the open loop L(e^{jωT}) = K·z^{−d}·C(zI − Φ)⁻¹Γ (:meth:`ServoModel.open_loop`) and
+  H = L/(1 + L) on a logarithmic grid from a thousandth of the slowest closed-loop pole
+  (s = ln z / T) up to the Nyquist frequency π/T itself, where the discrete loop's
+  responses end;
+* ``m_peak``: sup |H/H(1)| (at least 1, its value as ω → 0), every local maximum of the
+  grid refined by bounded Brent; ``bandwidth``: the lowest ω with |H/H(1)|² = ½ (π/T when
+  the gain stays above −3 dB up to Nyquist, the tuner's convention); ``crossover_frequency``
+  (|L| = 1) and ``phase_margin`` there; ``gain_margin`` 1/|L| where the unwrapped phase
+  first reaches −180°, or at π/T when L(−1) is real negative (the phase of a ZOH loop
+  often reaches −180° exactly at Nyquist);
+* ``overshoot`` and ``settling_time`` (step, continuous time): the position between
+  samples from expm of the drive with the held command as a state, on SUBSTEPS points per
+  sample, then refined by bounded Brent (the peak) and brentq (the last exit from the band).
+
+Entry point: :func:`measure`, called by ``ServoModel.measure`` for the names in
+:data:`MEASURES`.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import brentq, minimize_scalar
+
+from feedtune.validate.model import NotCovered
+
+#: grid [points per decade] and its low end: the slowest s-plane pole / GRID_SPAN
+POINTS_PER_DECADE, GRID_SPAN = 200, 1e3
+#: sub-steps per sample of the dense step response (the peak and the last exit are then
+#: refined on the exact expm expression)
+SUBSTEPS = 64
+
+MEASURES = ("m_peak", "bandwidth", "crossover_frequency", "phase_margin", "gain_margin",
+            "overshoot", "settling_time")
+
+
+@functools.lru_cache(maxsize=8)
+def _scan(model) -> tuple[np.ndarray, np.ndarray, float]:
+    """(grid, L on it, H(1)) of a model: ω [rad/s] from the slowest pole / GRID_SPAN to
+    π/T, π/T itself the last point; H(z = 1) = C(I − F)⁻¹G of the closed loop (1 for a
+    type-1 loop). Computed once per model (the metrics share it)."""
+    z = model.poles().astype(complex)
+    speeds = np.abs(np.log(z[np.abs(z) > 1e-12]) / model.period)
+    speeds = speeds[speeds > 0]
+    nyquist = math.pi / model.period
+    low = (float(np.min(speeds)) if speeds.size else nyquist) / GRID_SPAN
+    count = int(POINTS_PER_DECADE * math.log10(nyquist / low)) + 2
+    grid = np.geomspace(low, nyquist, count)
+    grid[-1] = nyquist
+    f, g = model.closed_loop()
+    dc = float(np.linalg.solve(np.eye(f.shape[0]) - f, g[:, 0])[0])
+    return grid, model.open_loop(grid), dc
+
+
+def _gain_squared(model, omega) -> np.ndarray:
+    """|H(e^{jωT})/H(1)|²."""
+    return np.abs(model.complementary(omega) / _scan(model)[2]) ** 2
+
+
+def m_peak(model) -> float:
+    """sup over 0 ≤ ω ≤ π/T of |H/H(1)| [1]."""
+    grid, open_loop, dc = _scan(model)
+    g = np.abs(open_loop / (1 + open_loop) / dc) ** 2
+    best = max(1.0, float(np.sqrt(np.max(g))))
+    padded = np.concatenate([[-np.inf], g, [-np.inf]])
+    for i in np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:])):
+        lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)])
+        res = minimize_scalar(lambda u: -_gain_squared(model, math.exp(u))[0], bounds=(lo, hi),
+                              method="bounded", options={"xatol": 1e-12})
+        best = max(best, math.sqrt(-float(res.fun)))
+    return best
+
+
+def _first_crossing(fn, grid: np.ndarray, values: np.ndarray) -> float | None:
+    """Lowest ω of ``grid`` where ``fn`` (> 0 below; ``values`` on the grid) falls to 0, by
+    brentq in ln ω; None when it does not."""
+    below = np.flatnonzero(values <= 0)
+    if below.size == 0:
+        return None
+    i = int(below[0])
+    if i == 0 or values[i] == 0:
+        return float(grid[i])
+    return float(math.exp(brentq(lambda u: fn(np.array([math.exp(u)]))[0],
+                                 math.log(grid[i - 1]), math.log(grid[i]), xtol=1e-14)))
+
+
+def bandwidth(model) -> float:
+    """Lowest ω [rad/s] with |H/H(1)|² = ½; π/T when there is none below Nyquist."""
+    grid, open_loop, dc = _scan(model)
+    values = np.abs(open_loop / (1 + open_loop) / dc) ** 2 - 0.5
+    found = _first_crossing(lambda w: _gain_squared(model, w) - 0.5, grid, values)
+    return grid[-1] if found is None else found
+
+
+@functools.lru_cache(maxsize=8)
+def crossover(model) -> float:
+    """Lowest ω [rad/s] with |L| = 1, below π/T."""
+    grid, open_loop, _ = _scan(model)
+    found = _first_crossing(lambda w: np.log(np.abs(model.open_loop(w))), grid,
+                            np.log(np.abs(open_loop)))
+    if found is None:
+        raise NotCovered("|L| stays above 1 up to the Nyquist frequency")
+    return found
+
+
+def phase_margin(model) -> float:
+    """180° + arg L at the crossover [deg], arg in (−360°, 0°]."""
+    lo = model.open_loop(crossover(model))[0]
+    return math.degrees(math.atan2(-lo.imag, -lo.real))
+
+
+def gain_margin(model) -> float:
+    """1/|L| [1] where the unwrapped phase of L first reaches −180° below π/T, else at π/T
+    when L(−1) < 0."""
+    grid, lo, _ = _scan(model)
+    phase = np.unwrap(np.angle(lo)) + math.pi
+    inner = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))  # π/T itself apart
+    if inner.size:
+        i = int(inner[0])
+
+        def imag(u):
+            value = model.open_loop(math.exp(u))[0]
+            return value.imag / abs(value)
+
+        omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-14))
+        return float(1.0 / abs(model.open_loop(omega)[0]))
+    if lo[-1].real < 0:
+        return float(1.0 / abs(lo[-1]))
+    raise NotCovered("the open-loop phase never reaches −180° up to the Nyquist frequency")
+
+
+class StepPosition:
+    """The position x(t) after a unit step, exact at any t [s]: the state at each sample
+    from the closed loop (F, G), and between samples expm([[A, B], [0, 0]]·σ) applied to
+    [drive state, held command]."""
+
+    def __init__(self, model):
+        a, b, c = model.drive_matrices()
+        f, g = model.closed_loop()
+        m, n = a.shape[0], f.shape[0]
+        self.period = model.period
+        self.big = np.zeros((m + 1, m + 1))
+        self.big[:m, :m], self.big[:m, m:] = a, b
+        radius = float(np.max(np.abs(np.linalg.eigvals(f))))
+        if radius >= 1:
+            raise NotCovered("unstable loop: no step response settles")
+        self.samples = math.ceil(math.log(1e-13) / math.log(radius)) + 10 if radius > 0 else 10
+        states = np.empty((self.samples, n))
+        state = np.zeros(n)
+        for i in range(self.samples):
+            states[i] = state
+            state = f @ state + g[:, 0]
+        held = (model.gain * (1.0 - states[:, :m] @ c[0]) if model.delay == 0
+                else states[:, n - 1])
+        self.starts = np.column_stack([states[:, :m], held])
+        rows = [np.eye(m + 1)[0]]
+        step = expm(self.big * model.period / SUBSTEPS)
+        for _ in range(SUBSTEPS - 1):
+            rows.append(rows[-1] @ step)
+        self.dense = self.starts @ np.array(rows).T  # (samples, SUBSTEPS)
+
+    def times(self) -> np.ndarray:
+        return (np.arange(self.samples)[:, None] * self.period
+                + np.arange(SUBSTEPS)[None, :] * self.period / SUBSTEPS)
+
+    def __call__(self, t: float) -> float:
+        i = min(int(t // self.period), self.samples - 1)
+        sigma = t - i * self.period
+        return float((expm(self.big * sigma)[0] @ self.starts[i]))
+
+
+@functools.lru_cache(maxsize=8)
+def _step_position(model) -> StepPosition:
+    return StepPosition(model)
+
+
+def overshoot(model) -> float:
+    """max over t of x(t) − 1 [1] after a unit step, 0 if none."""
+    x = _step_position(model)
+    t = x.times().ravel()
+    values = x.dense.ravel()
+    k = int(np.argmax(values))
+    lo, hi = t[max(k - 1, 0)], t[min(k + 1, t.size - 1)]
+    res = minimize_scalar(lambda s: -x(s), bounds=(lo, hi), method="bounded",
+                          options={"xatol": 1e-15})
+    return max(0.0, float(values[k]) - 1.0, -float(res.fun) - 1.0)
+
+
+def settling_time(model, band: float) -> float:
+    """Last t [s] with |1 − x(t)| = ``band`` after a unit step (0 if never outside)."""
+    x = _step_position(model)
+    t = x.times().ravel()
+    error = 1.0 - x.dense.ravel()
+    outside = np.flatnonzero(np.abs(error) > band)
+    if outside.size == 0:
+        return 0.0
+    i = int(outside[-1])
+    if i == t.size - 1:
+        raise NotCovered("the step response has not settled into the band")
+    side = math.copysign(band, error[i])
+    return float(brentq(lambda s: 1.0 - x(s) - side, t[i], t[i + 1], xtol=1e-15))
+
+
+def measure(model, name: str, options: dict) -> float:
+    """The validator's value of metric ``name`` (one of :data:`MEASURES`) with ``options``.
+
+    Raises
+    ------
+    NotCovered
+        When the metric has no value to compare on this loop (no crossover below Nyquist,
+        a ramp settling time).
+    """
+    if name == "settling_time":
+        if options.get("input", "step") != "step":
+            raise NotCovered("a sampled loop's settling time is measured after a step")
+        return settling_time(model, options.get("band", 0.02))
+    return {"m_peak": m_peak, "bandwidth": bandwidth, "crossover_frequency": crossover,
+            "phase_margin": phase_margin, "gain_margin": gain_margin,
+            "overshoot": overshoot}[name](model)
