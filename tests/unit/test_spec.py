@@ -275,8 +275,12 @@ def test_an_unsupported_metric_lists_the_metrics_this_plant_supports():
         parse_spec(spec)
     [(pointer, message)] = info.value.errors
     assert pointer == "/constraints/0/metric"
-    listed = message.split("defined here: ")[1].split(", ")
+    assert "software_servo(technique=sampled_data)" in message  # the configuration it names
+    listed = message.split("supported here: ")[1].split(", ")
     assert "radial_error" in listed and "damping_ratio" in listed and "bandwidth" not in listed
+    # exactly the metrics the loop supports, the new pole metrics among them
+    assert "decay_rate" in listed and "pole_damping" in listed
+    assert "sensitivity_peak" not in listed
 
 
 def test_a_term_that_fails_the_schema_is_still_checked_against_the_plant():
