@@ -176,6 +176,7 @@ def damping_conditions(loop):
     balanced, _ = _balanced(loop.characteristic_polynomial)
 
     def conditions(level):
-        return routh_column(rotated_product(balanced, ca.asin(level)))
+        # ζ ≥ 1 holds nowhere but on real poles: α = π/2 turns them onto the jω axis
+        return routh_column(rotated_product(balanced, ca.asin(ca.fmin(level, 1))))
 
     return conditions
