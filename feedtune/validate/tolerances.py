@@ -95,8 +95,9 @@ RULES: dict[str, Rule] = {
                              "|S| → 1 as ω → ∞, so M_s is of order 1; as m_peak"),
     "pole_damping": Rule(1e-6, "unity", 1e-6,
                          "ζ is of order 1; eigenvalues on both sides, as damping_ratio"),
-    # the magnitude |p| of the pole that sets it (computed by feedtune.validate.poles)
-    "decay_rate": Rule(1e-6, "pole_magnitude", 1e-6,
+    # a scale the model computes ("criterion"): the magnitude |p| of the pole that sets it
+    # (feedtune.validate.poles)
+    "decay_rate": Rule(1e-6, "criterion", 1e-6,
                        "a rate from one pole's real part: an eigenvalue's rounding is "
                        "relative to its magnitude, 1e-6·|p| as the poles entry"),
     "overshoot": Rule(1e-6, "unity", 1e-6,
