@@ -235,3 +235,89 @@ def test_sensitivity_peak_of_bhatias_loop_is_max_of_one_over_one_plus_l():
                                bounds=(math.log(grid[k - 1]), math.log(grid[k + 1])),
                                options={"xatol": 1e-12})
     assert float(ca.evalf(result.exact)) == pytest.approx(-polished.fun, rel=1e-9)
+
+
+# -- what the tuner and the spec refuse ------------------------------------------------------
+
+def test_the_tuner_refuses_an_upper_bound_and_minimisation():
+    """A pole region can only be held from below: "some pole is slow" has no smooth rows."""
+    from feedtune.tuner.builder import NlpBuilder
+    from feedtune.tuner.terms import add_bound, add_term
+    from feedtune.tuner.types import Bound
+
+    region = METRICS["decay_rate"]().evaluate(reference_pulse(40.0), None)
+    builder = NlpBuilder([])
+    with pytest.raises(ValueError, match="bounded from below"):
+        add_bound(builder, 0, region, None, Bound("decay_rate", None, 1.0, 2.0), 1.0, [])
+    with pytest.raises(ValueError, match="maximised"):
+        add_term(builder, 0, region, None, ca.MX(1), 1.0, 1.0, [])
+
+
+SERVO = {"name": "t", "plant": {"type": "software_servo", "technique": "sampled_data",
+                                "time_constant": 0.02},
+         "tunables": {"position_gain": {"min": 1, "max": 200}},
+         "objective": [{"metric": "iae"}]}
+
+
+@pytest.mark.parametrize("change, pointer, words", [
+    ({"objective": [{"metric": "decay_rate", "goal": "minimize"}]}, "/objective/0/goal",
+     "'maximize'"),
+    ({"constraints": [{"metric": "decay_rate", "min": 1, "max": 30}]}, "/constraints/0/max",
+     "can only be bounded from below"),
+    ({"constraints": [{"metric": "pole_damping", "min": 0.5}]}, "/constraints/0/metric",
+     "reported only"),
+    ({"constraints": [{"metric": "sensitivity_peak", "max": 2}]}, "/constraints/0/metric",
+     "not defined for this plant configuration, software_servo(technique=sampled_data)"),
+])
+def test_the_spec_refuses_what_the_tuner_cannot_hold(change, pointer, words):
+    from feedtune.spec import SpecError, parse_spec
+
+    with pytest.raises(SpecError) as info:
+        parse_spec({**SERVO, **change})
+    errors = dict(info.value.errors)
+    assert list(errors) == [pointer] and words in errors[pointer]
+
+
+def test_the_spec_takes_a_maximised_region_by_default():
+    from feedtune.spec import parse_spec
+
+    spec = parse_spec({**SERVO, "objective": [{"metric": "decay_rate"}],
+                       "constraints": [{"metric": "decay_rate", "min": 5}]})
+    assert spec.objective[0].goal == "maximize"
+
+
+# -- the validator's check can fail ----------------------------------------------------------
+
+class _Poles:
+    """A validator model reduced to what feedtune.validate.poles reads."""
+
+    def __init__(self, poles, sampled=False, period=None):
+        self._poles, self.sampled, self.period = np.asarray(poles), sampled, period
+
+    def poles(self):
+        return self._poles
+
+    def context(self):
+        from feedtune.validate.tolerances import Context
+
+        return Context(time=1.0)
+
+
+def test_validator_entries_catch_a_wrong_value():
+    """Poles −2 ± 4j, −10: σ_min = 2 1/s (judged on |p| = √20), ζ_min = 2/√20. A reported
+    value off by 1e-3 is caught; one off by rounding (1e-13) is not."""
+    model = _Poles([-2 + 4j, -2 - 4j, -10])
+    zeta = 2 / math.sqrt(20)
+
+    def entries(decay, damping):
+        result = {"metrics": {
+            "decay_rate": {"metric": "decay_rate", "options": {}, "value": decay, "unit": "1/s"},
+            "pole_damping": {"metric": "pole_damping", "options": {}, "value": damping,
+                             "unit": "1"}}}
+        return {e["metric"]: e for e in validator_poles.pole_entries(model, result)}
+
+    good = entries(2.0 + 1e-13, zeta + 1e-13)
+    assert good["decay_rate"]["ok"] and good["pole_damping"]["ok"]
+    assert good["decay_rate"]["tolerance"] == pytest.approx(1e-6 * math.sqrt(20))
+    bad = entries(2.001, zeta + 1e-3)
+    assert not bad["decay_rate"]["ok"] and not bad["pole_damping"]["ok"]
