@@ -142,6 +142,22 @@ def test_bhatia_with_a_sensitivity_peak_bound_validates():
     assert result.metrics["bandwidth"].value < 689.77
 
 
+def test_bhatia_with_a_decay_rate_bound_validates():
+    """The bundled spec, all eight tunables free, plus σ_min ≥ 12 1/s: its optimum has
+    σ_min = 10.93 1/s (the slow real pole of the lag-leads), so the bound binds; measured
+    684.2 rad/s in 114 IPOPT iterations."""
+    spec = load_example("bhatia-1971-hydraulic")
+    spec["constraints"].append({"metric": "decay_rate", "min": 12.0})
+    result = tune_dict(spec)
+    assert result.success, result.message
+    assert result.validation["ok"], result.validation
+    # active: at its bound within IPOPT's tolerance (1e-6 relative, FEASIBILITY_TOL)
+    assert result.metrics["decay_rate"].value == pytest.approx(12.0, rel=1e-6)
+    assert validated(result, "decay_rate")["ok"]
+    assert result.metrics["m_peak"].value <= 1.3 * (1 + 1e-6)
+    assert result.metrics["bandwidth"].value < 689.77
+
+
 def bhatia_gains_only() -> dict:
     """Bhatia's spec with his compensators fixed at his hand design: the two gains free."""
     spec = load_example("bhatia-1971-hydraulic")
