@@ -48,3 +48,30 @@ class Crossing(NamedTuple):
     lowest_minimum: Callable  # (b, m) ↦ (min over ω ≤ b of condition − m(1 − ω/b), its ω)
     band: tuple
     exact: object
+
+
+class PoleRegion(NamedTuple):
+    """min over the closed-loop poles of a per-pole measure m(p): a decay rate −Re p
+    [1/s] or a damping ratio −Re p/|p| [1] (MATLAB's ``TuningGoal.Poles``).
+
+    The minimum over poles is not smooth, so the NLP never sees it: ``conditions(level)``
+    gives expressions that are all positive exactly when every pole has m(p) > ``level``
+    (an expression), a polynomial test such as the Hurwitz conditions of p(s − σ). The
+    tuner bounds the metric from below with those rows, and maximises it with an epigraph
+    variable t held by ``conditions(t)``; it can neither bound it from above nor minimise
+    it (an upper bound would say "some pole is slow", a union of regions). ``conditions``
+    is None where no polynomial test exists (the value is then reported only).
+
+    ``inputs`` is a column expression whose numbers fix the value (the closed-loop state
+    matrix and the sampling period) and ``measure`` the numpy function of those numbers
+    (the value from the numeric poles); ``exact`` that value on a loop of numbers, NaN on
+    a loop of symbols (the tuner evaluates ``measure`` instead). ``lower`` and ``upper``
+    bound the measure over stable loops (the epigraph variable's box).
+    """
+
+    conditions: Callable | None
+    inputs: object
+    measure: Callable
+    exact: object
+    lower: float
+    upper: float

@@ -11,7 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import re
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Union, get_origin
 
 from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
                       create_model, field_validator, model_validator)
@@ -172,14 +172,30 @@ def _camel(name: str) -> str:
 
 
 def _objective_model(name, metric):
+    goal = (Literal["minimize", "maximize"], Field(
+        "minimize", description="minimize: add weight·value to the objective; maximize: "
+                                "subtract it (e.g. bandwidth)"))
+    if metric.direction == "min":  # the tuner holds it from below only (Metric.direction)
+        goal = (Literal["maximize"], Field(
+            "maximize", description="maximize (the only goal: the tuner holds this metric "
+                                    "from below only): subtract weight·value"))
     return create_model(
         f"{_camel(name)}Objective", __base__=metric.Options,
         metric=(Literal[name], Field(description=metric.description)),
         weight=(PositiveFloat, Field(1.0, description=f"Weight of this term [1/({metric.unit})]")),
-        goal=(Literal["minimize", "maximize"], Field(
-            "minimize", description="minimize: add weight·value to the objective; maximize: "
-                                    "subtract it (e.g. bandwidth)")),
+        goal=goal,
     )
+
+
+def _from_below_only(name):
+    def check(cls, value):
+        if value is not None:
+            raise ValueError(f"{name} can only be bounded from below ('min'): an upper bound "
+                             "would say that some closed-loop pole is slow or lightly damped, "
+                             "which no smooth constraint expresses")
+        return value
+
+    return field_validator("max")(check)
 
 
 def _constraint_model(name, metric):
@@ -190,9 +206,12 @@ def _constraint_model(name, metric):
             raise ValueError(f"min ({self.min}) is greater than max ({self.max})")
         return self
 
+    validators = {"_has_bound": model_validator(mode="after")(_has_bound)}
+    if metric.direction == "min":
+        validators["_from_below_only"] = _from_below_only(name)
     return create_model(
         f"{_camel(name)}Constraint", __base__=metric.Options,
-        __validators__={"_has_bound": model_validator(mode="after")(_has_bound)},
+        __validators__=validators,
         metric=(Literal[name], Field(description=metric.description)),
         min=(float | None, Field(None, description=f"Lower bound [{metric.unit}]")),
         max=(float | None, Field(None, description=f"Upper bound [{metric.unit}]")),
@@ -554,6 +573,20 @@ def supported_metrics(loop) -> list[str]:
             if metric().supports(loop, _default_options(metric()))]
 
 
+def plant_configuration(params) -> str:
+    """A plant's configuration for people: its type and every choice field (a ``Literal``,
+    e.g. ``technique``) that is required or not at its default, ``software_servo(technique=
+    sampled_data, model=pade)``. The metrics a loop supports depend on these choices."""
+    choices = []
+    for name, info in type(params).model_fields.items():
+        if name == "type" or get_origin(info.annotation) is not Literal:
+            continue
+        value = getattr(params, name)
+        if info.is_required() or value != info.default:
+            choices.append(f"{name}={value}")
+    return params.type + (f"({', '.join(choices)})" if choices else "")
+
+
 def _optimisable_metrics(loop) -> list[str]:
     """Metrics that can be objective terms or constraints on ``loop`` (options as in
     :func:`supported_metrics`)."""
@@ -600,7 +633,9 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
             if not metric.supports(loop, options):
                 supported = supported if supported is not None else supported_metrics(loop)
                 errors.append((where, f"metric {json.dumps(name)} is not defined for this "
-                                      f"plant configuration; defined here: "
+                                      f"plant configuration, {plant_configuration(plant_params)}"
+                                      " (`feedtune metrics` lists the plants that support "
+                                      "each metric); supported here: "
                                       f"{', '.join(supported) or 'none'}"))
             elif term is not None and not metric.optimisable(loop, term):
                 optimisable = optimisable if optimisable is not None else _optimisable_metrics(loop)

@@ -8,6 +8,7 @@ from feedtune.objectives.circularity import Circularity
 from feedtune.objectives.counter_utilisation import CounterUtilisation
 from feedtune.objectives.crossover_frequency import CrossoverFrequency
 from feedtune.objectives.damping_ratio import DampingRatio
+from feedtune.objectives.decay_rate import DecayRate
 from feedtune.objectives.encoder_ratio import EncoderRatio
 from feedtune.objectives.gain_margin import GainMargin
 from feedtune.objectives.iae import Iae
@@ -21,6 +22,7 @@ from feedtune.objectives.min_radius_koren import MinRadiusKoren
 from feedtune.objectives.natural_frequency import NaturalFrequency
 from feedtune.objectives.overshoot import Overshoot
 from feedtune.objectives.phase_margin import PhaseMargin
+from feedtune.objectives.pole_damping import PoleDamping
 from feedtune.objectives.radial_error import RadialError
 from feedtune.objectives.radial_error_koren import RadialErrorKoren
 from feedtune.objectives.radius_decrease import RadiusDecrease
@@ -28,6 +30,7 @@ from feedtune.objectives.radius_decrease_gap import RadiusDecreaseGap
 from feedtune.objectives.reference_interval import ReferenceInterval
 from feedtune.objectives.sampling_ratio import SamplingRatio
 from feedtune.objectives.sensitivity import Sensitivity
+from feedtune.objectives.sensitivity_peak import SensitivityPeak
 from feedtune.objectives.settling_time import SettlingTime
 from feedtune.objectives.surface_roughness import SurfaceRoughness
 from feedtune.objectives.surface_roughness_gap import SurfaceRoughnessGap
@@ -47,7 +50,8 @@ METRICS = {
     for metric in (Iae, Ise, Itae, RadialError, RadialErrorKoren, DampingRatio,
                    NaturalFrequency, MinRadius, MinRadiusKoren, EncoderRatio, SamplingRatio,
                    CounterUtilisation, MPeak, Bandwidth, GainMargin, PhaseMargin,
-                   CrossoverFrequency, VelocityConstant, Sensitivity, SettlingTime, Overshoot,
+                   CrossoverFrequency, VelocityConstant, Sensitivity, SensitivityPeak,
+                   PoleDamping, DecayRate, SettlingTime, Overshoot,
                    LoadRejection, AverageRadius, RadiusDecrease, SurfaceRoughness,
                    CircleMeanDeviation, CircleRoughness, Circularity, InterpolationRatio,
                    ReferenceInterval, RadiusDecreaseGap, SurfaceRoughnessGap,

@@ -34,6 +34,10 @@ class Metric:
     #: band or a branch), so the tuner may hold them as NLP parameters and reuse one solver
     #: for specs that differ in them (feedtune.problem.LiftedOptions)
     lifted_options: ClassVar[tuple[str, ...]] = ()
+    #: "min": the tuner can hold the metric only from below (constraints with ``min``,
+    #: objective terms with ``goal: maximize``), e.g. the pole region of a decay rate;
+    #: None: both ways
+    direction: ClassVar[str | None] = None
 
     def unit_of(self, options, position_unit: str = "m") -> str:
         """SI unit of the value for these options on an axis whose position is in

@@ -24,8 +24,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from feedtune.expr import Crossing, Supremum
+from feedtune.expr import Crossing, PoleRegion, Supremum
 from feedtune.tuner.builder import NlpBuilder
+from feedtune.tuner.poles import PoleScan
 
 #: frequencies the exchange method may add to one peak or crossing, per start
 EXCHANGE_POINTS = 16
@@ -229,8 +230,11 @@ class CrossingScan:
         return -refined, np.exp(where)
 
 
-def make_scan(name: str, value, z, p) -> SupremumScan | CrossingScan | None:
-    """The numeric scan of a Supremum or Crossing (None for any other metric value)."""
+def make_scan(name: str, value, z, p) -> SupremumScan | CrossingScan | PoleScan | None:
+    """The numeric scan of a Supremum, Crossing or PoleRegion (None for any other metric
+    value)."""
+    if isinstance(value, PoleRegion):
+        return PoleScan(name, value, z, p)
     if isinstance(value, Supremum):
         return SupremumScan(name, value, z, p)
     if isinstance(value, Crossing):

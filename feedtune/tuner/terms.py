@@ -2,9 +2,11 @@
 
 A metric's value is a plain expression, a :class:`~feedtune.expr.Magnitude` (|e|), a
 :class:`~feedtune.expr.Supremum` (a peak over ω) or a :class:`~feedtune.expr.Crossing`
-(the first ω where a condition falls to 0). Magnitudes become epigraphs (a slack t with
+(the first ω where a condition falls to 0) or a :class:`~feedtune.expr.PoleRegion` (the
+least decay rate or damping of the poles). Magnitudes become epigraphs (a slack t with
 −t ≤ e ≤ t), peaks epigraphs over the frequency grid, crossings an auxiliary variable
-(feedtune.tuner.supremum), so the NLP stays smooth. Every row is divided by a scale, an
+(feedtune.tuner.supremum), pole regions the Hurwitz rows of their polynomial test
+(feedtune.tuner.poles), so the NLP stays smooth. Every row is divided by a scale, an
 NLP parameter, so one built solver serves specs of other magnitudes.
 """
 
@@ -12,8 +14,9 @@ from __future__ import annotations
 
 import casadi as ca
 
-from feedtune.expr import Crossing, Magnitude, Supremum
+from feedtune.expr import Crossing, Magnitude, PoleRegion, Supremum
 from feedtune.tuner.builder import NlpBuilder, scale
+from feedtune.tuner.poles import region_bound, region_term
 from feedtune.tuner.supremum import ExchangeGroup, crossing_variable, supremum_below
 from feedtune.tuner.types import Bound
 
@@ -22,7 +25,7 @@ def exact_value(value) -> tuple[object, bool]:
     """(expression, is |·|): the exact value the result reports, for any metric value."""
     if isinstance(value, Magnitude):
         return value.expr, True
-    if isinstance(value, (Supremum, Crossing)):
+    if isinstance(value, (Supremum, Crossing, PoleRegion)):
         return value.exact, False
     return value, False
 
@@ -39,6 +42,10 @@ def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
     expr, magnitude = exact_value(value)
     if isinstance(value, Crossing):
         return weight * crossing_variable(builder, value, scan, index, sign > 0, groups)
+    if isinstance(value, PoleRegion):
+        if sign > 0:  # "some pole is slow" is a union of regions: no smooth rows
+            raise ValueError("a pole region (decay rate, damping) can only be maximised")
+        return weight * region_term(builder, value, index, reference)
     if isinstance(value, Supremum) and sign > 0:  # epigraph: fn(ω) ≤ s·t, minimise
         s = builder.parameter(f"term_scale{index}", scale(reference))
         t = builder.variable(f"peak{index}", 0, ca.inf, value.exact / s * 1.01)
@@ -64,7 +71,11 @@ def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
     s = builder.parameter(f"bound_scale{index}", s_value)
     lower = bound.lower / s_value if bound.lower is not None else -ca.inf
     upper = bound.upper / s_value if bound.upper is not None else ca.inf
-    if isinstance(value, Crossing):
+    if isinstance(value, PoleRegion):
+        if bound.upper is not None:
+            raise ValueError("a pole region (decay rate, damping) can only be bounded from below")
+        region_bound(builder, value, index, bound.lower)
+    elif isinstance(value, Crossing):
         b = crossing_variable(builder, value, scan, f"_bound{index}", bound.upper is not None,
                               groups)
         builder.constrain(b / s, lower, upper)

@@ -13,11 +13,13 @@ from __future__ import annotations
 from feedtune.validate.entries import poles_entry, stable_entry
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
+from feedtune.validate.poles import pole_entries
 
 
 def _measure(model, result: dict) -> list[dict]:
-    """The model's own entries, then the closed-loop poles and stability where it has them."""
-    entries = model.measure(result)
+    """The model's own entries, the pole measures (:mod:`feedtune.validate.poles`), then the
+    closed-loop poles and stability where the model has them."""
+    entries = model.measure(result) + pole_entries(model, result)
     stability = result.get("stability") or {}
     try:
         if stability.get("poles"):

@@ -199,6 +199,27 @@ class ContinuousModel:
             best = max(best, -float(res.fun))
         return best
 
+    def sensitivity_peak(self) -> float:
+        """M_s = sup_ω |1/(1 + L(jω))| [1] (at least 1, the limit ω → ∞ of a strictly
+        proper L): every local maximum of the grid refined by Brent, as :meth:`m_peak`."""
+        grid = self._grid()
+
+        def size(omega):
+            return np.abs(1.0 / (1.0 + self._open(omega)))
+
+        s = size(grid)
+        best = max(1.0, float(np.max(s)))
+        # |S| sits at 1 to rounding above the bandwidth: its noise makes a local maximum of
+        # every other point there, and none of them can beat the floor 1 by more than the
+        # tolerance (1e-6), so only peaks above 1 + 1e-9 are refined
+        peaks = (s[1:-1] >= s[:-2]) & (s[1:-1] >= s[2:]) & (s[1:-1] > 1 + 1e-9)
+        for i in np.nonzero(peaks)[0] + 1:
+            res = minimize_scalar(lambda u: -size(math.exp(u))[0],
+                                  bounds=(math.log(grid[i - 1]), math.log(grid[i + 1])),
+                                  method="bounded", options={"xatol": 1e-12})
+            best = max(best, -float(res.fun))
+        return best
+
     def _first_crossing(self, fn, level: float) -> float:
         """Lowest ω of the grid where fn − level changes sign, refined by brentq."""
         grid = self._grid()
@@ -373,7 +394,8 @@ class ContinuousModel:
 
     def closed_forms(self) -> dict:
         """Metric name → method of the metrics computed in closed form or by root finding."""
-        return {"m_peak": self.m_peak, "bandwidth": self.bandwidth,
+        return {"m_peak": self.m_peak, "sensitivity_peak": self.sensitivity_peak,
+                "bandwidth": self.bandwidth,
                 "crossover_frequency": self.crossover, "phase_margin": self.phase_margin,
                 "gain_margin": self.gain_margin, "velocity_constant": self.velocity_constant}
 

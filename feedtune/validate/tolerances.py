@@ -91,6 +91,15 @@ RULES: dict[str, Rule] = {
     # -- dimensionless ------------------------------------------------------------------
     "damping_ratio": Rule(1e-6, "unity", 1e-6, "ζ is of order 1; eigenvalues on both sides"),
     "m_peak": Rule(1e-6, "unity", 1e-6, "|H/H(0)| ≥ 1; Brent on exact expressions on both sides"),
+    "sensitivity_peak": Rule(1e-6, "unity", 1e-6,
+                             "|S| → 1 as ω → ∞, so M_s is of order 1; as m_peak"),
+    "pole_damping": Rule(1e-6, "unity", 1e-6,
+                         "ζ is of order 1; eigenvalues on both sides, as damping_ratio"),
+    # a scale the model computes ("criterion"): the magnitude |p| of the pole that sets it
+    # (feedtune.validate.poles)
+    "decay_rate": Rule(1e-6, "criterion", 1e-6,
+                       "a rate from one pole's real part: an eigenvalue's rounding is "
+                       "relative to its magnitude, 1e-6·|p| as the poles entry"),
     "overshoot": Rule(1e-6, "unity", 1e-6,
                       "a fraction of the unit step; 0 when there is none, so never relative"),
     "gain_margin": Rule(1e-6, RELATIVE, 0.0, "a ratio > 0"),

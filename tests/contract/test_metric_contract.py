@@ -16,7 +16,7 @@ import pytest
 from contract_cases import (CONFIGS, OPTION_SAMPLES, as_float, exact_expr, exact_metric_cases,
                             log_point, metric_cases,
                             narrow_box, nominal, numeric_metric, option_variants, symbolic_loop)
-from feedtune.expr import Crossing, Supremum
+from feedtune.expr import Crossing, PoleRegion, Supremum
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
@@ -97,6 +97,9 @@ def test_metric_is_finite_with_finite_gradient(config, name, options):
             metric.evaluate(loop, options)
         return
     value = metric.evaluate(loop, options)
+    if isinstance(value, PoleRegion):
+        _check_pole_region(value, z, log_point(config, point), numeric)
+        return
     expr = ca.MX(_expr(value))
     f = ca.Function("metric", [z], [expr, ca.jacobian(expr, z)])
     symbolic, gradient = f(log_point(config, point))
@@ -107,6 +110,25 @@ def test_metric_is_finite_with_finite_gradient(config, name, options):
     # + closed-form tail (symbolic) vs until settled (numeric). 1e-6 because min_radius
     # magnifies rounding in |H| by 2r/BLU ≈ 1e6 at these points (see tests/unit/test_metrics.py)
     assert symbolic == pytest.approx(numeric, rel=1e-6, abs=1e-14)
+
+
+def _check_pole_region(value: PoleRegion, z, at, numeric: float) -> None:
+    """A pole region's value is its numeric measure (never an expression the NLP reads):
+    on the loop of symbols its ``measure`` at the point equals the loop of numbers' value,
+    and its polynomial conditions, finite with finite gradients, hold just below that
+    value and fail just above it (1e-6 relative: the conditions have a simple root there
+    unless two poles tie)."""
+    inputs = ca.Function("inputs", [z], [value.inputs])
+    assert value.measure(np.array(inputs(at), dtype=float)) == pytest.approx(numeric, rel=1e-9)
+    level = ca.MX.sym("level")
+    conditions = ca.vertcat(*value.conditions(level))
+    f = ca.Function("conditions", [z, level], [conditions, ca.jacobian(conditions, z)])
+    for factor, hold in ((1 - 1e-6, True), (1 + 1e-6, False)):
+        if numeric * factor > value.upper:
+            continue  # ζ_min = 1 (real poles only): nothing lies above
+        rows, gradient = (np.array(v, dtype=float) for v in f(at, numeric * factor))
+        assert np.all(np.isfinite(rows)) and np.all(np.isfinite(gradient))
+        assert bool(np.all(rows > 0)) == hold, (factor, rows.ravel())
 
 
 def _reformulated(config, name, options) -> bool:

@@ -275,8 +275,11 @@ def test_an_unsupported_metric_lists_the_metrics_this_plant_supports():
         parse_spec(spec)
     [(pointer, message)] = info.value.errors
     assert pointer == "/constraints/0/metric"
-    listed = message.split("defined here: ")[1].split(", ")
+    assert "software_servo(technique=sampled_data)" in message  # the configuration it names
+    listed = message.split("supported here: ")[1].split(", ")
     assert "radial_error" in listed and "bandwidth" in listed and "sensitivity" not in listed
+    # exactly the metrics the loop supports, the new pole metrics and M_s among them
+    assert {"decay_rate", "pole_damping", "sensitivity_peak"} <= set(listed)
 
 
 def test_a_term_that_fails_the_schema_is_still_checked_against_the_plant():

@@ -1,0 +1,69 @@
+"""Pole regions in the NLP: a decay rate or damping ratio of every closed-loop pole.
+
+A :class:`~feedtune.expr.PoleRegion`'s value, a minimum over the poles, is not smooth;
+the NLP holds "every pole's measure > level" by the region's polynomial conditions
+instead (Hurwitz conditions of a shifted or turned characteristic polynomial), written
+as the stability rows are (:func:`feedtune.tuner.stability.add_stability_rows`): each
+condition divided by its magnitude at the first start (an NLP parameter) inside asinh,
+≥ STABILITY_MARGIN. The value itself is computed numerically from the poles
+(:class:`PoleScan`), as a peak's is by its scan.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from feedtune.expr import PoleRegion
+from feedtune.tuner.builder import NlpBuilder, scale
+from feedtune.tuner.stability import STABILITY_MARGIN
+from feedtune.tuner.starts import starting_points
+
+
+class PoleScan:
+    """A PoleRegion's value at numbers: its ``measure`` of the inputs (the state matrix and
+    period) evaluated at log tunables ``z`` and parameters ``p``."""
+
+    def __init__(self, name: str, value: PoleRegion, z, p):
+        self.measure = value.measure
+        self.n_params = p.numel()
+        self.inputs = ca.Function(name, [z, p], [value.inputs])
+
+    def exact(self, z, p) -> float:
+        """The region's value [its unit] from the numeric poles."""
+        return self.measure(np.asarray(self.inputs(z, p[:self.n_params]), dtype=float))
+
+
+def region_above(builder: NlpBuilder, value: PoleRegion, level, probe_level, name: str) -> None:
+    """Rows asinh(c/s_c) ≥ STABILITY_MARGIN for every condition c of ``value.conditions(level)``:
+    every pole's measure above ``level`` (an expression of the NLP's variables and
+    parameters). Each scale s_c is an NLP parameter, |c| at the first start with the
+    level ``probe_level`` (an expression of the parameters alone)."""
+    if value.conditions is None:
+        raise ValueError(f"{name}: no polynomial test for this pole region on this loop")
+    conditions = value.conditions(level)
+    probe = ca.Function("probe", [builder.z, builder.p],
+                        [ca.vertcat(ca.MX(0, 1), *value.conditions(probe_level))])
+    start = starting_points(builder.variables, 1)[0]
+    sizes = np.abs(np.asarray(probe(start, builder.param_values), dtype=float)).ravel()
+    for i, (condition, size) in enumerate(zip(conditions, sizes)):
+        s = builder.parameter(f"{name}_scale{i}", scale(size))
+        builder.constrain(ca.asinh(condition / s), STABILITY_MARGIN, ca.inf)
+
+
+def region_bound(builder: NlpBuilder, value: PoleRegion, index: int, lower: float) -> None:
+    """Constraint ``lower`` ≤ the region's value (a parameter holds ``lower``)."""
+    level = builder.parameter(f"bound_lower{index}", lower)
+    region_above(builder, value, level, level, f"region_bound{index}")
+
+
+def region_term(builder: NlpBuilder, value: PoleRegion, index: int, reference: float | None):
+    """The region's value as an epigraph variable s·t, held below the value by
+    ``conditions(s·t)``, s the term's scale (a parameter); for maximisation only. Starts
+    at t = 0, where the conditions are the loop's stability (a stable start meets them)."""
+    s_value = scale(reference)
+    s = builder.parameter(f"term_scale{index}", s_value)
+    t = builder.variable(f"region{index}", value.lower / s_value, value.upper / s_value,
+                         ca.MX(0))
+    region_above(builder, value, s * t, ca.MX(0), f"region_term{index}")
+    return s * t
