@@ -7,6 +7,7 @@ discretised by ``expm``, Van Loan), never on :mod:`feedtune.loop`:
   H = L/(1 + L) on a logarithmic grid from a thousandth of the slowest closed-loop pole
   (s = ln z / T) up to the Nyquist frequency π/T itself, where the discrete loop's
   responses end;
+* ``sensitivity_peak``: sup |1/(1 + L)|, refined as ``m_peak``;
 * ``m_peak``: sup |H/H(1)| (at least 1, its value as ω → 0), every local maximum of the
   grid refined by bounded Brent; ``bandwidth``: the lowest ω with |H/H(1)|² = ½ (π/T when
   the gain stays above −3 dB up to Nyquist, the tuner's convention); ``crossover_frequency``
@@ -38,7 +39,7 @@ POINTS_PER_DECADE, GRID_SPAN = 200, 1e3
 #: refined on the exact expm expression)
 SUBSTEPS = 64
 
-MEASURES = ("m_peak", "bandwidth", "crossover_frequency", "phase_margin", "gain_margin",
+MEASURES = ("m_peak", "sensitivity_peak", "bandwidth", "crossover_frequency", "phase_margin", "gain_margin",
             "overshoot", "settling_time")
 
 
@@ -76,6 +77,24 @@ def m_peak(model) -> float:
         res = minimize_scalar(lambda u: -_gain_squared(model, math.exp(u))[0], bounds=(lo, hi),
                               method="bounded", options={"xatol": 1e-12})
         best = max(best, math.sqrt(-float(res.fun)))
+    return best
+
+
+def sensitivity_peak(model) -> float:
+    """M_s = sup over 0 ≤ ω ≤ π/T of |1/(1 + L(e^{jωT}))| [1]; every local maximum of the
+    grid above 1 + 1e-9 refined by bounded Brent (|S| sits at 1 to rounding where |L| ≪ 1,
+    and no such point can beat the floor 1 by more than the tolerance, 1e-6)."""
+    grid, open_loop, _ = _scan(model)
+    s = np.abs(1.0 / (1.0 + open_loop))
+    best = max(1.0, float(np.max(s)))
+    padded = np.concatenate([[-np.inf], s, [-np.inf]])
+    peaks = (padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]) & (s > 1 + 1e-9)
+    for i in np.flatnonzero(peaks):
+        lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)])
+        res = minimize_scalar(lambda u: -abs(1.0 / (1.0 + model.open_loop(
+            np.array([math.exp(u)]))[0])), bounds=(lo, hi), method="bounded",
+            options={"xatol": 1e-12})
+        best = max(best, -float(res.fun))
     return best
 
 
@@ -222,6 +241,6 @@ def measure(model, name: str, options: dict) -> float:
         if options.get("input", "step") != "step":
             raise NotCovered("a sampled loop's settling time is measured after a step")
         return settling_time(model, options.get("band", 0.02))
-    return {"m_peak": m_peak, "bandwidth": bandwidth, "crossover_frequency": crossover,
+    return {"m_peak": m_peak, "sensitivity_peak": sensitivity_peak, "bandwidth": bandwidth, "crossover_frequency": crossover,
             "phase_margin": phase_margin, "gain_margin": gain_margin,
             "overshoot": overshoot}[name](model)

@@ -289,6 +289,28 @@ def test_validator_agrees_with_python_control(gain, period, delay, tau):
 
 
 @pytest.mark.parametrize("gain, period, delay, tau", CASES)
+def test_validator_sensitivity_peak_agrees_with_python_control(gain, period, delay, tau):
+    """M_s = sup |1/(1 + L)| up to π/T: the validator's against python-control's sensitivity
+    function evaluated at z = e^{jωT} (the same grid-and-Brent search as for M_peak, with a
+    unit DC reference: S(1) = 0 for a type-1 loop, so the peak is read unnormalised), to
+    1e-9 of the unit gain, as M_peak."""
+    sensitivity = control.feedback(1, control_open_loop(gain, period, delay, tau))
+    nyquist = math.pi / period
+    grid = np.geomspace(nyquist * 1e-5, nyquist, 20_001)
+    mag = np.abs(np.asarray(sensitivity(np.exp(1j * grid * period))).ravel())
+    k = int(np.argmax(mag))
+    polished = minimize_scalar(
+        lambda u: -float(np.abs(sensitivity(np.exp(1j * math.exp(u) * period)))),
+        method="bounded", options={"xatol": 1e-12},
+        bounds=(math.log(grid[max(k - 1, 0)]), math.log(grid[min(k + 1, grid.size - 1)])))
+    expected = max(1.0, float(mag[k]), -polished.fun)
+    model = ServoModel(gain, tau, period, delay)
+    assert sampled_frequency.sensitivity_peak(model) == pytest.approx(expected, abs=1e-9)
+    assert value("sensitivity_peak", loop(gain, period, delay, tau)) == pytest.approx(
+        expected, abs=1e-9)
+
+
+@pytest.mark.parametrize("gain, period, delay, tau", CASES)
 def test_validator_step_shape_agrees_with_the_metrics(gain, period, delay, tau):
     model = ServoModel(gain, tau, period, delay)
     lp = loop(gain, period, delay, tau)
