@@ -218,16 +218,11 @@ class ServoModel:
             f, g = self.closed_loop()
             big = np.zeros((m + 1, m + 1))
             big[:m, :m], big[:m, m:] = f, g
-            steps = _powers(expm(big * h / substeps), substeps)
+            rows = _first_rows(expm(big * h / substeps), substeps)  # position per sub-step
             blocks = self._blocks_to_settle(expm(f * h))
             state = np.zeros(m + 1)
             state[m] = 1.0  # the reference, constant
-            starts = np.empty((blocks, m + 1))
-            full = expm(big * h)
-            for i in range(blocks):
-                starts[i] = state
-                state = full @ state
-            rows = np.stack([s[0, :] for s in steps])  # position row of each sub-step
+            starts = _orbit(expm(big * h), state, blocks)
         else:
             f, g = self.closed_loop()
             blocks = self._blocks_to_settle(f)
@@ -242,15 +237,15 @@ class ServoModel:
                 kr = 0.0
             big = np.zeros((m + 1, m + 1))
             big[:m, :m], big[:m, m:] = a, b
-            steps = _powers(expm(big * h / substeps), substeps)
-            states = np.empty((blocks, n))
-            state = np.zeros(n)
-            for i in range(blocks):
-                states[i] = state
-                state = f @ state + g[:, 0]
+            rows = _first_rows(expm(big * h / substeps), substeps)
+            # state(i + 1) = F state(i) + G from 0: the orbit of [state, 1] under [[F, G], [0, 1]]
+            affine = np.zeros((n + 1, n + 1))
+            affine[:n, :n], affine[:n, n], affine[n, n] = f, g[:, 0], 1.0
+            start = np.zeros(n + 1)
+            start[n] = 1.0
+            states = _orbit(affine, start, blocks)[:, :n]
             held = states @ kx + kr
             starts = np.column_stack([states[:, :m], held])  # [drive states, u] per sample
-            rows = np.stack([s[0, :] for s in steps])
         positions = starts @ rows.T  # (blocks, substeps)
         t = (np.arange(blocks)[:, None] * h + np.arange(substeps)[None, :] * h / substeps)
         e = 1.0 - positions
@@ -395,7 +390,7 @@ class ServoModel:
             held = states[:, n - 1]
         big = np.zeros((m + 1, m + 1))
         big[:m, :m], big[:m, m:] = a, b
-        rows = np.stack([s[0, :] for s in _powers(expm(big * period / substeps), substeps)])
+        rows = _first_rows(expm(big * period / substeps), substeps)
         keep = slice(total - 1 - math.ceil(revolution / period), total - 1)
         starts = np.column_stack([states[keep, :m], held[keep]])
         points = (starts @ rows.T).ravel()
@@ -628,9 +623,19 @@ def _trace(radius: float, feed: float, points: np.ndarray) -> CircleTrace:
     return CircleTrace(radius, feed, np.angle(points), np.abs(points) - radius)
 
 
-def _powers(matrix: np.ndarray, count: int) -> list[np.ndarray]:
-    """[I, M, M², ..., M^(count−1)]."""
-    out = [np.eye(matrix.shape[0])]
-    for _ in range(count - 1):
-        out.append(out[-1] @ matrix)
-    return out
+def _first_rows(matrix: np.ndarray, count: int) -> np.ndarray:
+    """The first rows of I, M, M², ..., M^(count−1), stacked (count, n)."""
+    return _orbit(matrix.T, np.eye(matrix.shape[0])[0], count)
+
+
+def _orbit(matrix: np.ndarray, start: np.ndarray, count: int) -> np.ndarray:
+    """start, M·start, M²·start, ..., M^(count−1)·start as rows (count, n), by doubling:
+    the rows so far times (M^k)ᵀ give the next k, so log2(count) matrix products replace
+    count matrix-vector products in Python (≈ 1 ms a step response; the same numbers up
+    to rounding, ≈ 1e-16 relative per doubling)."""
+    rows = np.asarray(start)[None, :]
+    power = matrix
+    while rows.shape[0] < count:
+        rows = np.vstack([rows, rows @ power.T])
+        power = power @ power
+    return rows[:count]
