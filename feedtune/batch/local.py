@@ -56,7 +56,9 @@ def start_method() -> str:
     libraries may not survive a fork), and this process running no other Python thread: a
     lock another thread holds at the fork (a logging handler's, an import's) would stay
     held in the worker forever. A caller's thread, a Dask client or a progress thread
-    therefore means spawn.
+    therefore means spawn. Threads below Python are OpenBLAS's pools, which shut down
+    before a fork and start again in the child; with one BLAS thread, as the ``feedtune``
+    command sets it, there are none (measured: one OS thread after a tuning).
     """
     if ("fork" in multiprocessing.get_all_start_methods() and sys.platform != "darwin"
             and threading.active_count() == 1):
