@@ -19,9 +19,11 @@ b. the batch, ``feedtune.batch.runner.run_batch`` with ``LocalExecutor(workers=W
    each W of ``--workers`` (default: 1 and all cores), each into a fresh directory — the
    whole of it: reading the specs, spawning workers (imports, solver builds), IPC,
    writing each result and the summary;
-   then the largest worker count again with one BLAS thread per worker, as the
-   ``feedtune`` command sets it (``feedtune.__main__.pin_blas_threads``), side by side
-   with the BLAS libraries' default (one thread per core) in the rows above;
+   then the largest worker count again with spawned workers (each a fresh interpreter
+   importing the tuner itself, as before issue 15), side by side with the default, where
+   workers are forked from this process (``feedtune.batch.local.start_method``). Every
+   mode runs with one BLAS thread per process, as the ``feedtune`` command sets it
+   (``feedtune.__main__.pin_blas_threads``; set here before numpy loads);
 c. a resumed rerun of the last batch's directory (every result already there: each spec
    is parsed and hashed, nothing is solved).
 
@@ -47,26 +49,31 @@ same load.
 
 from __future__ import annotations
 
-import argparse
-import copy
-import json
 import os
-import resource
-import shutil
-import sys
-import tempfile
-import time
-from collections import Counter
-from pathlib import Path
 
-from baseline import export_package, short_revision
+# one BLAS thread, as the `feedtune` command sets it, before anything loads numpy (a forked
+# worker keeps the BLAS set-up of this process)
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import copy  # noqa: E402
+import json  # noqa: E402
+import resource  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from collections import Counter  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from baseline import export_package, short_revision  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 #: the feedtune measured: this checkout, or another one's tree (set by --baseline)
 TREE = Path(os.environ.get("FEEDTUNE_BENCH_TREE") or REPO)
 sys.path.insert(0, str(TREE))
 
-from feedtune.__main__ import BLAS_THREADS, pin_blas_threads  # noqa: E402
 from feedtune.batch.local import LocalExecutor, default_workers  # noqa: E402
 from feedtune.batch.runner import run_batch  # noqa: E402
 from feedtune.problem import tune  # noqa: E402
@@ -161,6 +168,13 @@ def single_solves(specs: list[dict], sample: int) -> dict:
             "cache": _cache_rate(before, info()) if info else None}
 
 
+def _chooses_start() -> bool:
+    """Whether this tree's LocalExecutor takes a start method (since issue 15)."""
+    import inspect
+
+    return "start" in inspect.signature(LocalExecutor).parameters
+
+
 def _nlp():
     """The module holding the solver cache: feedtune.tuner.cache, or feedtune.tuner.nlp in a
     tree before issue 15's restructuring (a --baseline)."""
@@ -190,10 +204,13 @@ def _cache_rate(before, after) -> str:
     return f"{rate} ({hits} hits, {misses} misses over the timed single solves; now {after!r})"
 
 
-def batch(spec_dir: Path, out: Path, workers: int) -> dict:
-    """One run_batch of every spec in ``spec_dir`` into ``out``."""
+def batch(spec_dir: Path, out: Path, workers: int, start: str | None = None) -> dict:
+    """One run_batch of every spec in ``spec_dir`` into ``out`` (``start``: the workers'
+    start method, when not the executor's default)."""
     cpu = _cpu()
-    outcome = run_batch([str(spec_dir)], out, LocalExecutor(workers=workers))
+    executor = (LocalExecutor(workers=workers) if start is None
+                else LocalExecutor(workers=workers, start=start))
+    outcome = run_batch([str(spec_dir)], out, executor)
     document = outcome.document
     return {"count": document["specs"], "wall": outcome.wall,
             "statuses": Counter(document["counts"]),
@@ -256,19 +273,13 @@ def main(argv: list[str] | None = None) -> int:
         single_per = single["wall"] / single["count"]
         print(f"single solves done ({single['count']}, {single['wall']:.1f} s)", file=sys.stderr)
         runs = {}
-        # workers inherit this environment at spawn: first with the BLAS libraries' own
-        # thread count (all cores), then with one thread as the `feedtune` command sets it
-        saved = {name: os.environ.pop(name, None) for name in BLAS_THREADS}
         for w in workers:
             runs[w] = batch(spec_dir, root / f"out-{w}", w)
             print(f"batch with {w} worker(s) done ({runs[w]['wall']:.1f} s)", file=sys.stderr)
         last = workers[-1]
-        pin_blas_threads()
-        pinned = batch(spec_dir, root / f"out-{last}-pinned", last)
-        for name, value in saved.items():
-            os.environ.pop(name, None)
-            if value is not None:
-                os.environ[name] = value
+        # spawned workers, as before issue 15 (a tree whose executor cannot choose: none)
+        spawned = (batch(spec_dir, root / f"out-{last}-spawned", last, start="spawn")
+                   if _chooses_start() else None)
         resumed = batch(spec_dir, root / f"out-{last}", last)
         load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
@@ -286,8 +297,9 @@ def main(argv: list[str] | None = None) -> int:
         for w in workers:
             print(_row(f"batch, {w} worker{'s' if w > 1 else ''}", runs[w], single_per,
                        one if w != 1 else None))
-        print(_row(f"batch, {last} worker{'s' if last > 1 else ''}, one BLAS thread each "
-                   "(as the `feedtune` command sets it)", pinned, single_per, one))
+        if spawned is not None:
+            print(_row(f"batch, {last} worker{'s' if last > 1 else ''}, spawned (each imports "
+                       "the tuner itself)", spawned, single_per, one))
         print(_row(f"resumed rerun, {last} worker{'s' if last > 1 else ''} (nothing solved)",
                    resumed, None, one))
         print()
@@ -302,7 +314,8 @@ def main(argv: list[str] | None = None) -> int:
               "feedtune.tuner.cache has no solver_cache_info(); not reported"))
         if args.json:
             modes = {"single": single, **{f"batch, {w} worker(s)": runs[w] for w in workers},
-                     f"batch, {last} worker(s), one BLAS thread": pinned, "resumed": resumed}
+                     **({f"batch, {last} worker(s), spawned": spawned} if spawned else {}),
+                     "resumed": resumed}
             Path(args.json).write_text(json.dumps({
                 "tree": str(TREE), "load": [load, load_after], "cache": cache,
                 "modes": {label: {"specs_per_s": m["count"] / m["wall"],

@@ -33,3 +33,22 @@ def sleeping(data: bytes, existing):
 def tuner_loaded(data: bytes, existing):
     """Say whether the worker had loaded the tuner before this spec's clock started."""
     return Outcome("error", f"tuner loaded before the spec: {'feedtune.problem' in sys.modules}")
+
+
+#: set by a test in its own process; a worker forked from it sees the value, a spawned one
+#: imports this module afresh and sees None
+PARENT_MARK = None
+TERM_MARK = b"term-me"
+
+
+def parent_mark(data: bytes, existing):
+    """Say which PARENT_MARK the worker sees (without solving)."""
+    return Outcome("error", f"parent mark: {PARENT_MARK}")
+
+
+def terminated(data: bytes, existing):
+    """Send this worker SIGTERM on a spec whose bytes contain TERM_MARK; solve the rest."""
+    if TERM_MARK in data:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(60)  # a worker that ignored it would hang here, not die
+    return solve(data, existing)

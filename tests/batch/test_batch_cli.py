@@ -421,6 +421,75 @@ def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(tmp_
         "tuner loaded before the spec: True"] * 2
 
 
+def test_workers_are_forked_from_this_process_with_what_it_loaded(tmp_path, monkeypatch):
+    """Issue 15: a worker starts as a copy of the batch's process (the tuner imported once,
+    here), not as a fresh interpreter importing CasADi and scipy again (≈ 0.9 s CPU each)."""
+    monkeypatch.setattr(batch_jobs, "PARENT_MARK", "set in the parent")
+    write_specs(tmp_path / "specs", 3)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(2, job=batch_jobs.parent_mark))
+    assert [row["message"] for row in outcome.document["rows"]] == [
+        "parent mark: set in the parent"] * 3
+
+
+WARM_CHECK = """
+import json, sys
+from feedtune.batch.job import solve, warm_up
+warm_up()
+for spec in json.loads(sys.argv[1]):
+    before = set(sys.modules)
+    outcome = solve(json.dumps(spec).encode())
+    print(outcome.status, sorted(set(sys.modules) - before))
+"""
+
+
+def test_the_warm_up_loads_everything_a_software_servo_spec_loads():
+    """What the workers are forked with: after warm_up, tuning Koren's specs (another
+    technique, a free sampling period, more starts) imports no further module, so no
+    worker pays for imports on its first spec's clock."""
+    pulse, sampled = example("koren-1979-reference-pulse"), example()
+    sampled["tunables"]["sampling_period"] = {"min": 0.002, "max": 0.05}
+    sampled["solver"] = {"multistart": 3}
+    done = subprocess.run([sys.executable, "-c", WARM_CHECK, json.dumps([pulse, sampled])],
+                          capture_output=True, text=True, timeout=300, cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["optimal []", "optimal []"]
+
+
+def test_workers_are_spawned_while_another_thread_runs():
+    """A lock held by another thread at a fork would stay held in the worker forever."""
+    import threading
+
+    from feedtune.batch.local import start_method
+
+    assert start_method() == "fork"  # Linux, this test's thread alone
+    release = threading.Event()
+    thread = threading.Thread(target=release.wait)
+    thread.start()
+    try:
+        assert start_method() == "spawn"
+    finally:
+        release.set()
+        thread.join()
+    assert start_method() == "fork"
+
+
+def test_a_forked_worker_ends_on_sigterm_whatever_handler_the_batch_had(tmp_path):
+    """The batch's process holds SIGTERM back while it writes a result; its forked workers
+    must not inherit that: SIGTERM ends a worker, charged to its spec."""
+    _tasks(tmp_path / "specs", {"axis-term": batch_jobs.TERM_MARK})
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: None)
+    try:
+        outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                            LocalExecutor(2, timeout=40.0, job=batch_jobs.terminated))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    rows = {row["id"]: row for row in outcome.document["rows"]}
+    assert rows["axis-term"]["status"] == "worker_died"
+    assert "SIGTERM" in rows["axis-term"]["message"]
+    assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
+
+
 def test_a_spec_over_its_own_ipopt_time_limit_is_a_row_and_the_rest_complete(tmp_path):
     write_specs(tmp_path / "specs", 2)
     slow = example("koren-1979-min-iae-radius")  # builds and solves for ≈ 0.7 s

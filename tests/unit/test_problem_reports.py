@@ -68,3 +68,42 @@ def test_a_symbolic_loop_gets_the_expressions_themselves():
     loop = plant.loop({"position_gain": gain, "sampling_period": 0.015625}, box)
     value = Reports(sets).callables()["velocity_constant"](loop)
     assert ca.depends_on(value, gain)
+
+
+def test_a_term_on_a_loop_of_numbers_is_built_once_for_itself_and_its_report(monkeypatch):
+    """Issue 15: the exact evaluation of a tuned design builds an objective term's or a
+    constraint's expression once; the report of the same metric and options takes it."""
+    from feedtune.objectives.radial_error import RadialError
+    from feedtune.problem import tune
+
+    builds = []
+    original = RadialError.evaluate
+
+    def counted(self, loop, options):
+        builds.append(loop)
+        return original(self, loop, options)
+
+    monkeypatch.setattr(RadialError, "evaluate", counted)
+    spec = parse_spec(json.loads((EXAMPLES / "koren-1979-sampled-data.json").read_text()))
+    result = tune(spec)
+    assert result.success
+    numeric = [loop for loop in builds if not ca.symvar(ca.MX(loop.gain))]
+    assert len(numeric) == 1  # the objective term's; the report took it
+    report = result.metrics["radial_error"].value
+    assert report is not None and report == result.objective  # the same number, |e_r| [m]
+
+
+def test_a_remembered_value_serves_only_its_own_loop_and_options():
+    plant, box, sets = _setup("koren-1979-sampled-data.json")
+    reports = Reports(sets)
+    metric, options = sets["radial_error"]
+    remember = reports.remembering(metric, options)
+    other = options.model_copy(update={"radius": options.radius * 2})
+    assert reports.remembering(metric, other) is None  # no report with these options
+    point = {"position_gain": 18.17, "sampling_period": 0.015625}
+    seen, loop = plant.loop(point, box), plant.loop(point, box)
+    remember(seen, ca.MX(123.0))  # a stand-in: only the loop it was built on may take it
+    fns = reports.callables()
+    assert float(ca.evalf(fns["radial_error"](loop))) == pytest.approx(
+        _one_by_one(metric.evaluate(plant.loop(point, box), options)), rel=0, abs=0)
+    assert float(ca.evalf(fns["radial_error"](seen))) == 123.0

@@ -249,3 +249,27 @@ def test_sato_eq_7_table_2():
     average = radius * math.sqrt(math.sin(interval) / interval)  # eq 3
     deficit = (model.radius_decrease(radius, feed, interval) - (radius - average)) / average
     assert deficit == pytest.approx(1 - g4, rel=1e-5)
+
+
+def test_the_step_responses_orbit_by_doubling_is_the_plain_recurrence():
+    """software_servo's dense step response takes x, Mx, M²x, ... by doubling (log2 N
+    matrix products, issue 15); it is the sample-by-sample recurrence up to rounding, for a
+    stable affine loop and for the powers' first rows (an integrator: |λ| = 1, growing)."""
+    from feedtune.validate.software_servo import _first_rows, _orbit
+
+    rng = np.random.default_rng(7)
+    f = rng.normal(size=(3, 3))
+    f *= 0.95 / np.max(np.abs(np.linalg.eigvals(f)))
+    affine = np.eye(4)
+    affine[:3, :3], affine[:3, 3] = f, rng.normal(size=3)
+    x, plain = np.array([0.0, 0.0, 0.0, 1.0]), []
+    for _ in range(301):  # not a power of two: the last doubling is cut
+        plain.append(x)
+        x = affine @ x
+    assert np.max(np.abs(_orbit(affine, np.eye(4)[3], 301) - plain)) <= 1e-13 * np.max(np.abs(plain))
+    drive = np.array([[1.0, 0.01, 0.0], [0.0, 0.9, 0.1], [0.0, 0.0, 1.0]])  # integrator, lag, hold
+    power, rows = np.eye(3), []
+    for _ in range(256):
+        rows.append(power[0])
+        power = power @ drive
+    assert np.max(np.abs(_first_rows(drive, 256) - rows)) <= 1e-13 * np.max(np.abs(rows))
