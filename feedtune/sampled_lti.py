@@ -54,18 +54,31 @@ def _float_matrix(value, name: str, shape=None) -> np.ndarray:
     return array
 
 
+def balance(matrix) -> tuple:
+    """(D⁻¹MD, d): a diagonal similarity by powers of two (exact in floating point) that
+    equalises row and column norms (scipy.linalg.matrix_balance, no permutation). A drive's
+    states mix units (rad, rad/s, A): ‖A‖₁ = 3e5 of a two-mass drive whose fastest mode is
+    548 rad/s falls to 781."""
+    from scipy.linalg import matrix_balance
+
+    balanced, (scaling, _) = matrix_balance(np.asarray(matrix, dtype=float), permute=False,
+                                            separate=True)
+    return balanced, scaling
+
+
 def expm_function(matrix, t_max: float) -> ca.Function:
     """``t ↦ e^{M t}`` for 0 ≤ t ≤ ``t_max`` [s] as a CasADi Function (SX, differentiable).
 
-    Scaling and squaring with a Taylor core: s = ⌈log₂(‖M‖₁ t_max)⌉ squarings (fixed at
-    build time from the largest t), so ‖M t / 2^s‖₁ ≤ 1 for every t in the box, and the core
-    Σ_{k≤18} (M t/2^s)^k/k! is a matrix polynomial in the scalar t/t_max whose coefficient
-    matrices are numbers computed once. Its truncation error is below e/19! ≈ 2e-17 of the
-    norm; each squaring then doubles the relative rounding at most (measured against
-    scipy.linalg.expm in tests/unit/test_sampled_lti.py). ``casadi.expm`` is not usable (its
-    plugin is missing from the wheel, docs/design.md numerical notes).
+    Scaling and squaring with a Taylor core on the balanced M̃ = D⁻¹MD (:func:`balance`):
+    s = ⌈log₂(‖M̃‖₁ t_max)⌉ squarings (fixed at build time from the largest t), so
+    ‖M̃ t / 2^s‖₁ ≤ 1 for every t in the box, and the core Σ_{k≤18} (M̃ t/2^s)^k/k! is a
+    matrix polynomial in the scalar t/t_max whose coefficient matrices are numbers computed
+    once. Its truncation error is below e/19! ≈ 2e-17 of the norm; each squaring at most
+    doubles the relative rounding (measured against scipy.linalg.expm in
+    tests/unit/test_sampled_lti.py). ``casadi.expm`` is not usable (its plugin is missing
+    from the wheel, docs/design.md numerical notes).
     """
-    m = np.asarray(matrix, dtype=float)
+    m, scaling = balance(matrix)
     n = m.shape[0]
     norm = float(np.linalg.norm(m, 1)) * t_max
     squarings = max(0, math.ceil(math.log2(norm))) if norm > 0 else 0
@@ -80,7 +93,8 @@ def expm_function(matrix, t_max: float) -> ca.Function:
         result = result * x + ca.DM(c)
     for _ in range(squarings):
         result = ca.mtimes(result, result)
-    return ca.Function("expm", [t], [result])
+    undo = ca.mtimes([ca.DM(np.diag(scaling)), result, ca.DM(np.diag(1 / scaling))])
+    return ca.Function("expm", [t], [undo])
 
 
 @dataclass(frozen=True)
@@ -137,8 +151,8 @@ class ContinuousPlant:
     @cached_property
     def velocity_row(self) -> np.ndarray:
         """C A: ẏ = C A x when C B = 0 (the position's relative degree is at least two)."""
-        scale = float(np.linalg.norm(self.c @ self.a, 1) + np.abs(self.c) @ np.abs(self.b))
-        if abs(float(self.c @ self.b)) > 1e-12 * scale:  # rounding of C·B against its terms
+        scale = float((np.abs(self.c) @ np.abs(self.b))[0, 0])  # Σ|c_i b_i|, C·B's own unit
+        if abs(float((self.c @ self.b)[0, 0])) > 1e-12 * scale:  # C·B beyond its rounding
             raise SampledModelError("/plant: the velocity ẏ is measured as C A x, which needs "
                                     "C B = 0 (relative degree ≥ 2)")
         return self.c @ self.a
@@ -167,7 +181,7 @@ class ContinuousPlant:
                 "number of samples must not change over the box (narrow the period's bounds, "
                 "or give the dead time in samples)")
         fraction = theta - whole * period
-        if low == high and abs(float(ca.evalf(ca.MX(fraction)))) <= WHOLE_SAMPLE_TOL * theta:
+        if low == high and abs(theta - whole * low) <= WHOLE_SAMPLE_TOL * theta:
             return whole, 0
         return whole, fraction
 
