@@ -3,7 +3,7 @@
 Inside one period the plant runs open loop under a held command, so with
 ξ = [x, u, r] the error e = r − C x obeys ξ' = F ξ, F = [[A, B, 0], [0, 0, 0], [0, 0, 0]].
 Each held segment (two when a fractional dead time splits the period) is cut into M equal
-sub-steps with ‖Ã‖₁·T_max/M ≤ 1, Ã = D⁻¹AD balanced (:func:`feedtune.sampled_lti.balance`). On a sub-step, e(σ) is the Taylor polynomial
+sub-steps with ‖Ã‖₁·T_max/M ≤ 1, Ã = D⁻¹AD balanced (:func:`feedtune.sampled_plants.balance`). On a sub-step, e(σ) is the Taylor polynomial
 Σ_{k≤18} (σ/h)^k · ρ_k, ρ_k = [−C 0 1]·(F h)^k ξ/k!, h = T_max/M, whose remainder is below
 e/19! ≈ 2e-17 of the state's scale (‖(F h)^k‖ ≤ 1): the error *is* this polynomial to
 rounding. Its integrals are then exact: ∫e², and ∫|e| and ∫t|e| on pieces cut at the
@@ -108,7 +108,7 @@ class _Structure:
     the sub-steps per segment."""
 
     def __init__(self, a, b, c, t_max):
-        from feedtune.sampled_lti import balance
+        from feedtune.sampled_plants import balance
 
         self.n = a.shape[0]
         n = self.n

@@ -15,9 +15,11 @@ from feedtune.loop import IntegratorLag, SampledLoop
 from feedtune.objectives.damping_ratio import DampingRatio
 from feedtune.objectives.radial_error import RadialError
 from feedtune.problem import tune
-from feedtune.sampled_lti import (ContinuousPlant, DiscretePlant, SampledLTILoop,
-                                  SampledModelError, cascade_controller, discretise_transfer,
-                                  error_controller, expm_function)
+from feedtune.sampled_controllers import (cascade_controller, discretise_transfer,
+                                          error_controller)
+from feedtune.sampled_lti import SampledLTILoop
+from feedtune.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
+                                     expm_function)
 from feedtune.sampled_lti_integrals import partial_integral
 from feedtune.spec import parse_spec
 from feedtune.tuner import Bound, Problem, Settings, Term, Variable
