@@ -419,3 +419,107 @@ def test_expm_equals_scipy_over_the_period_box(plant):
         d_scale = np.max(np.abs(m) @ np.abs(theirs), axis=0)
         d_scale[d_scale == 0] = 1.0  # an integrating plant: M e^{Mt} has a zero column
         assert np.max(np.abs(d_mine - m @ theirs) / d_scale) <= 1e-12
+
+
+# -- controllers, tunable T with a dead time, discrete plants, bad input ----------------------
+
+@pytest.mark.parametrize("method, scipy_method", [("tustin", "bilinear"),
+                                                  ("backward_euler", "backward_diff")])
+def test_controller_discretisation_equals_scipy(method, scipy_method):
+    """A PI and a lead (K(τ₁s + 1)/(τ₂s + 1)) in z against scipy.signal.cont2discrete."""
+    for numerator, denominator in (([K_V * T_I, K_V], [T_I, 0]), ([2.0 * 0.01, 2.0], [0.001, 1])):
+        num_z, den_z = discretise_transfer(numerator, denominator, PERIOD, method)
+        num_z = np.array([scalar(c) for c in num_z]) / scalar(den_z[0])
+        den_z = np.array([scalar(c) for c in den_z]) / scalar(den_z[0])
+        expected_num, expected_den, _ = signal.cont2discrete((numerator, denominator), PERIOD,
+                                                             scipy_method)
+        expected_num = np.ravel(expected_num) / expected_den[0]
+        expected_den = np.asarray(expected_den) / expected_den[0]
+        # monic denominators: coefficients O(1); numerators in N·m·s/rad (gain K_V)
+        assert np.max(np.abs(den_z - expected_den)) <= 1e-12
+        assert np.max(np.abs(num_z - expected_num[-len(num_z):])) <= 1e-12 * np.max(
+            np.abs(expected_num))
+
+
+def test_tunable_period_with_fractional_dead_time_equals_fixed_periods():
+    """T a symbol over [0.8, 1.2] ms with θ = 1.5 ms fixed: one whole sample plus
+    θ_f = θ − T; the loop at each T equals the loop built on that number."""
+    period = ca.MX.sym("T")
+    a, b, c = two_mass()
+    controller = cascade_controller(K_P, [K_V * T_I, K_V], [T_I, 0], period)
+    loop = SampledLTILoop(ContinuousPlant(a, b, c, dead_time=1.5e-3), controller, period,
+                          (0.8e-3, 1.2e-3))
+    outputs = ca.Function("f", [period], [loop.state_matrix, loop.input_matrix,
+                                          ca.vertcat(*loop.frequency_response(300.0))])
+    for value in (0.8e-3, 1e-3, 1.2e-3):
+        fixed_controller = cascade_controller(K_P, [K_V * T_I, K_V], [T_I, 0], value)
+        fixed = SampledLTILoop(ContinuousPlant(a, b, c, dead_time=1.5e-3), fixed_controller,
+                               value, (value, value))
+        phi, gamma, response = outputs(value)
+        # transition entries against the matrix's largest; H(e^{jωT}) [1] against 1
+        assert np.max(np.abs(np.array(phi) - evaluate(fixed.state_matrix))) <= 1e-12 * np.max(
+            np.abs(evaluate(fixed.state_matrix)))
+        assert np.max(np.abs(np.array(gamma) - evaluate(fixed.input_matrix))) <= 1e-12 * np.max(
+            np.abs(evaluate(fixed.input_matrix)))
+        expected = [scalar(x) for x in fixed.frequency_response(300.0)]
+        # H [1] against 1: the resolvent (e^{jωT}I − Φ)⁻¹ amplifies Φ's rounding (two
+        # exponentials built for different boxes) by its condition number, states of mixed
+        # units (measured 1.0e-12)
+        assert np.max(np.abs(np.ravel(np.array(response)) - expected)) <= 1e-10
+
+
+def test_dead_time_whose_whole_samples_change_over_the_box_is_refused():
+    a, b, c = two_mass()
+    period = ca.MX.sym("T")
+    controller = cascade_controller(K_P, [K_V * T_I, K_V], [T_I, 0], period)
+    loop = SampledLTILoop(ContinuousPlant(a, b, c, dead_time=1.5e-3), controller, period,
+                          (0.5e-3, 2e-3))  # θ spans 0.75 … 3 samples
+    with pytest.raises(SampledModelError, match="/plant/dead_time"):
+        loop.state_matrix
+    # in samples, θ = 1.5·T splits for any T: the whole count is fixed
+    scaled = SampledLTILoop(ContinuousPlant(a, b, c, dead_time_samples=1.5), controller, period,
+                            (0.5e-3, 2e-3))
+    assert scaled.held_samples == 2
+
+
+def test_discrete_plant_equals_the_continuous_one_at_its_period():
+    a, b, c = two_mass()
+    phi, gamma, *_ = signal.cont2discrete((a, b, c, np.zeros((1, 1))), PERIOD, "zoh")
+    controller = cascade_controller(K_P, [K_V * T_I, K_V], [T_I, 0], PERIOD)
+    with pytest.raises(SampledModelError, match="velocity"):
+        SampledLTILoop(DiscretePlant(phi, gamma, c, period=PERIOD, dead_time_samples=2),
+                       controller, PERIOD, (PERIOD, PERIOD)).state_matrix
+    pi = error_controller([K_V * T_I * 1e3, K_V * 1e3], [T_I, 0], PERIOD)
+    discrete = SampledLTILoop(DiscretePlant(phi, gamma, c, period=PERIOD, dead_time_samples=2),
+                              pi, PERIOD, (PERIOD, PERIOD))
+    continuous = SampledLTILoop(ContinuousPlant(a, b, c, dead_time=2 * PERIOD), pi, PERIOD,
+                                (PERIOD, PERIOD))
+    # Φ_cl entries against the largest (transition gains of mixed units)
+    expected = evaluate(continuous.state_matrix)
+    assert np.max(np.abs(evaluate(discrete.state_matrix) - expected)) <= 1e-12 * np.max(
+        np.abs(expected))
+    assert not discrete.has_exact_step_error
+    with pytest.raises(SampledModelError, match="/tunables/sampling_period"):
+        SampledLTILoop(DiscretePlant(phi, gamma, c, period=PERIOD), pi, 2 * PERIOD,
+                       (2 * PERIOD, 2 * PERIOD))
+
+
+@pytest.mark.parametrize("build, pointer", [
+    (lambda: ContinuousPlant([[0, 1], [0, -50]], [0, 50], [[1, 0]], d=1.0), "/plant/d"),
+    (lambda: ContinuousPlant([[0, 1], [0, -50]], [0, 50], [[1, 0]], dead_time=-1e-3),
+     "/plant/dead_time"),
+    (lambda: ContinuousPlant([[0, 1], [0, math.nan]], [0, 50], [[1, 0]]), "/plant/a"),
+    (lambda: ContinuousPlant([[0, 1], [0, -50]], [0, 50, 1], [[1, 0]]), "/plant/b"),
+    (lambda: ContinuousPlant([[0, 1], [0, -50]], [0, 50], [[1, 0]], dead_time=1e-3,
+                             dead_time_samples=1.0), "/plant/dead_time"),
+    (lambda: DiscretePlant([[1]], [1], [[1]], period=1e-3, dead_time_samples=1.5),
+     "/plant/dead_time_samples"),
+    (lambda: discretise_transfer([1, 0, 0], [1, 1], 1e-3), "/controller"),
+    (lambda: discretise_transfer([1], [1, 1], 1e-3, "forward"), "/controller/method"),
+    (lambda: SampledLTILoop(koren_plant(), error_controller([10.0], [1], 1e-3), 1e-3,
+                            (1e-3, 1e-3), delay=-1), "/controller/delay"),
+    (lambda: ContinuousPlant([[0, 1], [0, -50]], [1, 50], [[1, 0]]).velocity_row, "/plant"),
+])
+def test_bad_models_name_the_field(build, pointer):
+    with pytest.raises(SampledModelError, match=pointer):
+        build()
