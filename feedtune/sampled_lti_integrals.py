@@ -50,15 +50,20 @@ def _horner(coefficients, x):
     return result
 
 
-def _root(coefficients, lo, hi, f_lo, f_hi):
+def _root(coefficients, lo, hi, f_lo, f_hi, guess=None):
     """The zero of the polynomial in [lo, hi] where it changes sign once (f_lo·f_hi < 0).
 
-    Secant start, then Newton steps kept inside a shrinking bracket (bisection when a step
-    leaves it): NEWTON_STEPS on the truncated polynomial, FINAL_STEPS on the full one.
+    Starts from the secant or from ``guess``, whichever has the smaller |f|, then Newton
+    steps kept inside a shrinking bracket (bisection when a step leaves it): NEWTON_STEPS
+    on the truncated polynomial, FINAL_STEPS on the full one.
     """
     gap = f_hi - f_lo
     s = lo - f_lo * (hi - lo) / ca.if_else(gap == 0, 1, gap)
     s = ca.fmin(ca.fmax(s, lo), hi)
+    if guess is not None:
+        guess = ca.fmin(ca.fmax(guess, lo), hi)
+        closer = ca.fabs(_horner(coefficients, guess)) < ca.fabs(_horner(coefficients, s))
+        s = ca.if_else(closer, guess, s)
     coarse = coefficients[:COARSE_DEGREE + 1]
     for polynomial in [coarse] * NEWTON_STEPS + [coefficients] * FINAL_STEPS:
         derivative = [k * c for k, c in enumerate(polynomial)][1:]
@@ -67,7 +72,8 @@ def _root(coefficients, lo, hi, f_lo, f_hi):
         same = f * f_lo > 0
         lo, f_lo, hi = ca.if_else(same, s, lo), ca.if_else(same, f, f_lo), ca.if_else(same, hi, s)
         step = s - f / ca.if_else(ca.fabs(df) < _TINY, _TINY, df)
-        s = ca.if_else((step > lo) * (step < hi), step, (lo + hi) / 2)
+        # ≤, not <: at an exact zero (f = 0) the step stays at s = hi, and must be kept
+        s = ca.if_else((step >= lo) * (step <= hi), step, (lo + hi) / 2)
     return s
 
 
@@ -97,8 +103,15 @@ def _substep(coefficients, end, scale, t_start, name):
     d0, d_end = _horner(slope, 0), _horner(slope, end)
     middle = ca.if_else(d0 * d_end < 0, _root(slope, 0, end, d0, d_end), end)
     f0, fm, fe = coefficients[0], _horner(coefficients, middle), _horner(coefficients, end)
-    zero1 = ca.if_else(f0 * fm < 0, _root(coefficients, 0, middle, f0, fm), middle)
-    zero2 = ca.if_else(fm * fe < 0, _root(coefficients, middle, end, fm, fe), end)
+    # beside a near-double zero Newton starts badly from the secant: the quadratic model at
+    # the stationary point, e(m) + e''(m)(x − m)²/2 = 0, gives the zeros on either side
+    # (Koren's _newton_start does the same)
+    curvature = _horner([k * c for k, c in enumerate(slope)][1:], middle)
+    offset = ca.sqrt(ca.fmax(-2 * fm / ca.if_else(curvature == 0, 1, curvature), _TINY))
+    zero1 = ca.if_else(f0 * fm < 0, _root(coefficients, 0, middle, f0, fm, middle - offset),
+                       middle)
+    zero2 = ca.if_else(fm * fe < 0, _root(coefficients, middle, end, fm, fe, middle + offset),
+                       end)
 
     cuts = [primitives(x) for x in (0, zero1, middle, zero2, end)]
     total = 0

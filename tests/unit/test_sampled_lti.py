@@ -20,7 +20,7 @@ from feedtune.sampled_controllers import (cascade_controller, discretise_transfe
 from feedtune.sampled_lti import SampledLTILoop
 from feedtune.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
                                      expm_function)
-from feedtune.sampled_lti_integrals import partial_integral
+from feedtune.sampled_lti_integrals import _substep, partial_integral
 from feedtune.spec import parse_spec
 from feedtune.tuner import Bound, Problem, Settings, Term, Variable
 
@@ -526,3 +526,31 @@ def test_discrete_plant_equals_the_continuous_one_at_its_period():
 def test_bad_models_name_the_field(build, pointer):
     with pytest.raises(SampledModelError, match=pointer):
         build()
+
+
+@pytest.mark.parametrize("roots", [(0.3, 0.6), (0.45, 0.4501), (0.2, 0.95)])
+def test_substep_cuts_two_zeros_and_the_extremum(roots):
+    """∫|e|, ∫t|e| and ∫e² of e = (x − a)(x − b)(x + 2) on one sub-step [0, 1] (h = 2 ms,
+    starting at t = 5 ms): two zeros and an extremum between them, the case where a loop's
+    error overshoots and returns within one sample (rare: no loop of the tests does it)."""
+    a, b = roots
+    e = np.polymul(np.polymul([1, -a], [1, -b]), [1, 2])  # highest power first
+    coefficients = [ca.DM(c) for c in e[::-1]]  # ascending, as the loop gives them
+    h, start = 2e-3, 5e-3
+    cuts = [0.0, a, b, 1.0]
+
+    def integral(poly, lo, hi):
+        antiderivative = np.polyint(poly)
+        return np.polyval(antiderivative, hi) - np.polyval(antiderivative, lo)
+
+    time_weighted = np.polyadd(np.polymul([h, start], e), [0])  # (t_start + h x)·e
+    expected = {
+        "iae": h * sum(abs(integral(e, lo, hi)) for lo, hi in zip(cuts, cuts[1:])),
+        "itae": h * sum(abs(integral(time_weighted, lo, hi)) for lo, hi in zip(cuts, cuts[1:])),
+        "ise": h * integral(np.polymul(e, e), 0, 1),
+    }
+    for name, value in expected.items():
+        mine = float(_substep(coefficients, 1.0, h, start, name))
+        # e is O(1) on [0, 1]: 1e-14 of h (m·s), of h·(t + h) (m·s²)
+        scale = h * (start + h) if name == "itae" else h
+        assert abs(mine - value) <= 1e-14 * scale
