@@ -554,3 +554,19 @@ def test_substep_cuts_two_zeros_and_the_extremum(roots):
         # e is O(1) on [0, 1]: 1e-14 of h (m·s), of h·(t + h) (m·s²)
         scale = h * (start + h) if name == "itae" else h
         assert abs(mine - value) <= 1e-14 * scale
+
+
+@pytest.mark.parametrize("velocity_gain, stable", [(0.2, True), (0.6, True), (1.0, False),
+                                                   (1.5, False)])
+def test_schur_conditions_agree_with_eigenvalues(velocity_gain, stable):
+    """The tuner's stability rows (Hurwitz conditions of the bilinear map) hold exactly when
+    every pole is inside the unit circle: K_V = 1 N·m·s/rad destabilises the loop."""
+    a, b, c = two_mass()
+    controller = cascade_controller(K_P, [velocity_gain * T_I, velocity_gain], [T_I, 0], PERIOD)
+    loop = SampledLTILoop(ContinuousPlant(a, b, c, dead_time=1.5 * PERIOD), controller, PERIOD,
+                          (PERIOD, PERIOD))
+    radius = np.max(np.abs(np.linalg.eigvals(evaluate(loop.state_matrix))))
+    conditions = [scalar(x) for x in loop.stability_conditions()]
+    assert abs(radius - 1) > 1e-3  # clear of the boundary: the verdict is not rounding
+    assert (radius < 1) == stable
+    assert all(x > 0 for x in conditions) == stable
