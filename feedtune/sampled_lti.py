@@ -285,12 +285,17 @@ class SampledLTILoop(_LoopBase):
         decayed by SETTLED (as :attr:`feedtune.loop.SampledLoop.horizon_samples`)."""
         radius = self._numeric_spectral_radius
         if radius is None:
-            return self._within_limit(math.ceil(self.horizon / self.period_min),
-                                      MAX_HORIZON_SAMPLES)
+            return self.symbolic_horizon_samples
         samples = math.ceil(self.horizon / float(ca.evalf(ca.MX(self.period))))
         if 0 < radius < 1:
             samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
         return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
+
+    @property
+    def symbolic_horizon_samples(self) -> int:
+        """:attr:`horizon_samples` of this loop built on symbols, ``horizon / T_min``, from
+        the numbers alone (no expression is built; feedtune.spec checks it)."""
+        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
 
     def _within_limit(self, samples: int, limit: int) -> int:
         if samples > limit:

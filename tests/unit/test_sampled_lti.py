@@ -570,3 +570,25 @@ def test_schur_conditions_agree_with_eigenvalues(velocity_gain, stable):
     assert abs(radius - 1) > 1e-3  # clear of the boundary: the verdict is not rounding
     assert (radius < 1) == stable
     assert all(x > 0 for x in conditions) == stable
+
+
+#: what metrics, the tuner and feedtune.spec read from a sampled loop
+LOOP_INTERFACE = ("discrete", "period", "period_min", "horizon", "order", "drive",
+                  "interpolator", "has_exact_step_error", "horizon_samples",
+                  "symbolic_horizon_samples", "unrolled_steps")
+
+
+def test_loop_interface_equals_sampled_loop():
+    """The attributes the rest of feedtune reads give the same answers on Koren's loop."""
+    k, t = ca.MX.sym("K"), ca.MX.sym("T")
+    for gain, period in ((17.0, 1 / 64), (k, t)):
+        reference, general = koren_pair(gain, period, 1, box=(2e-3, 0.02), horizon=0.5)
+        for name in LOOP_INTERFACE:
+            assert getattr(general, name) is getattr(reference, name) or (
+                getattr(general, name) == getattr(reference, name)), name
+        for method in ("stability_conditions", "settling_conditions", "stability_matrices",
+                       "characteristic_polynomial", "velocity_constant", "state_matrix",
+                       "input_matrix", "position_row", "frequency_response",
+                       "error_response", "step_error_integrals"):
+            assert hasattr(general, method), method
+    assert general.symbolic_horizon_samples == 250  # 0.5 s / 2 ms
