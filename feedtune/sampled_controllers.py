@@ -105,14 +105,20 @@ def cascade_controller(position_gain, velocity_numerator: list, velocity_denomin
                        period, method: str = "tustin", feedforward: bool = False):
     """P position loop around a velocity controller (e.g. PI K(1 + 1/(T_i s))).
 
-    v_ref = K_p(r − y) (+ the reference's backward difference (r(k) − r(k−1))/T with
-    ``feedforward``, not offered yet), u = C_v(z)·(v_ref − v); K_p [1/s], v the sampled
-    velocity C A x.
+    v_ref = K_p(r − y), u = C_v(z)·(v_ref − v); K_p [1/s], v the sampled velocity C A x.
+    With ``feedforward`` v_ref also carries the reference's velocity (r(k) − r(k−1))/T, one
+    more state holding r(k−1): a ramp is then followed without steady error.
     """
-    if feedforward:
-        raise NotImplementedError("velocity feed-forward is not implemented")
     a, b, c, d = transfer_state_space(
         *discretise_transfer(velocity_numerator, velocity_denominator, period, method))
     weights = ca.horzcat(position_gain, -position_gain, -1)  # v_ref − v
-    return DiscreteController(a, ca.mtimes(b, weights), c, ca.mtimes(d, weights),
-                              uses_velocity=True)
+    if not feedforward:
+        return DiscreteController(a, ca.mtimes(b, weights), c, ca.mtimes(d, weights),
+                                  uses_velocity=True)
+    # states [x_v, r(k−1)]: e_v = (K_p + 1/T) r − K_p y − v − r(k−1)/T
+    weights = weights + ca.horzcat(1 / period, 0, 0)
+    order = a.shape[0]
+    a_ff = ca.vertcat(ca.horzcat(a, -b / period), ca.MX.zeros(1, order + 1))
+    b_ff = ca.vertcat(ca.mtimes(b, weights), ca.horzcat(1, 0, 0))
+    c_ff = ca.horzcat(c, -d / period)
+    return DiscreteController(a_ff, b_ff, c_ff, ca.mtimes(d, weights), uses_velocity=True)

@@ -592,3 +592,29 @@ def test_loop_interface_equals_sampled_loop():
                        "error_response", "step_error_integrals"):
             assert hasattr(general, method), method
     assert general.symbolic_horizon_samples == 250  # 0.5 s / 2 ms
+
+
+def test_velocity_feedforward_follows_a_ramp_without_steady_error():
+    a, b, c = two_mass()
+    loops = {}
+    for feedforward in (False, True):
+        controller = cascade_controller(K_P, [K_V * T_I, K_V], [T_I, 0], PERIOD,
+                                        feedforward=feedforward)
+        loops[feedforward] = SampledLTILoop(ContinuousPlant(a, b, c, dead_time=1.5 * PERIOD),
+                                            controller, PERIOD, (PERIOD, PERIOD))
+
+    def ramp_error(loop):  # e_ss [rad] of r(k) = kT·1 rad/s: T·C(I − Φ)⁻²Γ
+        phi, gamma = evaluate(loop.state_matrix), evaluate(loop.input_matrix)
+        eye = np.eye(loop.order)
+        settled = np.linalg.solve(eye - phi, np.linalg.solve(eye - phi, gamma))
+        return PERIOD * (evaluate(loop.position_row) @ settled).item()
+
+    assert ramp_error(loops[False]) == pytest.approx(1 / K_P, rel=1e-9)  # C_v = K_p
+    # against the 1/K_p = 50 mrad the P loop leaves: the feed-forward cancels it
+    assert abs(ramp_error(loops[True])) <= 1e-9 / K_P
+    # one more pole, at z = 0 (the state r(k−1)); the others unchanged
+    with_ff = np.sort_complex(np.linalg.eigvals(evaluate(loops[True].state_matrix)))
+    without = np.sort_complex(np.linalg.eigvals(evaluate(loops[False].state_matrix)))
+    assert len(with_ff) == len(without) + 1
+    nonzero = with_ff[np.abs(with_ff) > 1e-6]
+    assert np.max(np.min(np.abs(nonzero[:, None] - without[None, :]), axis=1)) <= 1e-9
