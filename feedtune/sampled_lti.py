@@ -19,7 +19,7 @@ the metrics and the tuner take it unchanged. The integrals are in
 References
 ----------
 Koren 1979, sampled-data loop (Fig 4, eqs 14–19); Franklin, Powell & Workman, *Digital
-Control of Dynamic Systems*, §4.3.4 (ZOH equivalent with a fractional input delay).
+Control of Dynamic Systems*, ch. 4 (ZOH models with a fractional input delay).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ class SampledLTILoop(_LoopBase):
     State at sample k: [plant x (n), controller x_c, u(k−1), …, u(k−L)], with L the held
     commands still in flight: the computation delay c plus the dead time's whole samples
     d, plus one when a fractional part θ_f remains (the plant then sees u(k−c−d−1) for θ_f
-    and u(k−c−d) for T − θ_f of each period; Franklin, Powell & Workman §4.3.4).
+    and u(k−c−d) for T − θ_f of each period; Franklin, Powell & Workman, ch. 4).
 
     Attributes
     ----------
@@ -114,7 +114,7 @@ class SampledLTILoop(_LoopBase):
         return expm_function(m, self.period_box[1])
 
     def _hold(self, h):
-        """(e^{Ah}, ∫₀ʰe^{As}ds·B) over h [s] (ZOH, Franklin, Powell & Workman eq 4.58)."""
+        """(e^{Ah}, ∫₀ʰe^{As}ds·B) over h [s] (ZOH)."""
         n = self.plant.order
         e = self._hold_exponential(h)
         return e[:n, :n], e[:n, n]
@@ -144,7 +144,8 @@ class SampledLTILoop(_LoopBase):
 
     @cached_property
     def _measurement(self):
-        """(rows mapping x to [r-free y, v]): w = [r, C x, C A x]."""
+        """(C, C A or 0): the rows that give the controller's sampled position and velocity,
+        w = [r, C x, C A x]."""
         c = ca.DM(self.plant.c)
         velocity = (ca.DM(self.plant.velocity_row) if self.controller.uses_velocity
                     else ca.DM.zeros(1, self.plant.order))

@@ -6,8 +6,8 @@ expression of a tunable t, so the sampling period may be a decision variable.
 
 References
 ----------
-Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, §4.3 (ZOH equivalent,
-fractional input delay); Higham, *Functions of Matrices*, §10.3 (scaling and squaring).
+Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, ch. 4 (ZOH models,
+fractional input delay); Higham, *Functions of Matrices*, ch. 10 (scaling and squaring).
 """
 
 from __future__ import annotations
