@@ -13,7 +13,7 @@ from feedtune.sampled_plants import SampledModelError
 CONTROLLER_INPUTS = ("reference", "position", "velocity")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DiscreteController:
     """x_c(k+1) = A_c x_c + B_c w(k), u(k) = C_c x_c + D_c w(k), w = [r, y, v] at sample k.
 

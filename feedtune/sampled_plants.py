@@ -87,7 +87,7 @@ def expm_function(matrix, t_max: float) -> ca.Function:
     return ca.Function("expm", [t], [undo])
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ContinuousPlant:
     """ẋ = A x + B u(t − θ), position y = C x + D u; SISO, numbers.
 
@@ -176,7 +176,7 @@ class ContinuousPlant:
         return whole, fraction
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class DiscretePlant:
     """x(k+1) = A_d x(k) + B_d u(k − delay_samples), position C_d x(k); period fixed [s].
 
