@@ -1,0 +1,331 @@
+"""General sampled-data loop: any SISO LTI drive behind a zero-order hold, any discrete controller.
+
+A continuous plant ẋ = A x + B u(t − θ), position y = C x (numeric state space, input dead
+time θ ≥ 0), or a discrete plant (A_d, B_d, C_d) with its own period, is sampled every T; a
+discrete controller in state space (:class:`DiscreteController`, its matrices expressions
+of T and the tunables) reads the reference, the sampled position and, for a cascade, the
+sampled velocity; its output is held by a ZOH ``delay`` whole samples later. T may be a
+tunable: the plant's transition e^{AT} and ∫₀ᵀe^{As}ds·B are CasADi expressions of T
+(:func:`feedtune.sampled_plants.expm_function`), exact to rounding and differentiable.
+Plants are in :mod:`feedtune.sampled_plants`, controllers in
+:mod:`feedtune.sampled_controllers`.
+
+:class:`SampledLTILoop` offers the Loop interface of :class:`feedtune.loop.SampledLoop`
+(state matrices, characteristic polynomial, Schur conditions, C_v, frequency and error
+responses at z = e^{jωT} up to Nyquist, exact step-error integrals between samples), so
+the metrics and the tuner take it unchanged. The integrals are in
+:mod:`feedtune.sampled_lti_integrals`.
+
+References
+----------
+Koren 1979, sampled-data loop (Fig 4, eqs 14–19); Franklin, Powell & Workman, *Digital
+Control of Dynamic Systems*, ch. 4 (ZOH models with a fractional input delay).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+from feedtune import linalg
+from feedtune.lazy import ca, np
+from feedtune.loop import (MAX_HORIZON_SAMPLES, SETTLE_FRACTION, SETTLED, Drive, HorizonError,
+                           Interpolator, StepIntegrals, _LoopBase, _pole_pair)
+from feedtune.sampled_controllers import DiscreteController
+from feedtune.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
+                                     expm_function)
+
+
+@dataclass(frozen=True, eq=False)
+class SampledLTILoop(_LoopBase):
+    """Sampled-data loop of an LTI plant, a ZOH and a discrete controller, exact between samples.
+
+    State at sample k: [plant x (n), controller x_c, u(k−1), …, u(k−L)], with L the held
+    commands still in flight: the computation delay c plus the dead time's whole samples
+    d, plus one when a fractional part θ_f remains (the plant then sees u(k−c−d−1) for θ_f
+    and u(k−c−d) for T − θ_f of each period; Franklin, Powell & Workman, ch. 4).
+
+    Attributes
+    ----------
+    plant : ContinuousPlant or DiscretePlant
+    controller : DiscreteController
+    period : expression
+        Sampling period T [s]; a DiscretePlant's own period.
+    period_box : (float, float)
+        (T_min, T_max) [s]: the box of T (equal for a fixed T).
+    delay : int
+        Computation delay in whole samples.
+    horizon : float
+        Time [s] after which every loop in the tuning box has settled; the step integrals
+        are summed over ``horizon / T_min`` samples, then in closed form.
+    drive : Drive
+    interpolator : Interpolator or None
+    """
+
+    plant: ContinuousPlant | DiscretePlant
+    controller: DiscreteController
+    period: object
+    period_box: tuple = (1e-3, 1e-3)
+    delay: int = 0
+    horizon: float = 1.0
+    drive: Drive = field(default_factory=Drive)
+    interpolator: Interpolator | None = None
+    discrete = True
+
+    def __post_init__(self):
+        if int(self.delay) != self.delay or self.delay < 0:
+            raise SampledModelError(f"/controller/delay: {self.delay}, must be a whole number "
+                                    "of samples ≥ 0")
+        low, high = self.period_box
+        if not (0 < low <= high):
+            raise SampledModelError(f"/tunables/sampling_period: box {self.period_box} s, "
+                                    "need 0 < min ≤ max")
+        if isinstance(self.plant, DiscretePlant):
+            if not (low == high and abs(low - self.plant.period) <= 1e-12 * self.plant.period):
+                raise SampledModelError(
+                    f"/tunables/sampling_period: a discrete plant runs at its own period "
+                    f"{self.plant.period:g} s; the sampling period must be fixed to it")
+
+    @property
+    def period_min(self) -> float:
+        return self.period_box[0]
+
+    # -- discretisation -----------------------------------------------------------------
+
+    @cached_property
+    def _split(self):
+        """(whole dead-time samples d, fractional dead time θ_f [s] or 0)."""
+        if isinstance(self.plant, DiscretePlant):
+            return self.plant.dead_time_samples, 0
+        return self.plant.split_dead_time(self.period, self.period_box)
+
+    @property
+    def has_fraction(self) -> bool:
+        return not (isinstance(self._split[1], (int, float)) and self._split[1] == 0)
+
+    @cached_property
+    def _hold_exponential(self) -> ca.Function:
+        """h ↦ e^{M h} of M = [[A, B], [0, 0]]: [[e^{Ah}, ∫₀ʰe^{As}ds B], [0, 1]], h ≤ T_max."""
+        a, b = self.plant.a, self.plant.b
+        n = self.plant.order
+        m = np.zeros((n + 1, n + 1))
+        m[:n, :n], m[:n, n:] = a, b
+        return expm_function(m, self.period_box[1])
+
+    def _hold(self, h):
+        """(e^{Ah}, ∫₀ʰe^{As}ds·B) over h [s] (ZOH)."""
+        n = self.plant.order
+        e = self._hold_exponential(h)
+        return e[:n, :n], e[:n, n]
+
+    @cached_property
+    def plant_transition(self):
+        """(Φ, Γ₀, Γ₁): x(k+1) = Φx(k) + Γ₀u(k−c−d) + Γ₁u(k−c−d−1)."""
+        if isinstance(self.plant, DiscretePlant):
+            n = self.plant.order
+            return ca.DM(self.plant.a), ca.DM(self.plant.b), ca.DM.zeros(n, 1)
+        fraction = self._split[1]
+        if not self.has_fraction:
+            phi, gamma = self._hold(self.period)
+            return phi, gamma, ca.DM.zeros(self.plant.order, 1)
+        late_phi, late_gamma = self._hold(self.period - fraction)
+        early_phi, early_gamma = self._hold(fraction)
+        return (ca.mtimes(late_phi, early_phi), late_gamma, ca.mtimes(late_phi, early_gamma))
+
+    @property
+    def held_samples(self) -> int:
+        """L: past commands kept as states."""
+        return self.delay + self._split[0] + (1 if self.has_fraction else 0)
+
+    @property
+    def order(self) -> int:
+        return self.plant.order + self.controller.order + self.held_samples
+
+    @cached_property
+    def _measurement(self):
+        """(C, C A or 0): the rows that give the controller's sampled position and velocity,
+        w = [r, C x, C A x]."""
+        c = ca.DM(self.plant.c)
+        velocity = (ca.DM(self.plant.velocity_row) if self.controller.uses_velocity
+                    else ca.DM.zeros(1, self.plant.order))
+        return c, velocity
+
+    def command(self, lag: int):
+        """(K, k): u(k − lag) = K·state + k·r, the command ``lag`` samples old."""
+        n, nc, total = self.plant.order, self.controller.order, self.order
+        if lag == 0:
+            c, velocity = self._measurement
+            dc = ca.MX(self.controller.d)
+            kx = dc[0, 1] * c + dc[0, 2] * velocity
+            row = ca.horzcat(kx, ca.MX(self.controller.c), ca.MX.zeros(1, self.held_samples))
+            return row, dc[0, 0]
+        row = ca.DM.zeros(1, total)
+        row[0, n + nc + lag - 1] = 1
+        return ca.MX(row), 0
+
+    @cached_property
+    def _matrices(self):
+        n, nc, held = self.plant.order, self.controller.order, self.held_samples
+        total = self.order
+        phi_p, gamma0, gamma1 = self.plant_transition
+        lag = self.delay + self._split[0]
+        k0, r0 = self.command(lag)
+        rows = [ca.horzcat(phi_p, ca.MX.zeros(n, total - n)) + ca.mtimes(gamma0, k0)]
+        inputs = [gamma0 * r0]
+        if self.has_fraction:
+            k1, r1 = self.command(lag + 1)
+            rows[0] = rows[0] + ca.mtimes(gamma1, k1)
+            inputs[0] = inputs[0] + gamma1 * r1
+        if nc:
+            c, velocity = self._measurement
+            bc = ca.MX(self.controller.b)
+            x_part = ca.mtimes(bc[:, 1], c) + ca.mtimes(bc[:, 2], velocity)
+            rows.append(ca.horzcat(x_part, ca.MX(self.controller.a), ca.MX.zeros(nc, held)))
+            inputs.append(bc[:, 0])
+        if held:
+            k_now, r_now = self.command(0)
+            shift = ca.horzcat(ca.DM.zeros(held - 1, n + nc), ca.DM.eye(held - 1),
+                               ca.DM.zeros(held - 1, 1)) if held > 1 else ca.DM.zeros(0, total)
+            rows += [k_now, ca.MX(shift)]
+            inputs += [r_now, ca.MX.zeros(held - 1, 1)]
+        return ca.vertcat(*rows), ca.vertcat(*[ca.MX(i) for i in inputs])
+
+    @property
+    def state_matrix(self):
+        """Φ_cl: state(k+1) = Φ_cl state(k) + Γ_cl r(k)."""
+        return self._matrices[0]
+
+    @property
+    def input_matrix(self):
+        return self._matrices[1]
+
+    @property
+    def position_row(self):
+        return ca.horzcat(ca.DM(self.plant.c), ca.DM.zeros(1, self.order - self.plant.order))
+
+    # -- responses ----------------------------------------------------------------------
+
+    def _resolvent(self, omega, rhs):
+        n = self.order
+        wt = omega * self.period
+        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
+                                      ca.sin(wt) * ca.DM.eye(n), rhs)
+        c = self.position_row
+        return ca.mtimes(c, re), ca.mtimes(c, im)
+
+    def frequency_response(self, omega):
+        """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s] ≤ π/T."""
+        return self._resolvent(omega, self.input_matrix)
+
+    def error_response(self, omega):
+        """Re and Im of S = 1 − H at z = e^{jωT}: (z − 1)·C(zI − Φ)⁻¹(I − Φ)⁻¹Γ, exact at
+        low ω for a loop that follows a constant reference (H(1) = 1)."""
+        settled = linalg.solve(ca.DM.eye(self.order) - self.state_matrix, self.input_matrix)
+        re, im = self._resolvent(omega, settled)
+        wt = omega * self.period
+        d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
+        return d_re * re - d_im * im, d_re * im + d_im * re
+
+    @property
+    def nyquist_frequency(self):
+        """π/T [rad/s]: the frequency responses are defined up to here."""
+        return ca.pi / self.period
+
+    @property
+    def velocity_constant(self):
+        """C_v = 1/e_ss of a unit ramp r(k) = kT [1/s]: e_ss = T·C(I − Φ)⁻²Γ for a type-1
+        loop (H(1) = 1), from E(z) = (1 − H)·Tz/(z − 1)²; Koren eq 5 in the sampled case."""
+        eye = ca.DM.eye(self.order)
+        once = linalg.solve(eye - self.state_matrix, self.input_matrix)
+        twice = linalg.solve(eye - self.state_matrix, once)
+        return 1 / (self.period * ca.mtimes(self.position_row, twice))
+
+    @cached_property
+    def _equivalent_poles(self):
+        _, c1, c0 = self.characteristic_polynomial
+        return _pole_pair()(c1, c0)
+
+    def natural_frequency(self):
+        """ω_n [rad/s] of the pole pair s = ln(z)/T (order-2 loops, Koren eqs 17–19)."""
+        return self._equivalent_poles[1] / self.period
+
+    def damping_ratio(self):
+        """ζ of the pole pair s = ln(z)/T (order-2 loops, Koren eq 19)."""
+        return self._equivalent_poles[0]
+
+    # -- step-error integrals -----------------------------------------------------------
+
+    @property
+    def has_exact_step_error(self) -> bool:
+        """A continuous plant: its intersample error is integrated exactly."""
+        return isinstance(self.plant, ContinuousPlant)
+
+    @property
+    def unrolled_steps(self) -> int:
+        return self.horizon_samples if "step_error_integrals" in self.__dict__ else 0
+
+    def settling_conditions(self) -> list:
+        """Schur conditions of p(r·z), r = SETTLE_FRACTION^(1/N), once the step integrals are
+        in use (as :meth:`feedtune.loop.SampledLoop.settling_conditions`)."""
+        if "step_error_integrals" not in self.__dict__:
+            return []
+        radius = SETTLE_FRACTION ** (1 / self.horizon_samples)
+        scaled = [c * radius ** (-k) for k, c in enumerate(self.characteristic_polynomial)]
+        return linalg.hurwitz_conditions(linalg.bilinear_to_continuous(scaled))
+
+    @cached_property
+    def _numeric_spectral_radius(self) -> float | None:
+        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
+            return None
+        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
+
+    @property
+    def horizon_samples(self) -> int:
+        """``horizon / T_min`` samples; a loop of numbers also runs until its free response
+        decayed by SETTLED (as :attr:`feedtune.loop.SampledLoop.horizon_samples`)."""
+        radius = self._numeric_spectral_radius
+        if radius is None:
+            return self.symbolic_horizon_samples
+        samples = math.ceil(self.horizon / float(ca.evalf(ca.MX(self.period))))
+        if 0 < radius < 1:
+            samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
+        return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
+
+    @property
+    def symbolic_horizon_samples(self) -> int:
+        """:attr:`horizon_samples` of this loop built on symbols, ``horizon / T_min``, from
+        the numbers alone (no expression is built; feedtune.spec checks it)."""
+        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
+
+    def _within_limit(self, samples: int, limit: int) -> int:
+        if samples > limit:
+            raise HorizonError(
+                f"a step response over {self.horizon:.3g} s at periods down to "
+                f"{self.period_min:.3g} s needs {samples} samples (limit {limit})")
+        return samples
+
+    @cached_property
+    def step_error_integrals(self) -> StepIntegrals:
+        """IAE [m·s], ISE [m²·s], ITAE [m·s²] after a unit position step, intersample
+        included (:func:`feedtune.sampled_lti_integrals.step_integral`)."""
+        if not self.has_exact_step_error:
+            raise NotImplementedError("a discrete plant model has no intersample response")
+        from feedtune.sampled_lti_integrals import step_integral
+
+        radius = self._numeric_spectral_radius
+        if radius is not None and radius >= 1:
+            return StepIntegrals(lambda name: math.inf)  # unstable: never settles
+        samples = self.horizon_samples
+        return StepIntegrals(lambda name: step_integral(self, name, samples,
+                                                        numeric=radius is not None))
+
+    def segments(self):
+        """The held inputs inside one period: [(length [s], K, k)], u = K·state + k·r on a
+        segment of that length, in time order."""
+        lag = self.delay + self._split[0]
+        late = self.command(lag)
+        if not self.has_fraction:
+            return [(self.period, *late)]
+        fraction = self._split[1]
+        return [(fraction, *self.command(lag + 1)), (self.period - fraction, *late)]
