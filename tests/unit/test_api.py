@@ -126,7 +126,7 @@ def test_a_spec_built_in_code_is_checked_as_a_file_is():
     refuses (an unknown tunable, a metric the plant does not define), naming each field."""
     data = spec_dict()
     data["tunables"]["nonsense"] = {"value": 1}
-    data["objective"].append({"metric": "m_peak"})
+    data["objective"].append({"metric": "sensitivity"})
     spec = feedtune.Spec.model_validate(data)  # the schema alone lets it through
     with pytest.raises(feedtune.SpecError) as info:
         feedtune.tune(spec)
