@@ -11,6 +11,7 @@ independent one, so a result is not judged by the code that produced it.
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import casadi as ca
@@ -21,6 +22,14 @@ from feedtune.tuner.types import Bound, within
 
 #: scaled Hurwitz conditions must exceed this [1]
 STABILITY_MARGIN = 1e-9
+#: largest scale s_c of a stability condition's row asinh(c/s_c) [1]. The loops' conditions
+#: are Hurwitz conditions of frequency-balanced polynomials (constant term ±1), so 1 is
+#: their natural unit; a start's value can be far larger (4e12 on the Ward-Leonard example,
+#: whose roots span 0.01-1000 rad/s). Scaled by that, a loop with minors of −4e4 (poles at
+#: +19 ± 22j rad/s, Ward-Leonard variant 01) read −1e-8, inside IPOPT's tolerance, and was
+#: returned as "optimal". A condition large at the start loses nothing by the cap (asinh is
+#: logarithmic there); one smaller than 1 keeps its own scale, so c/s_c ≥ 1 at the start
+STABILITY_SCALE_CAP = 1.0
 #: a pole must clear the boundary by this much: |z| < 1 − margin, Re s < −margin·|s| [1]
 POLE_MARGIN = 1e-9
 #: loop evaluations a start may spend looking for stability
@@ -72,14 +81,34 @@ def add_stability_rows(builder: NlpBuilder, stability: list, settling: list,
                        stability_ref: list, settling_ref: list) -> list:
     """Rows asinh(c/s_c) ≥ STABILITY_MARGIN for every stability condition and c/s_c for
     every settling condition, each scale a parameter; returns the scaled settling
-    conditions (checked after solving: an active one means the horizon limited it)."""
-    stability_rows = [ca.asinh(c / builder.parameter(f"stability_scale{i}", scale(ref)))
+    conditions (checked after solving: an active one means the horizon limited it).
+
+    A stability condition's scale is its smallest magnitude at the starts, at most
+    :data:`STABILITY_SCALE_CAP`."""
+    stability_rows = [ca.asinh(c / builder.parameter(f"stability_scale{i}",
+                                                     min(scale(ref), STABILITY_SCALE_CAP)))
                       for i, (c, ref) in enumerate(zip(stability, stability_ref))]
     scaled_settling = [c / builder.parameter(f"settling_scale{i}", scale(ref))
                        for i, (c, ref) in enumerate(zip(settling, settling_ref))]
     for condition in stability_rows + scaled_settling:
         builder.constrain(condition, STABILITY_MARGIN, ca.inf)
     return scaled_settling
+
+
+def nan_where_unstable(f, conditions: list):
+    """``f`` where every stability condition is positive, NaN elsewhere.
+
+    IPOPT treats a NaN as a step too long and backs off along it, so an NLP whose
+    objective this is never takes an iterate out of the stable region (its start is
+    stable: see :func:`restore`). Peaks and crossings over frequency need it: the
+    frequency response of an unstable loop is finite and may look better than any stable
+    one, and a pole pair crosses the jω axis between two grid frequencies in one step
+    (measured on Ward-Leonard variant 08: IPOPT ended on a closed loop with poles at
+    +26 ± 30j rad/s, M_peak 1.0005, where its stability rows could not bring it back).
+    """
+    if not conditions:
+        return f
+    return f + ca.if_else(ca.mmin(ca.vertcat(*conditions)) > 0, 0, math.nan)
 
 
 def restore(z0: np.ndarray, evaluate: Callable, lower: np.ndarray, upper: np.ndarray,
