@@ -385,7 +385,11 @@ class Problem:
             solution = Solution(x0, p, np.asarray(result["lam_g"], dtype=float).ravel(),
                                 np.asarray(result["lam_x"], dtype=float).ravel(), lbg.copy(),
                                 ubg.copy())
-            duals = (solution.lam_g, solution.lam_x)
+            # only a solved round's multipliers are worth going on from: at an iteration
+            # limit they are an unconverged guess, and a small barrier parameter on top of it
+            # leads IPOPT astray (measured on a Rosenbrock toy, tests/unit/test_tuner_terms.py)
+            duals = ((solution.lam_g, solution.lam_x) if STATUS.get(return_status) in SOLVED
+                     else None)
             self._last_state = (x0, p_scale, slots.copy(), lbg.copy(), ubg.copy(), list(used),
                                 duals)
             if STATUS.get(return_status) not in SOLVED:
