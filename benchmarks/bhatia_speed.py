@@ -70,8 +70,8 @@ NOT_CONSTANTS = {"type", "velocity_compensator", "position_compensator", "stable
 #: the tuner with warm-started, peak-following exchange rounds kept in the stable region
 #: (h-wl, 2026-11-25): 25.5627 rad/s (K'_p = K'_v = 1000, position τ12 = 40.8 s), above the
 #: 25.5571 rad/s that 8 starts of the previous tuners found (K'_v = 905, τ12 = 100 s).
-#: Ward-Leonard variant 05: 8 starts of the code at 90bb3e2; 04 and 06: 8 starts of h-wl's
-#: tuner (load 9-11). 07-12 have no 8-start run yet.
+#: Ward-Leonard variant 05: 8 starts of the code at 90bb3e2; 04, 06 and 08: 8 starts of
+#: h-wl's tuner (load 9-11). 07, 09-12 have no 8-start run yet.
 REFERENCE: dict[str, float] = {
     "bhatia-1971-hydraulic": 689.7739082816353,
     "ward-leonard-feed-drive": 25.562727141970303,
@@ -93,6 +93,7 @@ REFERENCE: dict[str, float] = {
     "ward-leonard-feed-drive-variant04": 25.268096187404634,
     "ward-leonard-feed-drive-variant05": 26.3928312704574,
     "ward-leonard-feed-drive-variant06": 26.89975429429867,
+    "ward-leonard-feed-drive-variant08": 22.02674332875889,
 }
 
 
