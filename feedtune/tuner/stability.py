@@ -11,6 +11,7 @@ independent one, so a result is not judged by the code that produced it.
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import casadi as ca
@@ -72,7 +73,14 @@ def add_stability_rows(builder: NlpBuilder, stability: list, settling: list,
                        stability_ref: list, settling_ref: list) -> list:
     """Rows asinh(c/s_c) ≥ STABILITY_MARGIN for every stability condition and c/s_c for
     every settling condition, each scale a parameter; returns the scaled settling
-    conditions (checked after solving: an active one means the horizon limited it)."""
+    conditions (checked after solving: an active one means the horizon limited it).
+
+    A row scaled by a start's large condition reads a violation far from that start as
+    nearly 0 (Ward-Leonard variant 01: minors of 4e12 at the start, −4e4 at an unstable end
+    point, read −1e-8); where peaks and crossings over frequency are bounded, the NLP's
+    objective keeps its iterates stable instead (:func:`nan_where_unstable`). Capping the
+    scale at 1 was tried: it broke the one-gain hydraulic bandwidth tuning of
+    tests/unit/test_tuner_frequency.py (IPOPT: infeasible) and is not needed with that."""
     stability_rows = [ca.asinh(c / builder.parameter(f"stability_scale{i}", scale(ref)))
                       for i, (c, ref) in enumerate(zip(stability, stability_ref))]
     scaled_settling = [c / builder.parameter(f"settling_scale{i}", scale(ref))
@@ -80,6 +88,22 @@ def add_stability_rows(builder: NlpBuilder, stability: list, settling: list,
     for condition in stability_rows + scaled_settling:
         builder.constrain(condition, STABILITY_MARGIN, ca.inf)
     return scaled_settling
+
+
+def nan_where_unstable(f, conditions: list):
+    """``f`` where every stability condition is positive, NaN elsewhere.
+
+    IPOPT treats a NaN as a step too long and backs off along it, so an NLP whose
+    objective this is never takes an iterate out of the stable region (its start is
+    stable: see :func:`restore`). Peaks and crossings over frequency need it: the
+    frequency response of an unstable loop is finite and may look better than any stable
+    one, and a pole pair crosses the jω axis between two grid frequencies in one step
+    (measured on Ward-Leonard variant 08: IPOPT ended on a closed loop with poles at
+    +26 ± 30j rad/s, M_peak 1.0005, where its stability rows could not bring it back).
+    """
+    if not conditions:
+        return f
+    return f + ca.if_else(ca.mmin(ca.vertcat(*conditions)) > 0, 0, math.nan)
 
 
 def restore(z0: np.ndarray, evaluate: Callable, lower: np.ndarray, upper: np.ndarray,

@@ -7,7 +7,7 @@ import numpy as np
 
 from feedtune.tuner.builder import NlpBuilder
 from feedtune.tuner.stability import (POLE_MARGIN, STABILITY_MARGIN, add_stability_rows,
-                                      feasibility, poles_stable, restore)
+                                      feasibility, nan_where_unstable, poles_stable, restore)
 from feedtune.tuner.types import Bound, Variable
 
 
@@ -49,6 +49,14 @@ def test_stability_rows_are_asinh_of_scaled_conditions():
     row = ca.Function("row", [builder.z, builder.p], builder.rows)
     value = float(row(math.log(0.5), builder.param_values))
     assert math.isclose(value, math.asinh(0.5 / 1e3), rel_tol=1e-12)
+
+
+def test_the_objective_is_nan_outside_the_stable_region():
+    k = ca.MX.sym("k")
+    f = ca.Function("f", [k], [nan_where_unstable(k**2, [1 - k, k + 5])])
+    assert float(f(0.5)) == 0.25 and float(f(-2.0)) == 4.0
+    assert math.isnan(float(f(1.0))) and math.isnan(float(f(2.0))) and math.isnan(float(f(-5)))
+    assert nan_where_unstable(k, []) is k  # nothing to guard
 
 
 def test_restoration_keeps_a_stable_start_and_moves_an_unstable_one():

@@ -5,6 +5,7 @@ on a grid that misses ω = 1 the grid alone would allow a larger k than the true
 """
 
 import math
+import time
 
 import casadi as ca
 import numpy as np
@@ -17,7 +18,7 @@ from feedtune.tuner.nlp import Problem
 from feedtune.expr import Crossing
 from feedtune.tuner.supremum import (EXCHANGE_POINTS, EXCHANGE_TOL, ROW_STRIDE, ExchangeGroup,
                                      FrequencyFunction, add_exchange_points,
-                                     make_scan, refined_maximum, supremum_below)
+                                     make_scan, refined_maximum, supremum_below, tracked)
 from feedtune.tuner.types import Bound, Settings, Term, Variable
 
 GRID = np.array([0.1, 0.5, 2.0, 10.0])  # rad/s; the peak at 1 rad/s falls between points
@@ -148,3 +149,55 @@ def test_every_violated_peak_gets_a_point_in_one_round_while_points_last():
     pairs = [(0.3, 5.0), (0.1, 3.0), (EXCHANGE_TOL / 2, 9.0), (0.05, 7.0)]
     assert add_exchange_points([_group()], [pairs], slots, lbg, ubg, used) is True
     assert used == [2] and list(slots) == [5.0, 3.0]  # the third violated one finds no slot
+
+
+def _tracked_values(k: float, slots: list[float], step: float, maximum: bool) -> np.ndarray:
+    """tracked() on the toy peak ±k·ω/(1 + ω²) (maximum k/2 at ω = 1 rad/s) at ``slots``."""
+    z = ca.MX.sym("z")
+    sign = 1.0 if maximum else -1.0
+    rows = tracked(lambda w: sign * ca.exp(z) * w / (1 + w**2), ca.DM(slots).T, step, maximum)
+    return np.asarray(ca.Function("t", [z], [rows])(math.log(k)), dtype=float).ravel()
+
+
+def test_an_exchange_row_follows_its_peak_when_the_peak_moves():
+    """A point added at ω = 1.03 rad/s (say the peak was there, less than a grid step away):
+    the row reads the peak k/2 to second order, not the value at 1.03 (4.4e-4 relative
+    below it)."""
+    step = math.log(10) / 40  # the metrics' grid step in ln ω
+    held, at_point = _tracked_values(3.0, [1.03], step, True)[0], 3.0 * 1.03 / (1 + 1.03**2)
+    assert abs(held - 1.5) < 1e-2 * abs(at_point - 1.5)  # the fixed point's error, /100
+    assert held <= 1.5 + 1e-15  # a value of f: never above its maximum
+    # exactly at the peak the point stays put; a dip is followed to its minimum the same way
+    assert _tracked_values(3.0, [1.0], step, True)[0] == pytest.approx(1.5, rel=1e-15)
+    assert _tracked_values(3.0, [1.03], step, False)[0] == pytest.approx(-held, rel=1e-12)
+
+
+def test_an_exchange_row_moves_at_most_one_step():
+    """Far from the peak (ω = 5, ω = 0.2 rad/s: f convex or steep) the point moves one grid
+    step uphill at most."""
+    step = math.log(10) / 40
+    for omega in (5.0, 0.2):
+        held = _tracked_values(1.0, [omega], step, True)[0]
+        direction = 1.0 if omega < 1 else -1.0
+        reach = omega * math.exp(direction * step)
+        assert omega / (1 + omega**2) < held <= reach / (1 + reach**2) + 1e-15
+
+
+
+def test_a_round_that_goes_on_from_an_optimum_starts_warm():
+    """Resumed from where a start ended (its primal and dual point), IPOPT confirms the
+    optimum in a couple of iterations; cold (μ = 0.1, pushed off the active bound) it takes
+    several and moves away first."""
+    problem = Problem([Variable("k", 0.1, 10.0, initial=1.0)], {},
+                      lambda values: ToyLoop(values["k"]),
+                      [Term("k", lambda loop: loop.k, -1.0)],
+                      [Bound("peak", toy_peak, None, 1.0)], {}, Settings(multistart=1))
+    assert problem.solve().success
+    state = problem._last_state
+    z, status, iterations, _, _ = problem._solve_from(None, time.perf_counter(),
+                                                      problem.hessians[0], state)
+    assert status == "Solve_Succeeded" and math.exp(z[0]) == pytest.approx(2.0, rel=1e-6)
+    cold = problem._solver(problem.hessians[0], warm=False)
+    p = np.concatenate([[state[1]], state[2], problem.param_values])
+    cold(x0=state[0], p=p, lbx=problem.lbw, ubx=problem.ubw, lbg=state[3], ubg=state[4])
+    assert iterations <= 2 < cold.stats()["iter_count"]
