@@ -266,8 +266,9 @@ SERVO = {"name": "t", "plant": {"type": "software_servo", "technique": "sampled_
      "can only be bounded from below"),
     ({"constraints": [{"metric": "pole_damping", "min": 0.5}]}, "/constraints/0/metric",
      "reported only"),
-    ({"constraints": [{"metric": "sensitivity_peak", "max": 2}]}, "/constraints/0/metric",
-     "not defined for this plant configuration, software_servo(technique=sampled_data)"),
+    ({"plant": {**SERVO["plant"], "technique": "reference_pulse"},
+      "constraints": [{"metric": "sensitivity_peak", "max": 2}]}, "/constraints/0/metric",
+     "not defined for this plant configuration, software_servo(technique=reference_pulse)"),
 ])
 def test_the_spec_refuses_what_the_tuner_cannot_hold(change, pointer, words):
     from feedtune.spec import SpecError, parse_spec
