@@ -351,12 +351,10 @@ class Linear:
         x = getattr(p, "output_unit", "m").removesuffix("/s")
         position, velocity = self._structures()
         if velocity is None:
-            tunables = controller_tunables("position", position, (f"{unit}/{x}", f"{unit}/({x}·s)",
-                                                                   f"{unit}·s/{x}"))
+            tunables = controller_tunables("position", position, f"{unit}/{x}")
         else:
-            tunables = controller_tunables("position", position, ("1/s", "1/s²", "1"))
-            tunables.update(controller_tunables("velocity", velocity, (
-                f"{unit}·s/{x}", f"{unit}/{x}", f"{unit}·s²/{x}")))
+            tunables = controller_tunables("position", position, "1/s")
+            tunables.update(controller_tunables("velocity", velocity, f"{unit}·s/{x}"))
         return tunables
 
     def drive_polynomials(self) -> tuple[list, list, list | None, list]:
@@ -393,13 +391,22 @@ class Linear:
         return a, b, c, np.array([[num[0]]]), self.params.dead_time
 
     def loop_type(self) -> int:
-        """Integrators in the open position loop (poles at s = 0 net of zeros there)."""
-        loop = self.loop({name: 1.0 for name in self.tunables()}, {})
+        """Integrators in the open position loop: its poles at s = 0 net of zeros there,
+        counted on the drive's polynomials with a controller of each law's shape (k_p = 1,
+        T_i = 1 s: an integrator for PI and PID)."""
+        n_g, d_g, n_x, q = self.drive_polynomials()
+        position, velocity = self._structures()
+
+        def shape(structure):
+            return (1.0, [1.0], [1.0]) if structure.law == "p" else (1.0, [1.0, 1.0], [1.0, 0.0])
+
+        closed = close_loops(n_g, d_g, shape(position),
+                             None if velocity is None else shape(velocity), n_x, q)
 
         def trailing_zeros(p):
             return len(p) - len(_trim(list(reversed(p))))
 
-        return trailing_zeros(loop.open_denominator) - trailing_zeros(loop.open_numerator)
+        return trailing_zeros(closed.open_denominator) - trailing_zeros(closed.open_numerator)
 
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
              horizon_scale: float = 1.0) -> LinearLoop:
@@ -423,9 +430,9 @@ class Linear:
                             parts[1] if len(parts) > 1 else None, p.velocity_feedforward)
         product = None
         if d_g[-1] != 0 and n_g[-1] != 0:  # Bhatia's |G(0) K'_v K'_p| with the k_p's
-            product = position.proportional
+            product = position.gain
             if velocity is not None:
-                product = product * velocity.proportional
+                product = product * velocity.gain
             product = product * n_g[-1] / d_g[-1]
         return LinearLoop(
             open_numerator=closed.open_numerator,
@@ -434,7 +441,8 @@ class Linear:
             loop_gain_product=product,
             frequency_band=self.frequency_band(box),
             error_numerator=closed.error_numerator,
-            blocks=blocks)
+            blocks=blocks,
+            loop_type=self.loop_type())
 
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         """(low, high) [rad/s]: two decades beyond every corner the loop can have: the

@@ -85,37 +85,42 @@ class Blocks:
     velocity: tuple | None
     feedforward: float
 
-    @staticmethod
-    def _controller(c: tuple, omega) -> tuple:
-        gain, n, d = c
-        return _scale(_div(_value(n, omega), _value(d, omega)), gain)
+    def response(self, omega, which: str) -> tuple:
+        """L (``open``), T (``closed``: position/reference) or S (``error``: error/reference)
+        at s = jω, as an (re, im) pair.
 
-    def responses(self, omega) -> tuple[tuple, tuple, tuple]:
-        """(L, T, S) at s = jω as (re, im) pairs: open loop, position/reference, error/reference."""
+        The polynomial forms of :func:`~feedtune.plants.cascade.close_loops` with e^{−jωθ}
+        wherever the drive's numerator is, so T and S are quotients of values that stay
+        finite at ω = 0 (no block's pole at s = 0 is divided by).
+        """
         delay = (ca.cos(omega * self.dead_time), -ca.sin(omega * self.dead_time))
-        d_g = _value(self.d_g, omega)
-        g_x = _mul(_div(_value(self.n_x, omega), _mul(_value(self.q, omega), d_g)), delay)
-        c_p = self._controller(self.position, omega)
-        one = (1, 0)
+        kp, n_cp, d_cp = self.position
+        a = _scale(_value(n_cp, omega), kp)
+        b = _value(d_cp, omega)
+        x = _mul(_value(self.n_x, omega), delay)
+        q, d_g = _value(self.q, omega), _value(self.d_g, omega)
         if self.velocity is None:
-            loop = _mul(c_p, g_x)
-            return loop, _div(loop, _add(one, loop)), _div(one, _add(one, loop))
-        c_v = self._controller(self.velocity, omega)
-        inner = _mul(c_v, _mul(_div(_value(self.n_g, omega), d_g), delay))  # C_v G_v
-        per_command = _div(_mul(c_v, g_x), _add(one, inner))  # position per velocity command
-        loop = _mul(c_p, per_command)
-        reference = _add(c_p, (0, self.feedforward * omega))
-        closed = _div(_mul(reference, per_command), _add(one, loop))
-        error = _div(_add(one, _scale(inner, 1 - self.feedforward)),
-                     _mul(_add(one, inner), _add(one, loop)))
-        return loop, closed, error
-
-
-def _ratio(a, b):
-    """a/b; +∞ for a number over an exact zero (a type-2 loop's velocity constant)."""
-    if isinstance(b, (int, float)) and b == 0:
-        return math.inf
-    return a / b
+            numerator = _mul(a, x)
+            denominator = _mul(b, _mul(q, d_g))
+            closed = _add(denominator, numerator)
+            pairs = {"open": (numerator, denominator), "closed": (numerator, closed),
+                     "error": (denominator, closed)}
+            return _div(*pairs[which])
+        kv, n_cv, d_cv = self.velocity
+        c = _scale(_value(n_cv, omega), kv)
+        to_position = _mul(c, x)
+        inner = _add(_mul(_value(d_cv, omega), d_g),
+                     _mul(c, _mul(_value(self.n_g, omega), delay)))
+        numerator = _mul(a, to_position)
+        denominator = _mul(b, _mul(q, inner))
+        closed = _add(denominator, numerator)
+        if which == "open":
+            return _div(numerator, denominator)
+        if which == "closed":
+            return _div(_mul(_add(a, _scale(_mul((0, omega), b), self.feedforward)),
+                             to_position), closed)
+        return _div(_mul(b, _add(_mul(q, inner),
+                                 _scale(_mul((0, omega), to_position), -self.feedforward))), closed)
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,10 +135,13 @@ class LinearLoop(TransferLoop):
         differ from ``open_denominator`` (else None).
     blocks : Blocks or None
         The blocks without the dead time, when there is one (exact frequency responses).
+    loop_type : int
+        Integrators in the open loop (1 or more).
     """
 
     error_numerator: list | None = None
     blocks: Blocks | None = None
+    loop_type: int = 1
 
     @property
     def _error_numerator(self) -> list:
@@ -141,20 +149,22 @@ class LinearLoop(TransferLoop):
 
     @property
     def velocity_constant(self):
-        """C_v = 1/e_ss [1/s], e_ss the steady error after a unit ramp (Bhatia Ch. IV A (c)):
-        lim s·L(s) without a feed-forward, +∞ for a loop of type 2 or more."""
-        return _ratio(self.closed_denominator[-1], self._error_numerator[-2])
+        """C_v = lim s·L(s) [1/s] (Bhatia Ch. IV eq 2) of a type-1 loop; a loop of type 2 or
+        more has none (C_v = ∞: it follows a ramp without steady error)."""
+        if self.loop_type > 1:
+            raise AttributeError("a loop of type 2 or more has no finite velocity constant")
+        return super().velocity_constant
 
     def open_loop_response(self, omega):
         """Re and Im of L(jω), ω [rad/s]; the dead time exact."""
         if self.blocks is None:
             return super().open_loop_response(omega)
-        return self.blocks.responses(omega)[0]
+        return self.blocks.response(omega, "open")
 
     def frequency_response(self, omega):
         """Re and Im of position/reference at s = jω; dead time and feed-forward exact."""
         if self.blocks is not None:
-            return self.blocks.responses(omega)[1]
+            return self.blocks.response(omega, "closed")
         if self.error_numerator is None:
             return super().frequency_response(omega)
         reference = linalg.poly_add(self.closed_denominator,
@@ -164,7 +174,7 @@ class LinearLoop(TransferLoop):
     def error_response(self, omega):
         """Re and Im of S = 1 − T at s = jω, without cancellation at low ω."""
         if self.blocks is not None:
-            return self.blocks.responses(omega)[2]
+            return self.blocks.response(omega, "error")
         return self._ratio(self._error_numerator, self.closed_denominator, omega)
 
     def numeric_transfer(self, output: str = "position", input: str = "reference"):
