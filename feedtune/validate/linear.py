@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import expm
 from scipy.signal import ss2tf
 
 from feedtune.validate.cascade import compensator
@@ -276,46 +277,52 @@ class LinearModel(ContinuousModel):
         h0 = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
         return np.abs(self._closed(omega) / h0)
 
-    # -- time responses with the feed-forward --------------------------------------------
+    # -- time responses: the transient about the steady solution -------------------------
 
-    def _augmented(self, kind: str):
-        """As :meth:`ContinuousModel._augmented`, with k_ff·ṙ: an impulse k_ff·B_ṙ at t = 0
-        after a step, a constant input after a ramp."""
-        m, z0, out = super()._augmented(kind)
-        n = self.a.shape[0]
+    def _steady(self, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p0, p1, δ0): the steady solution x = p0 + p1 t of ẋ = A x + B_r r + B_ṙ ṙ and
+        the transient's start δ(0) = x(0⁺) − p0. Step: p1 = 0, p0 = −A⁻¹B_r, x(0⁺) = B_ṙ
+        (k_ff·ṙ is an impulse); ramp: p1 = −A⁻¹B_r, p0 = A⁻¹(p1 − B_ṙ), x(0) = 0."""
+        b_r, b_rate = self.b[:, 0], self.b[:, 2]
+        settled = -np.linalg.solve(self.a, b_r)
         if kind == "step":
-            z0 = z0.copy()
-            z0[:n] += self.b[:, 2]
-        elif kind == "ramp":
-            m = m.copy()
-            m[:n, n + 1] += self.b[:, 2]
-        return m, z0, out
+            return settled, np.zeros_like(settled), b_rate - settled
+        p0 = np.linalg.solve(self.a, settled - b_rate)
+        return p0, settled, -p0
 
-    def _simulate_all(self):
-        """Step and ramp responses (no load input) with the feed-forward (:meth:`_augmented`)."""
-        cached = self.__dict__.get("_responses")
+    def _transients(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """(t, kind → C δ(t)): δ' = A δ propagated on the graded grid, once per model. The
+        error about its steady value is −C δ exactly, with no ramp t − θ to cancel: this
+        loop's A has a condition number up to 1e23 (a PI zero next to a slow pole), where
+        ContinuousModel's augmented-input propagation loses 1e-10 of the ramp error."""
+        cached = self.__dict__.get("_transient_values")
         if cached is None:
             steps = self._grid_steps()
             t = np.concatenate([[0.0], np.cumsum(steps)])
-            out = {}
-            for kind in ("step", "ramp"):
-                m, z0, row = self._augmented(kind)
-                out[kind] = _propagate(m, z0, steps) @ row
-            out["load"] = np.zeros_like(t)
-            cached = self.__dict__["_responses"] = (t, out)
+            starts = np.column_stack([self._steady(kind)[2] for kind in ("step", "ramp")])
+            values = np.einsum("kij,i->kj", _propagate(self.a, starts, steps), self.c)
+            cached = self.__dict__["_transient_values"] = (
+                t, {"step": values[:, 0], "ramp": values[:, 1]})
         return cached
 
+    def _simulate(self, kind: str):
+        """(t, x, exact(t)) of the step or ramp response."""
+        t, values = self._transients()
+        p0, p1, d0 = self._steady(kind)
+        c = self.c
+        return (t, c @ p0 + (c @ p1) * t + values[kind],
+                lambda tt: float(c @ p0 + (c @ p1) * tt + c @ expm(self.a * tt) @ d0))
+
     def _error(self, kind: str):
-        """The ramp's steady error from the steady solution x = p0 + p1 t of
-        ẋ = A x + B_r t + B_ṙ: p1 = −A⁻¹B_r, p0 = A⁻¹(p1 − B_ṙ), e_ss = −C p0 (1/C_v without
-        feed-forward); exactly 0 for a loop of type 2 or more, as the tuner's."""
-        if kind != "ramp":
-            return super()._error(kind)
-        t, theta, exact = self._simulate(kind)
-        p1 = -np.linalg.solve(self.a, self.b[:, 0])
-        p0 = np.linalg.solve(self.a, p1 - self.b[:, 2])
-        steady = 0.0 if self._loop_type() > 1 else float(-self.c @ p0)
-        return t, t - theta - steady, (lambda tt: tt - exact(tt) - steady), steady
+        """(t, e − e_ss, exact(t) of e − e_ss, e_ss) after a unit step or ramp: e − e_ss =
+        −C δ(t); e_ss = 0 after a step, −C p0 after a ramp (1/C_v without feed-forward),
+        exactly 0 for a loop of type 2 or more, as the tuner's."""
+        if kind == "load":
+            raise NotCovered("a user-defined drive has no load input")
+        t, values = self._transients()
+        p0, _, d0 = self._steady(kind)
+        steady = 0.0 if kind == "step" or self._loop_type() > 1 else float(-self.c @ p0)
+        return t, -values[kind], (lambda tt: float(-self.c @ expm(self.a * tt) @ d0)), steady
 
     def _loop_type(self) -> int:
         """Integrators of the open loop: 1 behind a velocity loop (x = ∫ẋ), else those of
