@@ -21,8 +21,13 @@ from feedtune.plants.linear_loop import PADE_ORDER, pade
 from feedtune.spec import SpecError, parse_spec
 from feedtune.validate.linear import LinearModel, pade_block
 
+#: examples/user-defined-drive.json with a notch in its velocity loop (6 tunables)
 EXAMPLE = json.loads((Path(__file__).resolve().parents[2] / "examples"
                       / "user-defined-drive.json").read_text())
+EXAMPLE["plant"]["notch"] = "velocity_loop"
+EXAMPLE["tunables"].update({"notch.frequency": {"min": 800, "max": 3000, "initial": 1732},
+                            "notch.width": {"min": 0.05, "max": 1, "initial": 0.5},
+                            "notch.depth": {"min": 0.01, "max": 1, "initial": 0.1}})
 OMEGAS = np.geomspace(10.0, 2e4, 40)  # rad/s: a decade below the example's bandwidth to
 # beyond its resonance and N/T_d
 
