@@ -177,15 +177,18 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
     import control  # deferred: only exports need python-control
 
     if isinstance(loop, TransferLoop):
-        # the cascade (Bhatia Fig 18/33) and Sato's Padé loop are polynomials in s
+        # the cascade (Bhatia Fig 18/33) and Sato's Padé loop are polynomials in s; the
+        # closed loop and error from the loop's own reference path (a user's velocity
+        # feed-forward changes it; a dead time is its Padé approximant)
         num, den = _polynomial(loop.open_numerator), _polynomial(loop.open_denominator)
-        closed = _polynomial(loop.closed_denominator)
+        reference, closed = loop.numeric_transfer("position", "reference")
+        error, _ = loop.numeric_transfer("error", "reference")
         load = None
         if loop.load_numerator is not None:
             load = control.tf(_polynomial(loop.load_numerator), closed)
-        return ControlSystems(closed_loop=control.tf(num, closed), open_loop=control.tf(num, den),
-                              error=control.tf(den, closed), load=load, dt=0.0,
-                              position_unit=position_unit)
+        return ControlSystems(closed_loop=control.tf(reference, closed),
+                              open_loop=control.tf(num, den), error=control.tf(error, closed),
+                              load=load, dt=0.0, position_unit=position_unit)
     if isinstance(loop, (ContinuousLoop, SampledLoop)):
         a = _matrix(loop.state_matrix)
         b = _matrix(loop.input_matrix).reshape(-1, 1)
