@@ -344,17 +344,19 @@ class Linear:
                                    p.notch == "velocity_loop")
 
     def tunables(self) -> dict[str, Tunable]:
-        # ``feedtune plants`` lists tunables from a Params holding the choices only: the
-        # units then stay generic
         p = self.params
-        unit = getattr(p, "input_unit", None) or "input unit"
-        x = getattr(p, "output_unit", "m").removesuffix("/s")
         position, velocity = self._structures()
-        if velocity is None:
-            tunables = controller_tunables("position", position, f"{unit}/{x}")
+        if getattr(p, "output_unit", None) is None:
+            # ``feedtune plants`` lists tunables from a Params holding the structure only:
+            # no units are declared, and one name lists one unit for every structure
+            position_unit, velocity_unit = "1/s (cascade) or input/output unit", "input·s/output unit"
         else:
-            tunables = controller_tunables("position", position, "1/s")
-            tunables.update(controller_tunables("velocity", velocity, f"{unit}·s/{x}"))
+            x = p.output_unit.removesuffix("/s")
+            position_unit = "1/s" if velocity is not None else f"{p.input_unit}/{x}"
+            velocity_unit = f"{p.input_unit}·s/{x}"
+        tunables = controller_tunables("position", position, position_unit)
+        if velocity is not None:
+            tunables.update(controller_tunables("velocity", velocity, velocity_unit))
         return tunables
 
     def drive_polynomials(self) -> tuple[list, list, list | None, list]:

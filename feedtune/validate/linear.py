@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 from scipy.linalg import expm
+from scipy.optimize import brentq
 from scipy.signal import ss2tf
 
 from feedtune.validate.cascade import compensator
@@ -334,6 +335,29 @@ class LinearModel(ContinuousModel):
             own = (_zeros_at_origin(den) - _zeros_at_origin(num)
                    + (0 if self.position_output else 1))
         return own + (self.plant.get("position_controller", "p") != "p")
+
+    def gain_margin(self) -> float:
+        """1/|L| [1] where the open-loop phase first reaches −180°, the phase unwrapped from
+        that of L·(jω)^n (n the loop's type, so it starts near 0° and not on the ±180° branch
+        cut a type-2 loop's low-frequency phase sits on) minus n·90°; refined by brentq."""
+        n = self._loop_type()
+        grid = self._grid()
+        phase = np.unwrap(np.angle(self._open(grid) * (1j * grid) ** n)) - n * math.pi / 2
+        # the grid starts below the open loop's rounding-size poles (its integrators):
+        # there a type-2 loop's phase is −180° to 1e-9 rad either side, not a crossing
+        side = np.sign(np.where(np.abs(phase + math.pi) < 1e-9, 0.0, phase + math.pi))
+        decided = np.flatnonzero(side)
+        turns = np.flatnonzero(side[decided[:-1]] != side[decided[1:]])
+        if turns.size == 0:
+            raise NotCovered("the open-loop phase never reaches −180°")
+        i, j = decided[turns[0]], decided[turns[0] + 1]
+
+        def imag(u):
+            lo = self._open(math.exp(u))[0]
+            return lo.imag / abs(lo)
+
+        omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[j]), xtol=1e-14))
+        return float(1.0 / abs(self._open(omega)[0]))
 
     def velocity_constant(self) -> float:
         """C_v = 1/e_ss [1/s] of the ramp without the feed-forward: lim s·L(s)."""

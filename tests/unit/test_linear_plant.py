@@ -39,11 +39,12 @@ def spec_with(**plant) -> dict:
 
 
 def initial_values(spec: dict) -> dict:
-    return {name: t["initial"] for name, t in spec["tunables"].items()}
+    return {name: t.get("initial", t.get("value")) for name, t in spec["tunables"].items()}
 
 
 def box(spec: dict) -> dict:
-    return {name: (t["min"], t["max"]) for name, t in spec["tunables"].items()}
+    return {name: (t.get("min", t.get("value")), t.get("max", t.get("value")))
+            for name, t in spec["tunables"].items()}
 
 
 def numeric(pair) -> complex:
@@ -316,3 +317,27 @@ def test_validator_frequency_response_is_the_tuners(plant):
     for w, l_v, h_v in zip(OMEGAS, open_loop, closed):
         assert abs(numeric(loop.frequency_response(w)) - h_v) < 1e-9 * (1 + abs(h_v))
         assert abs(numeric(loop.open_loop_response(w)) - l_v) < 1e-9 * (1 + abs(l_v))
+
+
+def test_type_two_loop_is_tuned_reported_and_validated():
+    """A PI position loop around the example's velocity loop is of type 2: no velocity
+    constant is reported (C_v = ∞), the ramp's steady error is exactly 0 on both sides, the
+    ramp's settling band is then the step's (1 rad), and the validator agrees with every
+    metric (its own tolerances)."""
+    from feedtune.problem import tune
+    from feedtune.validate.block import validate_result
+
+    spec = spec_with(position_controller="pi", velocity_feedforward=0.0, notch="none")
+    spec["tunables"] = {"position_controller.kp": {"value": 100.0},
+                        "position_controller.ti": {"value": 0.1},
+                        "velocity_controller.kp": {"value": 0.3},
+                        "velocity_controller.ti": {"value": 0.01}}
+    spec["constraints"] = []
+    result = tune(parse_spec(spec))
+    assert result.stability["stable"]
+    assert "velocity_constant" not in result.metrics
+    assert "settling_time(band=0.02,input=ramp)" in result.metrics
+    block = validate_result(result)
+    assert block["covered"] and block["ok"], [e for e in block["entries"] if not e["ok"]]
+    assert any(e["metric"] == "settling_time" and e["options"]["input"] == "ramp"
+               for e in block["entries"])
