@@ -84,7 +84,7 @@ def controller_tunables(loop: str, structure: Structure, kp_unit: str) -> dict[s
             "s", f"Integral time T_i of the {loop} loop: k_p/(T_i s) [s]", *TIME_BOUNDS)
     if structure.law == "pid":
         tunables[f"{prefix}.td"] = Tunable(
-            "s", f"Derivative time T_d of the {loop} loop: k_p T_d s/(τ_f s + 1) [s]",
+            "s", f"Derivative time T_d of the {loop} loop: k_p T_d s/(T_d s/N + 1) [s]",
             *TIME_BOUNDS)
         tunables[f"{prefix}.n"] = Tunable(
             "1", f"Derivative filter ratio N of the {loop} loop: τ_f = T_d/N [1]",
@@ -93,8 +93,8 @@ def controller_tunables(loop: str, structure: Structure, kp_unit: str) -> dict[s
                                          f"{loop} loop"))
     if structure.notch:
         tunables.update({
-            "notch.frequency": Tunable("rad/s", f"Notch frequency ω_z in the {loop} loop "
-                                                "[rad/s]", *NOTCH_FREQUENCY_BOUNDS),
+            "notch.frequency": Tunable("rad/s", "Notch frequency ω_z (in the loop plant.notch "
+                                                "names) [rad/s]", *NOTCH_FREQUENCY_BOUNDS),
             "notch.width": Tunable("1", "Notch pole damping ζ: the width of the notch [1]",
                                    *NOTCH_WIDTH_BOUNDS),
             "notch.depth": Tunable("1", "Notch depth δ: its gain at ω_z (δ < 1 attenuates) "

@@ -264,7 +264,7 @@ class LinearParams(SpecModel):
         "none", description="Series compensator of the velocity loop: none, lag or lag_lead "
                             "(Bhatia Table 5, App. C)")
     position_controller: Law = Field(
-        "p", description="Position controller: p, pi or pid (k_p + k_i/s + k_d s/(τ_f s + 1))")
+        "p", description="Position controller: p, pi or pid, k_p(1 + 1/(T_i s) + T_d s/(T_d s/N + 1))")
     position_compensator: CompensatorKind = Field(
         "none", description="Series compensator of the position loop: none, lag or lag_lead")
     notch: Literal["none", "position_loop", "velocity_loop"] = Field(
