@@ -121,15 +121,18 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
         return control.tf(num, den, name=name, inputs=input_, outputs=output)
 
     if isinstance(loop, TransferLoop):
-        # the cascade (Bhatia Fig 18/33) and Sato's Padé loop are polynomials in s
+        # the cascade (Bhatia Fig 18/33) and Sato's Padé loop are polynomials in s; the
+        # closed loop and error from the loop's own reference path (a user's velocity
+        # feed-forward changes it; a dead time is its Padé approximant)
         num, den = _polynomial(loop.open_numerator), _polynomial(loop.open_denominator)
-        closed = _polynomial(loop.closed_denominator)
+        reference, closed = loop.numeric_transfer("position", "reference")
+        error, _ = loop.numeric_transfer("error", "reference")
         load = None
         if loop.load_numerator is not None:
             load = tf(_polynomial(loop.load_numerator), closed, "load", input_=LOAD_TORQUE)
-        return ControlSystems(closed_loop=tf(num, closed, "closed_loop"),
+        return ControlSystems(closed_loop=tf(reference, closed, "closed_loop"),
                               open_loop=tf(num, den, "open_loop", input_=ERROR),
-                              error=tf(den, closed, "error", output=ERROR), load=load,
+                              error=tf(error, closed, "error", output=ERROR), load=load,
                               dt=0.0, position_unit=position_unit)
     if isinstance(loop, (ContinuousLoop, SampledLoop)):
         a = _matrix(loop.state_matrix)

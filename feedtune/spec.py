@@ -22,6 +22,7 @@ from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
 from feedtune.objectives.step_error import StepErrorMetric, has_exact_step
 from feedtune.plants import PLANTS, plant_for
+from feedtune.plants.linear import MODEL_TYPES
 
 MAX_SPEC_BYTES = 1_000_000
 MAX_JSON_DEPTH = 32
@@ -393,7 +394,8 @@ def _escape(token) -> str:
 
 
 #: discriminator values pydantic puts into error locations (a lone model has no tag)
-_UNION_TAGS = (set(PLANTS) if len(PLANTS) > 1 else set()) | (set(METRICS) if len(METRICS) > 1 else set())
+_UNION_TAGS = ((set(PLANTS) if len(PLANTS) > 1 else set()) | (set(METRICS) if len(METRICS) > 1 else set())
+               | set(MODEL_TYPES))
 
 
 def _pointer(loc: tuple, raw: Any) -> str:

@@ -28,7 +28,8 @@ class SettlingTime(Metric):
 
     After a unit step the band is ``band`` × 1 (m or rad) around e_ss = 0; after a unit
     ramp it is ``band`` × e_ss around the steady following error e_ss = 1/C_v (a band on
-    the ramp's size would be wider than the whole error of a stiff loop). 0 when the error
+    the ramp's size would be wider than the whole error of a stiff loop; a loop that follows
+the ramp with e_ss = 0 gets the step's band). 0 when the error
     never leaves the band. Evaluated exactly (:mod:`feedtune.timeresponse`: the last
     crossing of the band edge, refined by Brent's method) on loops given by polynomials,
     and after a step on a sampled-data loop in continuous time, between samples too
@@ -63,5 +64,7 @@ class SettlingTime(Metric):
         response = numeric_response(loop, self.name, options.input)
         if response is None:
             return as_number(None)
-        size = 1.0 if options.input == "step" else abs(response.steady)
+        # a ramp followed without steady error (a loop of type 2, or full velocity
+        # feed-forward) has no e_ss to scale the band: it is then on 1 m (1 rad), as a step's
+        size = 1.0 if options.input == "step" or response.steady == 0 else abs(response.steady)
         return as_number(response.transient.last_exit(options.band * size))

@@ -1,6 +1,7 @@
 """Registry of plants: spec ``plant.type`` → class. Add a plant here and in its own module."""
 
 from feedtune.plants.hydraulic_rotary import HydraulicRotary
+from feedtune.plants.linear import Linear
 from feedtune.plants.pulse_generator import PulseGenerator
 from feedtune.plants.software_servo import SoftwareServo
 from feedtune.plants.ward_leonard import WardLeonard
@@ -10,6 +11,7 @@ PLANTS = {
     "hydraulic_rotary": HydraulicRotary,
     "ward_leonard": WardLeonard,
     "pulse_generator": PulseGenerator,
+    "linear": Linear,
 }
 
 

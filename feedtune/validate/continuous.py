@@ -429,7 +429,7 @@ class ContinuousModel:
             elif name == "settling_time":
                 kind = options.get("input", "step")
                 t, e, exact, steady = error(kind)
-                size = 1.0 if kind == "step" else abs(steady)
+                size = 1.0 if kind == "step" or steady == 0 else abs(steady)  # as the metric
                 value = self._last_exit(t, e, exact, options.get("band", 0.02) * size)
             elif name == "load_rejection" and self.has_load:
                 t, e, exact, steady = error("load")

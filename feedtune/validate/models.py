@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from feedtune.validate.hydraulic_rotary import HydraulicRotaryModel
+from feedtune.validate.linear import LinearModel
 from feedtune.validate.model import Model, NotCovered
 from feedtune.validate.pulse_generator import PulseModel
 from feedtune.validate.software_servo import ServoModel
@@ -13,6 +14,7 @@ MODELS = {
     "hydraulic_rotary": HydraulicRotaryModel,
     "ward_leonard": WardLeonardModel,
     "pulse_generator": PulseModel,
+    "linear": LinearModel,
 }
 
 

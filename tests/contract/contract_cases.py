@@ -13,6 +13,7 @@ OPTION_SAMPLES (again a test says so).
 from __future__ import annotations
 
 import itertools
+import json
 import math
 import typing
 from dataclasses import dataclass
@@ -47,7 +48,17 @@ PLANT_EXAMPLES: dict[str, dict] = {
     # step) so that a simulation at the default box's middle (f = 31.6 kHz) takes a few ms
     "pulse_generator": {"pulse_equivalent": 1e-3, "amplitude": 0.5,
                         "motor_characteristic": [[0.0, 2e5], [1e6, 2e5]]},
+    # linear: a servo motor as a user writes it, 1 rad/s per volt with a 10 ms mechanical
+    # time constant, integrated to the shaft angle: θ/u = 1/(s(0.01 s + 1)) [rad/V]
+    "linear": {"model": {"type": "transfer_function", "numerator": [1.0],
+                         "denominator": [0.01, 1.0, 0.0]}, "output_unit": "rad"},
 }
+
+#: the drive of PLANT_EXAMPLES["linear"] with a 300 Hz resonance (ζ = 0.05), as zeros,
+#: poles and gain; and its velocity per volt as state space (output rad/s)
+_RESONANT_ZPK = {"type": "zpk", "zeros": [], "gain": 1885.0**2 / 0.01,
+                 "poles": [0.0, -100.0, [-94.25, 1882.6]]}
+_VELOCITY_SS = {"type": "state_space", "a": [[-100.0]], "b": [[1.0]], "c": [[100.0]]}
 
 #: configurations beyond one per Literal value (options that change the loop's shape)
 EXTRA_VARIANTS: dict[str, list[dict]] = {
@@ -73,6 +84,21 @@ EXTRA_VARIANTS: dict[str, list[dict]] = {
     ],
     # Tian's eq 1 controller: no acceleration law (and so no acceleration_ratio tunable)
     "pulse_generator": [{"acceleration_law": False}],
+    "linear": [
+        # the velocity loop's compensators and notch, which need a velocity loop
+        {"velocity_controller": "pi", "velocity_compensator": "lag"},
+        {"velocity_controller": "p", "velocity_compensator": "lag_lead",
+         "position_compensator": "lag_lead"},  # Bhatia's structure
+        {"velocity_controller": "p", "notch": "velocity_loop", "model": _RESONANT_ZPK},
+        {"velocity_controller": "pid", "velocity_feedforward": 0.5},
+        {"velocity_controller": "pi", "stable_velocity_loop": False},
+        # the dead time (Padé polynomials, exact frequency responses)
+        {"dead_time": 0.002},
+        {"dead_time": 0.002, "velocity_controller": "pi", "velocity_feedforward": 1.0},
+        # a velocity output, integrated to the position; given as state space
+        {"output_unit": "rad/s", "model": _VELOCITY_SS},
+        {"output_unit": "rad/s", "model": _VELOCITY_SS, "velocity_controller": "pi"},
+    ],
 }
 
 #: values for metric options that have no default (the circle of the circular metrics)
@@ -106,6 +132,19 @@ def literal_fields(model) -> dict[str, tuple]:
     return out
 
 
+class _Json(str):
+    """An override whose value is a JSON object or array (a plant's model), kept as its
+    JSON text so that a configuration stays hashable; :func:`_thawed` reads it back."""
+
+
+def _frozen(value):
+    return _Json(json.dumps(value, sort_keys=True)) if isinstance(value, (dict, list)) else value
+
+
+def _thawed(overrides) -> dict:
+    return {k: json.loads(v) if isinstance(v, _Json) else v for k, v in dict(overrides).items()}
+
+
 @dataclass(frozen=True)
 class PlantConfig:
     id: str
@@ -115,7 +154,7 @@ class PlantConfig:
     @property
     def plant(self):
         cls = PLANTS[self.key]
-        return cls(cls.Params(type=self.key, **{**PLANT_EXAMPLES[self.key], **dict(self.overrides)}))
+        return cls(cls.Params(type=self.key, **{**PLANT_EXAMPLES[self.key], **_thawed(self.overrides)}))
 
     @property
     def tunables(self):
@@ -158,11 +197,12 @@ def plant_configs() -> list[PlantConfig]:
             overrides = {k: v for k, v in overrides.items()
                          if fields[k].is_required() or v != fields[k].default
                          or k in PLANT_EXAMPLES[key]}
-            frozen = tuple(sorted(overrides.items()))
+            frozen = tuple(sorted((k, _frozen(v)) for k, v in overrides.items()))
             if frozen in seen or not _builds(key, overrides):
                 continue
             seen.add(frozen)
-            label = ",".join(f"{k}={v}" for k, v in frozen) or "defaults"
+            label = ",".join(f"{k}={v}" if not isinstance(v, _Json) else f"{k}={json.loads(v)['type']}"
+                             for k, v in frozen) or "defaults"
             configs.append(PlantConfig(f"{key}[{label}]", key, frozen))
     return configs
 
@@ -186,10 +226,17 @@ EXACT_CONFIGS = [c for c in ALL_CONFIGS if is_exact_only(c)]
 EXACT_CONFIG_IDS = [c.id for c in EXACT_CONFIGS]
 
 
-def _axis(t, points: int) -> np.ndarray:
-    """``points`` geometric points across a tunable's default bounds; one: the middle."""
+def _axis(t, points: int, secondary: bool = False) -> np.ndarray:
+    """``points`` geometric points across a tunable's default bounds; one: the middle. A
+    secondary tunable's points stay inside the box (1/6, 1/2 and 5/6 of its log range for
+    three): the compensators' boxes reach τ1τ2 = 1e-8 s² with τ12 = 100 s, poles 1e12
+    apart, a loop the eigenvalue check calls ambiguous; the random points still reach the
+    whole box (:func:`stability_sample`)."""
     if points == 1:
         return np.array([math.sqrt(t.min * t.max)])
+    if secondary:
+        low, high = math.log(t.min), math.log(t.max)
+        return np.exp(low + (high - low) * (2 * np.arange(points) + 1) / (2 * points))
     return np.geomspace(t.min, t.max, points)
 
 
@@ -200,7 +247,8 @@ def _grid(config: PlantConfig) -> tuple:
     n_primary = len(tunables) - n_secondary
     points = (SECONDARY_POINTS
               if GRID_POINTS**n_primary * SECONDARY_POINTS**n_secondary <= GRID_BUDGET else 1)
-    axes = [_axis(t, points if is_secondary(name) else GRID_POINTS) for name, t in tunables.items()]
+    axes = [_axis(t, points, True) if is_secondary(name) else _axis(t, GRID_POINTS)
+            for name, t in tunables.items()]
     return tuple(dict(zip(tunables, map(float, point))) for point in itertools.product(*axes))
 
 

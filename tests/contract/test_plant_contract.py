@@ -151,10 +151,11 @@ OPTIONAL_SCALARS = ("loop_gain_product",)
 def _loop_numbers(loop) -> dict[str, np.ndarray]:
     numbers = {
         "state_matrix": loop.state_matrix,
-        "velocity_constant": loop.velocity_constant,
         "characteristic_polynomial": ca.vertcat(*loop.characteristic_polynomial),
         "stability_conditions": ca.vertcat(*loop.stability_conditions()),
     }
+    if hasattr(loop, "velocity_constant"):  # a loop of type 2 or more has none (C_v = ∞)
+        numbers["velocity_constant"] = loop.velocity_constant
     for name, matrix in loop.stability_matrices().items():
         numbers[f"stability_matrices[{name}]"] = matrix
     for name in OPTIONAL_MATRICES + OPTIONAL_SCALARS:

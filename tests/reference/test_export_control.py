@@ -170,12 +170,37 @@ def assert_same_poles(found, expected, rtol):
 
 #: bundled examples whose loop is a pulse simulation (Tian), not a linear system
 PULSE_EXAMPLES = ["tian-vf-pulse"]
+#: user-defined drives with a velocity feed-forward: T ≠ L/(1 + L)
+FEEDFORWARD_EXAMPLES = ["user-defined-drive"]
 
 
 def test_every_bundled_example_is_covered():
     from conftest import EXAMPLES as DIRECTORY
 
-    assert sorted(p.stem for p in DIRECTORY.glob("*.json")) == sorted(EXAMPLES + PULSE_EXAMPLES)
+    assert sorted(p.stem for p in DIRECTORY.glob("*.json")) == sorted(
+        EXAMPLES + PULSE_EXAMPLES + FEEDFORWARD_EXAMPLES)
+
+
+@pytest.mark.parametrize("name", FEEDFORWARD_EXAMPLES)
+def test_feedforward_export_has_the_reference_path(name, tmp_path):
+    """The export's T is (C_p + k_ff s)·Y/V over the loop's polynomial, not L/(1 + L):
+    it equals the tuned loop's own T (dead time as its Padé approximant, so compared at
+    ωθ ≤ 0.2 where the Padé phase error is below 1e-12 rad) to 1e-9 of 1 + |T|, S = 1 − T
+    on the export, and its poles are the result's to 1e-7 relative (python-control's roots of
+    a polynomial whose coefficients span 25 decades with the Padé terms)."""
+    spec = load_example(name)
+    loaded = feedtune.load_result(write_result(tmp_path, spec))
+    systems = loaded.to_control()
+    loop = loaded.loop()
+    omega = np.geomspace(1.0, 0.2 / spec["plant"]["dead_time"], 40)
+    for w in omega:
+        re, im = (float(x) for x in loop.frequency_response(w))
+        t = complex(systems.closed_loop(1j * w))
+        assert abs(t - complex(re, im)) <= 1e-9 * (1 + abs(t))
+        assert abs(complex(systems.error(1j * w)) - (1 - t)) <= 1e-9 * (1 + abs(t))
+        lo = complex(systems.open_loop(1j * w))
+        assert abs(t - lo / (1 + lo)) > 1e-6 * abs(t)  # the feed-forward shows
+    assert_same_poles(systems.closed_loop.poles(), result_poles(loaded), rtol=1e-7)
 
 
 @pytest.mark.parametrize("name", PULSE_EXAMPLES)

@@ -1,0 +1,475 @@
+"""A user-defined linear drive: a transfer function, zeros/poles/gain or a state-space model,
+with an input dead time, closed by standard controllers.
+
+The drive maps its input u (a voltage, a current, a torque: ``input_unit``) to its output
+y, after a dead time θ [s]:
+
+    y(s) = P(s) e^{−sθ} u(s),
+
+P given as ``numerator``/``denominator`` in s (highest power first), as zeros, poles and
+gain, or as (A, B, C, D) (single input, single output). The output is a **position** when
+``output_unit`` is ``m`` or ``rad`` and a **velocity** when it is ``m/s`` or ``rad/s``; the
+unit alone decides, and the loop's position is y or y/s accordingly (every position-loop
+metric reads that position, in ``m`` or ``rad``).
+
+The loop (Bhatia Fig 18 generalised): the position error r − x, through the position
+controller C_p, commands either the drive's input directly (``velocity_controller``
+``none``) or a velocity, which a velocity loop C_v closes on the drive's velocity (s·y for
+a position output, y for a velocity output); an optional velocity feed-forward k_ff·s·r
+(0 ≤ k_ff ≤ 1) adds the reference's velocity to the velocity command. Controllers: P, PI
+or PID, a lag or lag-lead compensator and a notch (:mod:`feedtune.plants.controllers`);
+the loop is closed from polynomials by :func:`feedtune.plants.cascade.close_loops`, the
+skeleton Bhatia's drives share, into a :class:`~feedtune.plants.linear_loop.LinearLoop`
+(dead time: exact in frequency responses, Padé in polynomials).
+
+What is refused (exit 2, with the field's pointer): an improper P, empty or non-finite
+coefficients, a zero leading denominator coefficient, A/B/C/D of mismatched shapes, a
+negative dead time, a compensator, notch or feed-forward in a velocity loop that does not
+exist, and a position loop of type 0 (no integrator in the loop: a constant reference
+would leave a steady error; give the position controller integral action). The drive may
+be unstable: the tuner constrains the closed loop, and the velocity loop when
+``stable_velocity_loop``, to be stable.
+
+References
+----------
+S. Bhatia, "Feed drive design for numerically controlled machine tools", M.S. thesis,
+University of Missouri–Rolla, 1971, Ch. IV (Fig 18: the cascade; eq 1: the sensitivity).
+K. J. Åström, R. M. Murray, "Feedback Systems", 2nd ed., Princeton, 2021, §9.2 (state
+space to transfer function), §11.3 (the cascade with feed-forward).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal, Mapping, Union
+
+from pydantic import Field, NonNegativeFloat, ValidationInfo, field_validator
+
+from feedtune import linalg
+from feedtune.lazy import np
+from feedtune.model import SpecModel
+from feedtune.plants.base import Tunable
+from feedtune.plants.cascade import close_loops, compensator_corners
+from feedtune.plants.compensator import CompensatorKind
+from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
+from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
+
+POSITION_UNITS = ("m", "rad")
+VELOCITY_UNITS = ("m/s", "rad/s")
+#: a root given as [re, im] stands for the pair re ± j·im
+Root = Union[float, Annotated[list[float], Field(min_length=2, max_length=2)]]
+
+
+def _trim(p: list[float]) -> list[float]:
+    """``p`` without leading zeros."""
+    i = 0
+    while i < len(p) - 1 and p[i] == 0:
+        i += 1
+    return list(p[i:])
+
+
+def _degree_check(numerator: list[float], denominator: list[float] | None) -> list[float]:
+    if not any(numerator):
+        raise ValueError("the numerator is zero: the drive does not respond to its input")
+    if denominator is not None and len(_trim(numerator)) > len(denominator):
+        raise ValueError(f"improper transfer function: numerator degree "
+                         f"{len(_trim(numerator)) - 1} above the denominator's "
+                         f"{len(denominator) - 1} (a drive cannot differentiate its input)")
+    return numerator
+
+
+class TransferFunction(SpecModel):
+    """P(s) = numerator/denominator, highest power of s first."""
+
+    type: Literal["transfer_function"]
+    denominator: list[float] = Field(
+        min_length=1, max_length=30,
+        description="Coefficients of the denominator in s, highest power first [1/s^k "
+                    "scaled as the numerator]; its first coefficient is not zero")
+    numerator: list[float] = Field(
+        min_length=1, max_length=30,
+        description="Coefficients of the numerator in s, highest power first [output unit "
+                    "per input unit, times the denominator's scale]")
+
+    @field_validator("denominator")
+    @classmethod
+    def _leading(cls, denominator):
+        if denominator[0] == 0:
+            raise ValueError("the leading (highest-power) coefficient is zero; drop it")
+        return denominator
+
+    @field_validator("numerator")
+    @classmethod
+    def _proper(cls, numerator, info: ValidationInfo):
+        return _degree_check(numerator, info.data.get("denominator"))
+
+    def polynomials(self) -> tuple[list[float], list[float]]:
+        return _trim(self.numerator), list(self.denominator)
+
+
+def _expand(roots: list) -> list[float]:
+    """Π (s − r) over the roots, a [re, im] pair giving (s − re)² + im²."""
+    p = [1.0]
+    for r in roots:
+        if isinstance(r, list):
+            re, im = r
+            p = linalg.poly_mul(p, [1.0, -2 * re, re * re + im * im])
+        else:
+            p = linalg.poly_mul(p, [1.0, -r])
+    return p
+
+
+def _count(roots: list) -> int:
+    return sum(2 if isinstance(r, list) else 1 for r in roots)
+
+
+class ZerosPolesGain(SpecModel):
+    """P(s) = gain·Π(s − z)/Π(s − p); a root [re, im] stands for the pair re ± j·im."""
+
+    type: Literal["zpk"]
+    poles: list[Root] = Field(
+        max_length=30, description="Poles p [rad/s]: a number (a real pole) or [re, im] "
+                                   "(the pair re ± j·im, im > 0)")
+    zeros: list[Root] = Field(
+        default_factory=list, max_length=30,
+        description="Zeros z [rad/s], as the poles; no more than there are poles")
+    gain: float = Field(description="Gain k [output unit per input unit · (rad/s)^(poles − "
+                                    "zeros)]: the coefficient of the highest powers")
+
+    @field_validator("poles", "zeros")
+    @classmethod
+    def _pairs(cls, roots):
+        for r in roots:
+            if isinstance(r, list) and r[1] <= 0:
+                raise ValueError(f"a pair [re, im] needs im > 0 (re ± j·im), not {r}")
+        return roots
+
+    @field_validator("zeros")
+    @classmethod
+    def _proper(cls, zeros, info: ValidationInfo):
+        poles = info.data.get("poles")
+        if poles is not None and _count(zeros) > _count(poles):
+            raise ValueError(f"improper: {_count(zeros)} zeros and only {_count(poles)} poles "
+                             "(a drive cannot differentiate its input)")
+        return zeros
+
+    @field_validator("gain")
+    @classmethod
+    def _nonzero(cls, gain):
+        if gain == 0:
+            raise ValueError("the gain is zero: the drive does not respond to its input")
+        return gain
+
+    def polynomials(self) -> tuple[list[float], list[float]]:
+        return linalg.poly_scale(_expand(self.zeros), self.gain), _expand(self.poles)
+
+
+def _matrix(rows: list[list[float]], shape: tuple[int | None, int | None], what: str):
+    n_rows, n_cols = shape
+    if n_rows is not None and len(rows) != n_rows:
+        raise ValueError(f"{what} needs {n_rows} row{'s' if n_rows != 1 else ''}, not {len(rows)}")
+    for i, row in enumerate(rows):
+        if n_cols is not None and len(row) != n_cols:
+            raise ValueError(f"row {i} of {what} needs {n_cols} entr"
+                             f"{'ies' if n_cols != 1 else 'y'}, not {len(row)}")
+    return rows
+
+
+class StateSpace(SpecModel):
+    """ẋ = A x + B u, y = C x + D u (one input, one output)."""
+
+    type: Literal["state_space"]
+    a: list[list[float]] = Field(min_length=1, max_length=30,
+                                 description="State matrix A, n×n, by rows [1/s]")
+    b: list[list[float]] = Field(min_length=1, max_length=30,
+                                 description="Input matrix B, n×1, by rows [state unit per "
+                                             "input unit · 1/s]")
+    c: list[list[float]] = Field(min_length=1, max_length=1,
+                                 description="Output matrix C, 1×n [output unit per state unit]")
+    d: list[list[float]] = Field([[0.0]], min_length=1, max_length=1,
+                                 description="Feedthrough D, 1×1 [output unit per input unit]; "
+                                             "must be 0 for a position output")
+
+    @field_validator("a")
+    @classmethod
+    def _square(cls, a):
+        return _matrix(a, (len(a), len(a)), "A (n×n)")
+
+    @field_validator("b")
+    @classmethod
+    def _column(cls, b, info: ValidationInfo):
+        a = info.data.get("a")
+        return _matrix(b, (len(a) if a is not None else None, 1), "B (n×1)")
+
+    @field_validator("c")
+    @classmethod
+    def _row(cls, c, info: ValidationInfo):
+        a = info.data.get("a")
+        return _matrix(c, (1, len(a) if a is not None else None), "C (1×n)")
+
+    @field_validator("d")
+    @classmethod
+    def _scalar(cls, d, info: ValidationInfo):
+        _matrix(d, (1, 1), "D (1×1)")
+        if all(k in info.data for k in ("a", "b", "c")):
+            num, _ = StateSpace.model_construct(a=info.data["a"], b=info.data["b"],
+                                                c=info.data["c"], d=d).polynomials()
+            _degree_check(num, None)
+        return d
+
+    def polynomials(self) -> tuple[list[float], list[float]]:
+        """C(sI − A)⁻¹B + D as (numerator, denominator) by Faddeev–LeVerrier: adj(sI − A)
+        = Σ M_k s^{n−k}, M_1 = I, M_{k+1} = A M_k + c_k I, c_k = −tr(A M_k)/k (Åström &
+        Murray §9.2; pure Python: a spec is checked without numerical packages)."""
+        a, n = self.a, len(self.a)
+        b = [row[0] for row in self.b]
+        c, d = self.c[0], self.d[0][0]
+        eye = [[float(i == j) for j in range(n)] for i in range(n)]
+        m, den, num = eye, [1.0], []
+        for k in range(1, n + 1):
+            num.append(sum(c[i] * sum(m[i][j] * b[j] for j in range(n)) for i in range(n)))
+            am = [[sum(a[i][l] * m[l][j] for l in range(n)) for j in range(n)] for i in range(n)]
+            coefficient = -sum(am[i][i] for i in range(n)) / k
+            den.append(coefficient)
+            m = [[am[i][j] + coefficient * eye[i][j] for j in range(n)] for i in range(n)]
+        numerator = linalg.poly_add([0.0] + num, linalg.poly_scale(den, d))
+        return _trim(numerator), den
+
+
+Model = Annotated[Union[TransferFunction, ZerosPolesGain, StateSpace], Field(discriminator="type")]
+#: the tags of :data:`Model` (spec error pointers skip them, as the plant's own type)
+MODEL_TYPES = ("transfer_function", "zpk", "state_space")
+
+
+class LinearParams(SpecModel):
+    """A linear drive of the user's (transfer function, zeros/poles/gain or state space),
+    with dead time and standard controllers."""
+
+    type: Literal["linear"]
+    model: Model = Field(description="The drive P(s) from input to output, without the dead "
+                                     "time: transfer_function, zpk or state_space")
+    output_unit: str = Field(
+        pattern=r"^(m|rad|m/s|rad/s)$",
+        description="Unit of the drive's output [m, rad, m/s or rad/s]: m or rad make it a "
+                    "position, m/s or rad/s a velocity (the position is then its integral)")
+    input_unit: str = Field(
+        "V", min_length=1, max_length=16, pattern=r"^[^\x00-\x1f\x7f-\x9f]+$",
+        description="Unit of the drive's input (V, A, N·m…) [text]: names the gains' units")
+    dead_time: NonNegativeFloat = Field(
+        0.0, description="Input dead time θ [s] ≥ 0: exact e^{−jωθ} in frequency responses, "
+                         "its 4th-order Padé approximant in time responses and stability")
+    velocity_controller: Literal["none", "p", "pi", "pid"] = Field(
+        "none", description="Velocity loop inside the position loop: none, p, pi or pid")
+    velocity_compensator: CompensatorKind = Field(
+        "none", description="Series compensator of the velocity loop: none, lag or lag_lead "
+                            "(Bhatia Table 5, App. C)")
+    position_controller: Law = Field(
+        "p", description="Position controller: p, pi or pid, k_p(1 + 1/(T_i s) + T_d s/(T_d s/N + 1))")
+    position_compensator: CompensatorKind = Field(
+        "none", description="Series compensator of the position loop: none, lag or lag_lead")
+    notch: Literal["none", "position_loop", "velocity_loop"] = Field(
+        "none", description="Notch filter (s² + 2δζω s + ω²)/(s² + 2ζω s + ω²) in the "
+                            "position or velocity loop's controller, or none")
+    velocity_feedforward: float = Field(
+        0.0, ge=0.0, le=1.0, description="Velocity feed-forward gain k_ff [1], 0 to 1: adds "
+                                         "k_ff·dr/dt to the velocity command (velocity loop only)")
+    stable_velocity_loop: bool = Field(
+        True, description="Require the velocity loop to be stable on its own (Bhatia Ch. IV)")
+
+    @field_validator("velocity_controller")
+    @classmethod
+    def _velocity_proper(cls, law, info: ValidationInfo):
+        model, unit = info.data.get("model"), info.data.get("output_unit")
+        if law != "none" and model is not None and unit in POSITION_UNITS:
+            num, den = model.polynomials()
+            if den[-1] != 0 and len(num) >= len(den):
+                raise ValueError("the drive's velocity s·P(s) is improper (its position "
+                                 "responds without lag): no velocity loop can read it")
+        return law
+
+    @field_validator("velocity_compensator", "velocity_feedforward")
+    @classmethod
+    def _needs_velocity_loop(cls, value, info: ValidationInfo):
+        if value not in ("none", 0.0) and info.data.get("velocity_controller") == "none":
+            raise ValueError(f"{info.field_name} needs a velocity loop: set velocity_controller")
+        return value
+
+    @field_validator("notch")
+    @classmethod
+    def _notch_loop(cls, notch, info: ValidationInfo):
+        if notch == "velocity_loop" and info.data.get("velocity_controller") == "none":
+            raise ValueError("a notch in the velocity loop needs a velocity loop: set "
+                             "velocity_controller, or put the notch in the position_loop")
+        return notch
+
+    @field_validator("position_controller")
+    @classmethod
+    def _type_one(cls, law, info: ValidationInfo):
+        data = info.data
+        if any(k not in data for k in ("model", "output_unit", "velocity_controller")):
+            return law  # their own errors say what is wrong
+        params = cls.model_construct(**{**data, "position_controller": law})
+        if Linear(params).loop_type() < 1:
+            raise ValueError(f"the position loop has no integrator (type 0): a constant "
+                             f"reference would leave a steady error; the drive's position has "
+                             f"no pole at s = 0, so use position_controller pi or pid, not {law}")
+        return law
+
+    @property
+    def position_output(self) -> bool:
+        return self.output_unit in POSITION_UNITS
+
+
+class Linear:
+    """Plant ``linear``: a user's drive in a P/PI/PID position loop, optionally around a
+    velocity loop (module docstring)."""
+
+    Params = LinearParams
+
+    def __init__(self, params: LinearParams):
+        self.params = params
+
+    @property
+    def position_unit(self) -> str:
+        """m or rad: the output's unit, or its integral's for a velocity output."""
+        return self.params.output_unit.removesuffix("/s")
+
+    def _structures(self) -> tuple[Structure, Structure | None]:
+        p = self.params
+        position = Structure(p.position_controller, p.position_compensator,
+                             p.notch == "position_loop")
+        if p.velocity_controller == "none":
+            return position, None
+        return position, Structure(p.velocity_controller, p.velocity_compensator,
+                                   p.notch == "velocity_loop")
+
+    def tunables(self) -> dict[str, Tunable]:
+        p = self.params
+        position, velocity = self._structures()
+        if getattr(p, "output_unit", None) is None:
+            # ``feedtune plants`` lists tunables from a Params holding the structure only:
+            # no units are declared, and one name lists one unit for every structure
+            position_unit, velocity_unit = "1/s (cascade) or input/output unit", "input·s/output unit"
+        else:
+            x = p.output_unit.removesuffix("/s")
+            position_unit = "1/s" if velocity is not None else f"{p.input_unit}/{x}"
+            velocity_unit = f"{p.input_unit}·s/{x}"
+        tunables = controller_tunables("position", position, position_unit)
+        if velocity is not None:
+            tunables.update(controller_tunables("velocity", velocity, velocity_unit))
+        return tunables
+
+    def drive_polynomials(self) -> tuple[list, list, list | None, list]:
+        """(n_g, d_g, n_x, q): velocity per input n_g/d_g, position per input n_x/(q·d_g)
+        (n_x None: the same as n_g), without the dead time; a pole or zero at s = 0 that
+        the differentiation or integration meets is cancelled exactly."""
+        num, den = self.params.model.polynomials()
+        if self.params.position_output:
+            if den[-1] == 0:  # an integrating drive: velocity n/(d/s), position n/(s·d/s)
+                return num, den[:-1], None, [1, 0]
+            return num + [0.0], den, num, [1]  # velocity s·n/d
+        if num[-1] == 0:  # a velocity output with a zero at s = 0: position (n/s)/d
+            return num, den, num[:-1], [1]
+        return num, den, None, [1, 0]
+
+    def state_space(self):
+        """(A, B, C, D) as float arrays of the drive from input to output (its declared
+        unit), without the dead time: the spec's own matrices, or the controllable canonical
+        form of its transfer function; and the dead time θ [s]. For engines that build their
+        own loop (a sampled-data controller)."""
+        model = self.params.model
+        if isinstance(model, StateSpace):
+            a, b, c, d = (np.array(m, dtype=float) for m in (model.a, model.b, model.c, model.d))
+            return a, b, c, d, self.params.dead_time
+        num, den = model.polynomials()
+        num, den = np.array(num) / den[0], np.array(den) / den[0]
+        n = len(den) - 1
+        num = np.concatenate([np.zeros(n + 1 - len(num)), num])
+        a = np.zeros((n, n))
+        a[0, :], a[1:, :-1] = -den[1:], np.eye(n - 1)
+        b = np.zeros((n, 1))
+        b[0, 0] = 1.0
+        c = (num[1:] - num[0] * den[1:]).reshape(1, n)
+        return a, b, c, np.array([[num[0]]]), self.params.dead_time
+
+    def loop_type(self) -> int:
+        """Integrators in the open position loop: its poles at s = 0 net of zeros there,
+        counted on the drive's polynomials with a controller of each law's shape (k_p = 1,
+        T_i = 1 s: an integrator for PI and PID)."""
+        n_g, d_g, n_x, q = self.drive_polynomials()
+        position, velocity = self._structures()
+
+        def shape(structure):
+            return (1.0, [1.0], [1.0]) if structure.law == "p" else (1.0, [1.0, 1.0], [1.0, 0.0])
+
+        closed = close_loops(n_g, d_g, shape(position),
+                             None if velocity is None else shape(velocity), n_x, q)
+
+        def trailing_zeros(p):
+            return len(p) - len(_trim(list(reversed(p))))
+
+        return trailing_zeros(closed.open_denominator) - trailing_zeros(closed.open_numerator)
+
+    def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
+             horizon_scale: float = 1.0) -> LinearLoop:
+        """The closed loop at ``values`` (expressions or numbers per tunable name)."""
+        p = self.params
+        n_g, d_g, n_x, q = self.drive_polynomials()
+        position_structure, velocity_structure = self._structures()
+        position = controller("position", position_structure, values)
+        velocity = (None if velocity_structure is None
+                    else controller("velocity", velocity_structure, values))
+        gains = [c for c in (position, velocity) if c is not None]
+        parts = [(c.gain, c.numerator, c.denominator) for c in gains]
+        pn, pd = pade(p.dead_time)
+        delayed_x = None if n_x is None else linalg.poly_mul(n_x, pn)
+        closed = close_loops(linalg.poly_mul(n_g, pn), linalg.poly_mul(d_g, pd), parts[0],
+                             parts[1] if len(parts) > 1 else None, delayed_x, q,
+                             p.velocity_feedforward)
+        blocks = None
+        if p.dead_time > 0:
+            blocks = Blocks(n_g, d_g, n_g if n_x is None else n_x, q, p.dead_time, parts[0],
+                            parts[1] if len(parts) > 1 else None, p.velocity_feedforward)
+        product = None
+        if d_g[-1] != 0 and n_g[-1] != 0:  # Bhatia's |G(0) K'_v K'_p| with the k_p's
+            product = position.gain
+            if velocity is not None:
+                product = product * velocity.gain
+            product = product * n_g[-1] / d_g[-1]
+        return LinearLoop(
+            open_numerator=closed.open_numerator,
+            open_denominator=closed.open_denominator,
+            inner_characteristic=closed.inner if p.stable_velocity_loop else None,
+            loop_gain_product=product,
+            frequency_band=self.frequency_band(box),
+            error_numerator=closed.error_numerator,
+            blocks=blocks,
+            loop_type=self.loop_type())
+
+    def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
+        """(low, high) [rad/s]: two decades beyond every corner the loop can have: the
+        drive's roots (bounded from its coefficients, Fujiwara's bound), the controllers'
+        and compensators' corners, the position gain's box, 1/θ."""
+        num, den = self.params.model.polynomials()
+        found = [bound for p in (num, den) for bound in _root_bounds(p)]
+        found += corners(box) + compensator_corners(box)
+        found += list(box.get("position_controller.kp", ()))
+        if self.params.dead_time > 0:
+            found.append(1 / self.params.dead_time)
+        found = [f for f in found if f > 0 and math.isfinite(f)] or [1.0]
+        return min(found) / 100, max(found) * 100
+
+
+def _root_bounds(p: list[float]) -> list[float]:
+    """Bounds (low, high) [rad/s] on the magnitudes of the nonzero roots of ``p``:
+    Fujiwara's bound 2·max|a_k/a_0|^(1/k) on p and on its reversal (the reciprocal roots)."""
+    p = _trim(p)
+    while len(p) > 1 and p[-1] == 0:  # roots at s = 0 dropped
+        p = p[:-1]
+    if len(p) < 2:
+        return []
+
+    def upper(c):
+        return 2 * max(abs(c[k] / c[0]) ** (1 / k) for k in range(1, len(c)))
+
+    return [1 / upper(list(reversed(p))), upper(p)]

@@ -1,0 +1,404 @@
+"""A user-defined linear drive and its controllers for the validator, from the spec's numbers.
+
+The drive (``plant.model``: a transfer function, zeros/poles/gain via ``numpy.poly``, or
+its own A, B, C, D) and each controller (P, PI, PID in standard form, Bhatia's lag or
+lag-lead, the notch) are state-space blocks; the signals of the loop
+
+    e_p = r − x,  v = C_p(e_p) + k_ff ṙ,  e_v = v − ẋ,  u = C_v(e_v)  (or u = C_p(e_p)),
+    w = u delayed by θ,  y = P(w),  x = y or ∫y,  ẋ = ẏ or y,
+
+are unknowns of one linear system solved at every state (time domain) or every frequency
+(frequency domain), not the closed-loop polynomials the tuner uses. Time responses and
+poles hold the dead time as its Padé approximant of the tuner's order, written here from
+its closed form; frequency responses hold e^{−jωθ} exactly, each block's gain
+C(jωI − A)⁻¹B + D evaluated at s = jω. The metrics are measured by
+:class:`feedtune.validate.continuous.ContinuousModel`.
+
+References
+----------
+S. Bhatia, "Feed drive design for numerically controlled machine tools", M.S. thesis,
+University of Missouri–Rolla, 1971, Ch. IV (Fig 18, eq 1), App. C.
+K. J. Åström, T. Hägglund, "Advanced PID Control", ISA, 2006, §3.1, §3.3.
+G. A. Baker, P. Graves-Morris, "Padé Approximants", 2nd ed., 1996, §1.2.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import brentq
+from scipy.signal import ss2tf
+
+from feedtune.validate.cascade import compensator
+from feedtune.validate.continuous import Block, ContinuousModel, _propagate, siso
+from feedtune.validate.entries import poles_entry
+from feedtune.validate.model import NotCovered
+
+#: the order of the tuner's Padé approximant (feedtune.plants.linear_loop.PADE_ORDER): the
+#: poles and time responses compared are those of the same approximation
+PADE_ORDER = 4
+
+#: signals, in the order of the unknown vector
+SIGNALS = ("e_p", "c_p", "v", "e_v", "u", "w", "y", "x", "xdot")
+#: external inputs: reference r, its rate ṙ (feed-forward), and the error e_p when the loop
+#: is opened at the position feedback
+INPUTS = ("r", "rdot", "e_open")
+
+
+def pade_block(dead_time: float) -> Block:
+    """e^{−sθ} as its [n/n] Padé approximant: N(−sθ)/N(sθ), N(x) = Σ (2n−k)! n! /
+    ((2n)! k! (n−k)!) x^k."""
+    n = PADE_ORDER
+    c = np.array([math.factorial(2 * n - k) * math.factorial(n)
+                  / (math.factorial(2 * n) * math.factorial(k) * math.factorial(n - k))
+                  for k in range(n + 1)])
+    powers = dead_time ** np.arange(n + 1)
+    return siso((c * powers * (-1.0) ** np.arange(n + 1))[::-1], (c * powers)[::-1])
+
+
+def drive_transfer(model: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(numerator, denominator) of the drive, highest power first."""
+    if model["type"] == "transfer_function":
+        return np.asarray(model["numerator"], float), np.asarray(model["denominator"], float)
+    if model["type"] == "zpk":
+        def roots(items):
+            out = []
+            for r in items:
+                out += [complex(r[0], r[1]), complex(r[0], -r[1])] if isinstance(r, list) else [r]
+            return out
+
+        return (model["gain"] * np.real(np.poly(roots(model.get("zeros", [])))),
+                np.real(np.poly(roots(model["poles"]))))
+    num, den = ss2tf(*(np.asarray(model[k], float) for k in ("a", "b", "c")),
+                     np.asarray(model.get("d", [[0.0]]), float))
+    return num[0], den
+
+
+def _zeros_at_origin(p: np.ndarray) -> int:
+    """Roots at s = 0: trailing coefficients below 1e-12 of the largest (exact zeros from
+    the spec's numbers; ss2tf leaves rounding of that relative size)."""
+    p = np.trim_zeros(np.asarray(p, float), "f")
+    small = np.abs(p) <= 1e-12 * np.max(np.abs(p))
+    count = 0
+    while count < len(p) - 1 and small[len(p) - 1 - count]:
+        count += 1
+    return count
+
+
+def drive_block(model: dict) -> Block:
+    """The drive as a state-space block (its own matrices for a state-space model)."""
+    if model["type"] == "state_space":
+        return Block(*(np.asarray(model[k], float) for k in ("a", "b", "c")),
+                     np.asarray(model.get("d", [[0.0]]), float))
+    return siso(*drive_transfer(model))
+
+
+def controller_block(loop: str, plant: dict, tuned: dict) -> Block:
+    """The ``loop`` controller: law × compensator × notch, as one block."""
+    law = plant.get(f"{loop}_controller", "p")
+    prefix = f"{loop}_controller"
+    kp = tuned[f"{prefix}.kp"]
+    num, den = np.array([kp]), np.array([1.0])
+    if law in ("pi", "pid"):
+        ti = tuned[f"{prefix}.ti"]
+        num, den = np.polymul(num, [ti, 1.0]), np.polymul(den, [ti, 0.0])  # 1 + 1/(T_i s)
+        if law == "pid":  # k_p(1 + 1/(T_i s) + T_d s/(T_d s/N + 1))
+            td, tf = tuned[f"{prefix}.td"], tuned[f"{prefix}.td"] / tuned[f"{prefix}.n"]
+            num = np.polyadd(np.polymul(num, [tf, 1.0]), kp * ti * td * np.array([1.0, 0.0, 0.0]))
+            den = np.polymul(den, [tf, 1.0])
+    comp = compensator(plant.get(f"{loop}_compensator", "none"), f"{loop}_compensator", tuned)
+    c_num, c_den = ss2tf(comp.a, comp.b, comp.c, comp.d) if comp.order else (comp.d[0], [1.0])
+    num, den = np.polymul(num, np.ravel(c_num)), np.polymul(den, c_den)
+    if plant.get("notch", "none") == f"{loop}_loop":
+        w, zeta, depth = (tuned[f"notch.{k}"] for k in ("frequency", "width", "depth"))
+        num = np.polymul(num, [1.0, 2 * depth * zeta * w, w * w])
+        den = np.polymul(den, [1.0, 2 * zeta * w, w * w])
+    return siso(num, den)
+
+
+class LinearModel(ContinuousModel):
+    """Validator model of ``linear``: a position loop, optionally around a velocity loop."""
+
+    def __init__(self, plant: dict, tuned: dict):
+        self.plant = plant
+        self.position_output = plant["output_unit"] in ("m", "rad")
+        self.position_unit = plant["output_unit"].removesuffix("/s")
+        self.dead_time = plant.get("dead_time", 0.0)
+        self.feedforward = plant.get("velocity_feedforward", 0.0)
+        self.cascade = plant.get("velocity_controller", "none") != "none"
+        self.drive = drive_block(plant["model"])
+        if np.any(self.drive.d):
+            raise NotCovered("a drive with direct feedthrough (D ≠ 0) is not modelled")
+        empty = Block(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1)))
+        self.blocks = {
+            "c_p": (controller_block("position", plant, tuned), "e_p"),
+            "c_v": (controller_block("velocity", plant, tuned) if self.cascade else empty, "e_v"),
+            "pade": (pade_block(self.dead_time) if self.dead_time > 0 else empty, "u"),
+            "drive": (self.drive, "w"),
+        }
+        self.gains = {loop: tuned[f"{loop}_controller.kp"]
+                      for loop in ("position", "velocity") if f"{loop}_controller.kp" in tuned}
+        closed, b, c = self._state_space("closed")
+        opened, b_open, c_open = self._state_space("open")
+        super().__init__((closed, b[:, [0]], c), (opened, b_open[:, [2]], c_open), False)
+        self.b = np.column_stack([b[:, 0], np.zeros(len(b)), b[:, 1]])  # [r, T_L (none), ṙ]
+
+    @classmethod
+    def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None) -> "LinearModel":
+        return cls(plant, tuned)
+
+    # -- the interconnection -----------------------------------------------------------
+
+    def _states(self) -> dict[str, slice]:
+        out, start = {}, 0
+        for name, (block, _) in self.blocks.items():
+            out[name] = slice(start, start + block.order)
+            start += block.order
+        out["integral"] = slice(start, start + (0 if self.position_output else 1))
+        return out
+
+    def _signal_equations(self, mode: str):
+        """(M, P, Q): signals σ = M σ + P x + Q [r, ṙ, e_open] at states x (time domain)."""
+        states = self._states()
+        n = states["integral"].stop
+        k = {s: i for i, s in enumerate(SIGNALS)}
+        m, p, q = np.zeros((9, 9)), np.zeros((9, n)), np.zeros((9, 3))
+        if mode == "open":
+            q[k["e_p"], 2] = 1.0
+        elif mode == "closed":
+            q[k["e_p"], 0], m[k["e_p"], k["x"]] = 1.0, -1.0
+        # inner: the velocity command v is the input (column r), no position loop
+        for name, target in (("c_p", "c_p"), ("c_v", "u"), ("pade", "w"), ("drive", "y")):
+            block, source = self.blocks[name]
+            if name == "c_v" and not self.cascade:
+                m[k["u"], k["c_p"]] = 1.0
+                continue
+            p[k[target], states[name]] = block.c[0]
+            m[k[target], k[source]] = block.d[0, 0]
+        if mode == "inner":
+            q[k["v"], 0] = 1.0
+        else:
+            m[k["v"], k["c_p"]], q[k["v"], 1] = 1.0, self.feedforward
+        m[k["e_v"], k["v"]], m[k["e_v"], k["xdot"]] = 1.0, -1.0
+        d = self.blocks["drive"][0]
+        if self.position_output:  # x = y, ẋ = C A x_d + C B w (D = 0)
+            m[k["x"], k["y"]] = 1.0
+            p[k["xdot"], states["drive"]] = d.c[0] @ d.a
+            m[k["xdot"], k["w"]] = float(d.c[0] @ d.b[:, 0])
+        else:  # ẋ = y, x the integral state
+            m[k["xdot"], k["y"]] = 1.0
+            p[k["x"], states["integral"]] = 1.0
+        return m, p, q
+
+    def _state_space(self, mode: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(A, B, C) with inputs [r, ṙ, e_open] and output x of the loop: ``closed``,
+        ``open`` at the position feedback, or the velocity loop alone (``inner``, input v)."""
+        m, p, q = self._signal_equations(mode)
+        solve = np.linalg.solve(np.eye(9) - m, np.hstack([p, q]))
+        sig_x, sig_in = solve[:, :p.shape[1]], solve[:, p.shape[1]:]
+        states = self._states()
+        n = states["integral"].stop
+        a, b = np.zeros((n, n)), np.zeros((n, 3))
+        k = {s: i for i, s in enumerate(SIGNALS)}
+        for name, (block, source) in self.blocks.items():
+            sl = states[name]
+            a[sl, sl] += block.a
+            a[sl] += np.outer(block.b[:, 0], sig_x[k[source]])
+            b[sl] += np.outer(block.b[:, 0], sig_in[k[source]])
+        if not self.position_output:
+            a[states["integral"]] += sig_x[k["xdot"]]
+            b[states["integral"]] += sig_in[k["xdot"]]
+        keep = self._kept(mode)
+        return a[np.ix_(keep, keep)], b[keep], sig_x[k["x"], keep]
+
+    def _kept(self, mode: str) -> np.ndarray:
+        """States of the loop ``mode`` holds: the velocity loop alone has no position
+        controller nor integral."""
+        states = self._states()
+        n = states["integral"].stop
+        if mode != "inner":
+            return np.arange(n)
+        return np.array([i for name in ("c_v", "pade", "drive") for i in range(n)[states[name]]],
+                        dtype=int)
+
+    # -- frequency responses: the dead time exact ----------------------------------------
+
+    def _gain_at(self, block: Block, s: np.ndarray) -> np.ndarray:
+        n = block.order
+        if n == 0:
+            return np.full(s.shape, block.d[0, 0], dtype=complex)
+        solved = np.linalg.solve(s[:, None, None] * np.eye(n) - block.a,
+                                 np.broadcast_to(block.b, (s.size, n, 1)))[:, :, 0]
+        return solved @ block.c[0] + block.d[0, 0]
+
+    def _signals_at(self, omega, mode: str, column: int) -> np.ndarray:
+        """Every signal per unit of input ``column`` at s = jω (ω > 0)."""
+        omega = np.atleast_1d(np.asarray(omega, dtype=float))
+        s = 1j * omega
+        k = {name: i for i, name in enumerate(SIGNALS)}
+        m = np.zeros((s.size, 9, 9), dtype=complex)
+        q = np.zeros((s.size, 9), dtype=complex)
+        if mode == "open":
+            q[:, k["e_p"]] = 1.0 if column == 2 else 0.0
+        else:
+            q[:, k["e_p"]] = 1.0 if column == 0 else 0.0
+            m[:, k["e_p"], k["x"]] = -1.0
+        m[:, k["c_p"], k["e_p"]] = self._gain_at(self.blocks["c_p"][0], s)
+        m[:, k["v"], k["c_p"]] = 1.0
+        q[:, k["v"]] = self.feedforward * s if column == 1 else 0.0
+        m[:, k["e_v"], k["v"]], m[:, k["e_v"], k["xdot"]] = 1.0, -1.0
+        if self.cascade:
+            m[:, k["u"], k["e_v"]] = self._gain_at(self.blocks["c_v"][0], s)
+        else:
+            m[:, k["u"], k["c_p"]] = 1.0
+        m[:, k["w"], k["u"]] = np.exp(-s * self.dead_time)
+        m[:, k["y"], k["w"]] = self._gain_at(self.drive, s)
+        if self.position_output:
+            m[:, k["x"], k["y"]], m[:, k["xdot"], k["y"]] = 1.0, s
+        else:
+            m[:, k["xdot"], k["y"]], m[:, k["x"], k["y"]] = 1.0, 1 / s
+        return np.linalg.solve(np.eye(9) - m, q[:, :, None])[:, :, 0]
+
+    def _open(self, omega) -> np.ndarray:
+        return self._signals_at(omega, "open", 2)[:, SIGNALS.index("x")]
+
+    def _closed(self, omega) -> np.ndarray:
+        x = SIGNALS.index("x")
+        return self._signals_at(omega, "closed", 0)[:, x] + self._signals_at(omega, "closed", 1)[:, x]
+
+    def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
+        """(L, H): L = x/e_p with the position feedback opened, H = x/r (feed-forward
+        included), the dead time exact."""
+        return self._open(omega), self._closed(omega)
+
+    def _gain(self, omega) -> np.ndarray:
+        """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space."""
+        h0 = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
+        return np.abs(self._closed(omega) / h0)
+
+    # -- time responses: the transient about the steady solution -------------------------
+
+    def _steady(self, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(p0, p1, δ0): the steady solution x = p0 + p1 t of ẋ = A x + B_r r + B_ṙ ṙ and
+        the transient's start δ(0) = x(0⁺) − p0. Step: p1 = 0, p0 = −A⁻¹B_r, x(0⁺) = B_ṙ
+        (k_ff·ṙ is an impulse); ramp: p1 = −A⁻¹B_r, p0 = A⁻¹(p1 − B_ṙ), x(0) = 0."""
+        b_r, b_rate = self.b[:, 0], self.b[:, 2]
+        settled = -np.linalg.solve(self.a, b_r)
+        if kind == "step":
+            return settled, np.zeros_like(settled), b_rate - settled
+        p0 = np.linalg.solve(self.a, settled - b_rate)
+        return p0, settled, -p0
+
+    def _transients(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """(t, kind → C δ(t)): δ' = A δ propagated on the graded grid, once per model. The
+        error about its steady value is −C δ exactly, with no ramp t − θ to cancel: this
+        loop's A has a condition number up to 1e23 (a PI zero next to a slow pole), where
+        ContinuousModel's augmented-input propagation loses 1e-10 of the ramp error."""
+        cached = self.__dict__.get("_transient_values")
+        if cached is None:
+            steps = self._grid_steps()
+            t = np.concatenate([[0.0], np.cumsum(steps)])
+            starts = np.column_stack([self._steady(kind)[2] for kind in ("step", "ramp")])
+            values = np.einsum("kij,i->kj", _propagate(self.a, starts, steps), self.c)
+            cached = self.__dict__["_transient_values"] = (
+                t, {"step": values[:, 0], "ramp": values[:, 1]})
+        return cached
+
+    def _simulate(self, kind: str):
+        """(t, x, exact(t)) of the step or ramp response."""
+        t, values = self._transients()
+        p0, p1, d0 = self._steady(kind)
+        c = self.c
+        return (t, c @ p0 + (c @ p1) * t + values[kind],
+                lambda tt: float(c @ p0 + (c @ p1) * tt + c @ expm(self.a * tt) @ d0))
+
+    def _error(self, kind: str):
+        """(t, e − e_ss, exact(t) of e − e_ss, e_ss) after a unit step or ramp: e − e_ss =
+        −C δ(t); e_ss = 0 after a step, −C p0 after a ramp (1/C_v without feed-forward),
+        exactly 0 for a loop of type 2 or more, as the tuner's."""
+        if kind == "load":
+            raise NotCovered("a user-defined drive has no load input")
+        t, values = self._transients()
+        p0, _, d0 = self._steady(kind)
+        steady = 0.0 if kind == "step" or self._loop_type() > 1 else float(-self.c @ p0)
+        return t, -values[kind], (lambda tt: float(-self.c @ expm(self.a * tt) @ d0)), steady
+
+    def _loop_type(self) -> int:
+        """Integrators of the open loop: 1 behind a velocity loop (x = ∫ẋ), else those of
+        the drive's position per input (poles at s = 0 net of zeros there, a velocity
+        output adding one); plus the position controller's (PI, PID)."""
+        own = 1
+        if not self.cascade:
+            num, den = drive_transfer(self.plant["model"])
+            own = (_zeros_at_origin(den) - _zeros_at_origin(num)
+                   + (0 if self.position_output else 1))
+        return own + (self.plant.get("position_controller", "p") != "p")
+
+    def gain_margin(self) -> float:
+        """1/|L| [1] where the open-loop phase first reaches −180°, the phase unwrapped from
+        that of L·(jω)^n (n the loop's type, so it starts near 0° and not on the ±180° branch
+        cut a type-2 loop's low-frequency phase sits on) minus n·90°; refined by brentq."""
+        n = self._loop_type()
+        grid = self._grid()
+        phase = np.unwrap(np.angle(self._open(grid) * (1j * grid) ** n)) - n * math.pi / 2
+        # the grid starts below the open loop's rounding-size poles (its integrators):
+        # there a type-2 loop's phase is −180° to 1e-9 rad either side, not a crossing
+        side = np.sign(np.where(np.abs(phase + math.pi) < 1e-9, 0.0, phase + math.pi))
+        decided = np.flatnonzero(side)
+        turns = np.flatnonzero(side[decided[:-1]] != side[decided[1:]])
+        if turns.size == 0:
+            raise NotCovered("the open-loop phase never reaches −180°")
+        i, j = decided[turns[0]], decided[turns[0] + 1]
+
+        def imag(u):
+            lo = self._open(math.exp(u))[0]
+            return lo.imag / abs(lo)
+
+        omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[j]), xtol=1e-14))
+        return float(1.0 / abs(self._open(omega)[0]))
+
+    def velocity_constant(self) -> float:
+        """C_v = 1/e_ss [1/s] of the ramp without the feed-forward: lim s·L(s)."""
+        if self._loop_type() > 1:
+            raise NotCovered("a loop of type 2 or more has no finite velocity constant")
+        return super().velocity_constant()
+
+    def velocity_loop_poles(self) -> np.ndarray:
+        """Poles [1/s] of the velocity loop alone (input v, output ẋ). An integrating drive
+        with a position output carries its position integrator (a pole at s = 0 the
+        velocity loop never feeds back) among the states: it is not one of them."""
+        poles = np.linalg.eigvals(self._state_space("inner")[0])
+        num, den = drive_transfer(self.plant["model"])
+        if self.position_output and _zeros_at_origin(den) > _zeros_at_origin(num):
+            poles = np.delete(poles, np.argmin(np.abs(poles)))
+        return poles
+
+    # -- the Model protocol ------------------------------------------------------------
+
+    def sensitivity(self) -> float:
+        """|G_v(0)·k_p·k_v| [1/s] (Bhatia Ch. IV eq 1 with the proportional gains), G_v the
+        drive's velocity per input."""
+        num, den = drive_transfer(self.plant["model"])
+        num, den = np.trim_zeros(num, "f"), np.trim_zeros(den, "f")
+        if self.position_output:
+            if den[-1] != 0:
+                raise NotCovered("the drive's velocity has a zero at s = 0")
+            den = den[:-1]
+        if den[-1] == 0 or num[-1] == 0:
+            raise NotCovered("the drive's velocity per input has no finite DC gain")
+        return float(abs(num[-1] / den[-1] * np.prod(list(self.gains.values()))))
+
+    def closed_forms(self) -> dict:
+        return {**super().closed_forms(), "sensitivity": self.sensitivity}
+
+    def measure(self, result: dict) -> list[dict]:
+        """The continuous loop's entries, and the velocity loop's poles."""
+        entries = super().measure(result)
+        inner = (result.get("stability") or {}).get("inner_loop") or {}
+        if inner.get("poles") and self.cascade:
+            row = poles_entry(inner["poles"], self.velocity_loop_poles(), False)
+            row["metric"] = "velocity_loop_poles"
+            entries.append(row)
+        return entries
