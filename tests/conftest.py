@@ -6,7 +6,7 @@ solve calls ran 5× slower with OpenBLAS's default thread per core (issue 15), a
 one test worker per core (pytest-xdist, ``addopts`` in pyproject.toml).
 
 feedtune's bytecode is written once, before the tests start (:func:`pytest_configure`): the
-suite starts a few hundred ``python -m feedtune`` processes and batch workers, and with
+suite starts many ``python -m feedtune`` processes and batch workers, and with
 ``pip install -e`` nothing else writes it when ``PYTHONDONTWRITEBYTECODE`` is set (as the
 tests set it for their subprocesses, and as many CI images do), so each of them compiled
 feedtune's sources again (≈ 0.1 s of CPU a process; issue 15).
