@@ -2,17 +2,17 @@
 
 Loading the command line takes 0.2–0.5 s (click, pydantic). A Ctrl-C or SIGTERM meanwhile
 ends the process at once with exit status 130 and one line (nothing has been written yet),
-not a traceback or status 143; once loaded, each command handles signals itself
-(``batch``: 130, the results so far kept).
+not a traceback or status 143 (:mod:`feedtune.interrupts`); once a command runs, it handles
+signals itself (``batch``: 130, the results so far kept).
 """
 
 import atexit
 import os
-import signal
 import sys
 import threading
 
-_STARTING = (signal.SIGINT, signal.SIGTERM)
+from feedtune import interrupts
+
 #: thread-count variables of the BLAS libraries numpy and scipy may load
 BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
@@ -31,12 +31,6 @@ def pin_blas_threads(environ=os.environ) -> None:
         environ.setdefault(name, "1")
 
 
-def _stop_while_starting(signum, frame):
-    """Exit 130 now: an exception raised here could be swallowed inside an import."""
-    os.write(2, b"feedtune: interrupted while starting; nothing was done\n")
-    os._exit(130)
-
-
 def main() -> None:
     """The ``feedtune`` command: :func:`run`, then exit without the interpreter's teardown."""
     exit_without_teardown(run())
@@ -46,16 +40,16 @@ def run(args: list[str] | None = None):
     """Load the command line and run it on ``args`` (None: ``sys.argv[1:]``); its exit code
     (as ``SystemExit.code``: None, a number or a message). An interrupt while it loads is
     exit status 130."""
-    previous = {signum: signal.signal(signum, _stop_while_starting) for signum in _STARTING}
+    interrupts.hold()  # released by the command about to run (feedtune.cli.main)
     pin_blas_threads()
     from feedtune.cli import main as command_line
 
-    for signum, handler in previous.items():
-        signal.signal(signum, handler)
     try:
         command_line(args=args, prog_name="feedtune")
     except SystemExit as stop:
         return stop.code
+    finally:
+        interrupts.release()  # if no command ran (--help, a usage error)
     return 0
 
 

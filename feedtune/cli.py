@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Iterator
 
 import click
 
-from feedtune import __version__
+from feedtune import __version__, interrupts
 from feedtune.files import write_atomic
 
 if TYPE_CHECKING:  # pydantic is imported by the commands that read specs, not by --help
@@ -424,6 +424,8 @@ def main() -> None:
     """
     with contextlib.suppress(AttributeError, ValueError):
         sys.stderr.reconfigure(errors="backslashreplace")
+    if click.get_current_context().invoked_subcommand != "batch":  # batch: its _Stop does
+        interrupts.release()
 
 
 def _report_start(start, total: int) -> None:
