@@ -97,24 +97,33 @@ def test_the_api_report_is_feedtune_reports(tmp_path):
 
 
 def test_the_python_example_tunes_and_plots(tmp_path):
-    """examples/tune_from_python.py: Koren's sampled servo built in code, tuned, exported to
-    python-control and plotted into the file named on its command line."""
+    """examples/tune_from_python.py: a user-defined two-mass drive built in code, tuned,
+    exported to python-control and plotted into the file named on its command line; the
+    same tuning as examples/user-defined-drive.json through the command line."""
     figure, saved = tmp_path / "servo.png", tmp_path / "result.json"
     proc = subprocess.run([sys.executable, str(REPO / "examples" / "tune_from_python.py"),
                            str(figure), "--result", str(saved)], capture_output=True,
                           text=True, cwd=tmp_path, timeout=300,
                           env={**os.environ, "MPLBACKEND": "", "DISPLAY": ""})
     assert proc.returncode == 0, proc.stderr
-    assert "sampled-servo-from-python: optimal" in proc.stdout
+    assert "user-drive-from-python: optimal" in proc.stdout
     assert re.search(r"gain margin \d+(\.\d+)? \[1\], phase margin \d+(\.\d+)? \[deg\]",
                      proc.stdout)
     image = matplotlib.image.imread(figure)
     assert image.shape[0] > 400 and image.shape[1] > 400
     result = feedtune.load_result(saved)
-    assert result.success and result.name == "sampled-servo-from-python"
-    # README: the gain with zero radial error on the 8 mm circle at 40 mm/s (within the
-    # tuner's 1e-9 tolerance, far below the 1 % separating the neighbouring closed forms)
-    assert result.values["position_gain"] == pytest.approx(18.17336, rel=1e-5)
+    assert result.success and result.name == "user-drive-from-python"
+    assert result.units["velocity_controller.kp"] == "N·m·s/rad"
+    # the bundled spec of the same drive, tuned by the command line: the same numbers (one
+    # code path and the same spec apart from its name; 1e-9 relative is IPOPT's tolerance)
+    proc = feedtune_cli("tune", str(REPO / "examples" / "user-defined-drive.json"), "-o",
+                        str(tmp_path / "cli.json"), "-q")
+    assert proc.returncode == 0, proc.stderr
+    cli = feedtune.load_result(tmp_path / "cli.json")
+    for name, value in cli.values.items():
+        assert result.values[name] == pytest.approx(value, rel=1e-9), name
+    assert result.metrics["bandwidth"].value == pytest.approx(
+        cli.metrics["bandwidth"].value, rel=1e-9)
 
 
 def test_the_readmes_python_api_example_runs(tmp_path, monkeypatch):
