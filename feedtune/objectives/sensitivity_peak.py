@@ -16,8 +16,10 @@ class SensitivityPeak(Metric):
     Not Bhatia's ``sensitivity`` (the loop-gain product |G K'_v K'_p| that makes the closed
     loop insensitive to the plant at low frequency): a peak over all frequencies, located
     on a grid and refined by golden section and Newton steps, held in the NLP as a
-    supremum (the exchange method), as ``m_peak``. S is evaluated as den L/(den L + num L)
-    (the loop's ``error_response``), exact at low ω where 1/(1 + L) would cancel.
+    supremum (the exchange method), as ``m_peak``. S is evaluated as den L/(den L + num L),
+    exact at low ω: the loop's ``sensitivity_response`` where its reference path differs
+    from its feedback path (a velocity feed-forward), else its ``error_response`` (unity
+    feedback: the error per reference is S).
     """
 
     name = "sensitivity_peak"
@@ -30,8 +32,10 @@ class SensitivityPeak(Metric):
         return has_open_loop(loop) and hasattr(loop, "error_response")
 
     def evaluate(self, loop, options):
+        response = getattr(loop, "sensitivity_response", loop.error_response)
+
         def gain(omega):
-            re, im = loop.error_response(omega)
+            re, im = response(omega)
             return re**2 + im**2
 
         value, omega_peak = peak(gain, loop.frequency_band, "sensitivity_peak")

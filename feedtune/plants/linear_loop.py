@@ -86,8 +86,9 @@ class Blocks:
     feedforward: float
 
     def response(self, omega, which: str) -> tuple:
-        """L (``open``), T (``closed``: position/reference) or S (``error``: error/reference)
-        at s = jω, as an (re, im) pair.
+        """L (``open``), T (``closed``: position/reference), the error per reference
+        (``error``) or the feedback loop's sensitivity S = 1/(1 + L) (``sensitivity``; the
+        error per reference only without feed-forward) at s = jω, as an (re, im) pair.
 
         The polynomial forms of :func:`~feedtune.plants.cascade.close_loops` with e^{−jωθ}
         wherever the drive's numerator is, so T and S are quotients of values that stay
@@ -104,7 +105,7 @@ class Blocks:
             denominator = _mul(b, _mul(q, d_g))
             closed = _add(denominator, numerator)
             pairs = {"open": (numerator, denominator), "closed": (numerator, closed),
-                     "error": (denominator, closed)}
+                     "error": (denominator, closed), "sensitivity": (denominator, closed)}
             return _div(*pairs[which])
         kv, n_cv, d_cv = self.velocity
         c = _scale(_value(n_cv, omega), kv)
@@ -116,6 +117,8 @@ class Blocks:
         closed = _add(denominator, numerator)
         if which == "open":
             return _div(numerator, denominator)
+        if which == "sensitivity":
+            return _div(denominator, closed)
         if which == "closed":
             return _div(_mul(_add(a, _scale(_mul((0, omega), b), self.feedforward)),
                              to_position), closed)
@@ -176,6 +179,13 @@ class LinearLoop(TransferLoop):
         if self.blocks is not None:
             return self.blocks.response(omega, "error")
         return self._ratio(self._error_numerator, self.closed_denominator, omega)
+
+    def sensitivity_response(self, omega):
+        """Re and Im of the feedback loop's S = 1/(1 + L) = den L/(den L + num L) at s = jω,
+        whatever the feed-forward (which changes the error per reference, not S)."""
+        if self.blocks is not None:
+            return self.blocks.response(omega, "sensitivity")
+        return self._ratio(self.open_denominator, self.closed_denominator, omega)
 
     def numeric_transfer(self, output: str = "position", input: str = "reference"):
         """As :meth:`TransferLoop.numeric_transfer`, with the feed-forward's reference path

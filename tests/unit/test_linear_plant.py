@@ -18,6 +18,7 @@ import pytest
 
 from feedtune.plants import plant_for
 from feedtune.plants.linear_loop import PADE_ORDER, pade
+from feedtune.objectives import METRICS
 from feedtune.spec import SpecError, parse_spec
 from feedtune.validate.linear import LinearModel, pade_block
 
@@ -261,6 +262,27 @@ def test_feedforward_changes_the_reference_path_only():
     e_ff, e_no = num_ff[-2] / den[-1], num_no[-2] / den[-1]  # ramp steady errors [s]
     assert e_no == pytest.approx(1 / float(ca.evalf(ca.MX(without.velocity_constant))), rel=1e-12)
     assert e_ff < e_no
+
+
+@pytest.mark.parametrize("dead_time", [0.0, 2e-4])
+def test_sensitivity_is_the_feedback_loops_whatever_the_feedforward(dead_time):
+    """S = 1/(1 + L) (what M_s reads) is the feedback loop's: with 50 % feed-forward it equals
+    python-control's 1/(1 + L) (10th-order Padé for the dead time) to 1e-8 of 1 + |S|, as
+    the other responses above, while the error per reference (1 − T) differs from it; and
+    M_s is the same with and without feed-forward (the bits of one expression)."""
+    spec = spec_with(dead_time=dead_time)
+    values = initial_values(spec)
+    loop = loop_of(spec, values)
+    open_loop = control_loop(spec, values, 10 if dead_time else None)[0]
+    sensitivity = 1 / (1 + open_loop)
+    for w in OMEGAS:
+        ours, theirs = numeric(loop.sensitivity_response(w)), complex(sensitivity(1j * w))
+        assert abs(ours - theirs) <= 1e-8 * (1 + abs(theirs)), (w, ours, theirs)
+    assert abs(numeric(loop.error_response(300.0)) - numeric(loop.sensitivity_response(300.0))) > 1e-2
+    without = loop_of(spec_with(dead_time=dead_time, velocity_feedforward=0.0), values)
+    m_s = [float(ca.evalf(ca.MX(METRICS["sensitivity_peak"]().evaluate(lp, None).exact)))
+           for lp in (loop, without)]
+    assert m_s[0] == m_s[1]
 
 
 # -- the validator's own model ------------------------------------------------------------
