@@ -197,7 +197,9 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
 
 def _expanded(fn):
     """``fn`` expanded to SX (its constants folded once, by the same double operations),
-    or ``fn`` itself where it does not expand."""
+    or ``fn`` itself where it is SX already or does not expand."""
+    if fn.is_a("SXFunction"):
+        return fn
     try:
         return fn.expand()
     except RuntimeError:
