@@ -21,6 +21,9 @@ from feedtune.lazy import ca, np
 POINTS_PER_DECADE = 40
 _BISECTIONS = 32  # the bracket shrinks to 2^-32 of a grid step before Newton's method
 _GOLDEN_STEPS = 48  # golden-section steps: the bracket of two grid steps shrinks to 1e-10
+#: golden steps in every window of a loop of numbers before only the windows that can
+#: hold the peak go on (:func:`_peak_of_numbers`); the bracket is then 5.6 % of a window
+_SCREEN_STEPS = 6
 _NEWTON_STEPS = 2
 
 
@@ -78,6 +81,28 @@ def _functions(name: str, fn, derivatives: int):
     return [ca.Function(f"{name}_{k}", [u, *free], [e]) for k, e in enumerate(expressions)], free
 
 
+def _number_functions(name: str, fn, derivatives: int):
+    """:func:`_functions` for a loop of numbers, built in SX directly (issue 15), or None.
+
+    The same Python operations on an SX symbol give the SX graph that expanding the MX
+    Functions gives (expansion evaluates each MX operation on SX, constants folded by the
+    same double operations): the same bits for f, f′ and f″ on the bundled loops
+    (tests/unit/test_peak_numbers.py, test_first_crossing_numbers.py), without the MX graph,
+    its jacobians and the expansion (≈ 2.5 ms a call). None where ``fn`` cannot take an SX
+    argument (a loop holding MX: symbols inside the NLP, or MX matrices of numbers).
+    """
+    u = ca.SX.sym("log_omega")
+    try:
+        expressions = [ca.SX(fn(ca.exp(u)))]
+    except (TypeError, NotImplementedError, RuntimeError):
+        return None
+    for _ in range(derivatives):
+        expressions.append(ca.jacobian(expressions[-1], u))
+    if any(not ca.is_equal(v, u) for v in ca.symvar(ca.veccat(*expressions))):
+        return None
+    return [ca.Function(f"{name}_{k}", [u], [e]) for k, e in enumerate(expressions)]
+
+
 def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str = "crossing"):
     """Smallest ω [rad/s] in ``band`` where ``fn`` falls through ``level``.
 
@@ -87,12 +112,15 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
     Everything is plain CasADi arithmetic, so the NLP can expand it to SX. Without a
     crossing on the grid, ω is the top of the band.
     """
-    (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     grid = np.log(log_grid(band))
+    numbers = _number_functions(name, lambda w: fn(w) - level, 1)
+    if numbers is not None:  # a loop of numbers: the same steps in floats, no graph to build
+        f, slope = (_Mapped(g) for g in numbers)
+        return ca.MX(_first_crossing_of_numbers(f, slope, grid, f(grid)))
+    (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     if not free:  # a loop of numbers: the same steps in floats, without a graph to build
-        f, slope = _expanded(f), _expanded(slope)
-        values = np.asarray(f.map(len(grid))(ca.DM(grid).T)).ravel()
-        return ca.MX(_first_crossing_of_numbers(f, slope, grid, values))
+        f, slope = _Mapped(f), _Mapped(slope)
+        return ca.MX(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
     below = values < 0
     # first index below the level: scan from the top so the lowest one wins
@@ -120,8 +148,8 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     """:func:`first_crossing` for a function of ln ω without free symbols: the lowest grid
     interval whose upper end is below 0, bisected and finished by Newton steps exactly as
     the symbolic version does, in floats (building its graph of ≈ 3 if_else nodes per grid
-    point cost 0.1 s a call on Bhatia's loop); ``f`` and ``slope`` come SX-expanded
-    (:func:`_expanded`). Returns ω [rad/s]."""
+    point cost 0.1 s a call on Bhatia's loop); ``f`` and ``slope`` are :class:`_Mapped`
+    (SX-expanded, evaluated through CasADi's buffer). Returns ω [rad/s]."""
     below = np.flatnonzero(values[1:] < 0)
     if below.size == 0:
         return math.exp(grid[-1])
@@ -129,14 +157,14 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     low, high = float(grid[k - 1]), float(grid[k])
     for _ in range(_BISECTIONS):
         middle = (low + high) / 2
-        if float(f(middle)) > 0:
+        if f(middle)[0] > 0:
             low = middle
         else:
             high = middle
     u = (low + high) / 2
     for _ in range(2):
-        g = float(slope(u))
-        step = float(f(u)) / g if g != 0 else 0.0  # as the symbolic version
+        g = float(slope(u)[0])
+        step = float(f(u)[0]) / g if g != 0 else 0.0  # as the symbolic version
         u = u - float(np.fmin(np.fmax(step, low - u), high - u))  # as ca.fmin/ca.fmax
     return math.exp(u)
 
@@ -149,13 +177,17 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     beaten by a broad peak that the grid happens to see well. The derivative is exact
     (envelope theorem). Below the band the value at ω = 0 stands for the response.
     """
-    (f, slope, curvature), free = _functions(name, fn, 2)
     grid = ca.DM(np.log(log_grid(band))).T
     h = float(grid[1] - grid[0]) / 2
-    best = None if free else _peak_of_numbers(f, slope, curvature, np.asarray(grid).ravel(), h)
+    numbers = _number_functions(name, fn, 2)
+    if numbers is None:
+        (f, slope, curvature), free = _functions(name, fn, 2)
+        numbers = None if free else (f, slope, curvature)
+    best = None if numbers is None else _peak_of_numbers(*numbers, np.asarray(grid).ravel(), h)
     if best is not None:  # a loop of numbers: the same steps in floats, no graph to build
         top, u = (ca.MX(v) for v in best)
-    else:
+    else:  # the symbolic path, on the MX graph (it also decides where a number is NaN)
+        (f, slope, curvature), free = _functions(name, fn, 2)
         values, u = _refine_windows(f, slope, curvature, free, grid, h, grid[0], grid[-1])
         top, u = _best(ca.horzcat(values, f.map(grid.shape[1])(grid, *free)),
                        ca.horzcat(u, grid))
@@ -165,7 +197,9 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
 
 def _expanded(fn):
     """``fn`` expanded to SX (its constants folded once, by the same double operations),
-    or ``fn`` itself where it does not expand."""
+    or ``fn`` itself where it is SX already or does not expand."""
+    if fn.is_a("SXFunction"):
+        return fn
     try:
         return fn.expand()
     except RuntimeError:
@@ -177,43 +211,100 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     :func:`_refine_windows` and :func:`_best` step for step in numpy floats, each
     elementwise operation the IEEE operation CasADi's graph performs (golden-section
     points, comparisons, fmin/fmax, Newton steps), and ``f``, ``f′``, ``f″`` the same
-    CasADi Functions mapped over the row. Building that graph (48 golden steps, ≈ 10
-    nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
+    CasADi Functions (SX-expanded) mapped over the row. Building that graph (48 golden
+    steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
+
+    Only the windows that can hold the largest value are refined to the end (issue 15):
+    after :data:`_SCREEN_STEPS` golden steps in every window, a window goes on only if
+    :func:`_window_bound` (what its refinement can still reach) is at least the largest
+    grid value, which the choice takes among its candidates, so the top is never below it.
+    Every window kept is refined by the same operations on the same numbers (a mapped
+    Function evaluates each element on its own), so the top and its ln ω are those of
+    refining every window, bit for bit.
 
     Returns (largest value, the ln ω where it is taken), or None if any value is NaN
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    count = grid.size
-
-    def mapped(fn):
-        row = _expanded(fn).map(count)
-        return lambda x: np.asarray(row(x[None, :])).ravel()
-
-    f_all, slope_all, curvature_all = mapped(f), mapped(slope), mapped(curvature)
+    f, slope, curvature = (_Mapped(fn) for fn in (f, slope, curvature))
+    f_grid = f(grid)
+    if np.isnan(f_grid).any():
+        return None
     ratio = (np.sqrt(5) - 1) / 2
     lower, upper = grid[0], grid[-1]
     a, b = np.fmax(grid - 2 * h, lower), np.fmin(grid + 2 * h, upper)
     outer_a, outer_b = a, b
-    for _ in range(_GOLDEN_STEPS):
+    # the largest value each window [u_k − 2h, u_k + 2h] has shown: its three grid points
+    padded = np.concatenate([f_grid[:1], f_grid, f_grid[-1:]])
+    seen = np.fmax(np.fmax(padded[:-2], padded[1:-1]), padded[2:])
+    for step in range(_GOLDEN_STEPS):
+        if step == _SCREEN_STEPS:
+            keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+            a, b, outer_a, outer_b = a[keep], b[keep], outer_a[keep], outer_b[keep]
         c = b - ratio * (b - a)
         d = a + ratio * (b - a)
-        fc, fd = f_all(c), f_all(d)
+        fc, fd = f(c), f(d)
         if np.isnan(fc).any() or np.isnan(fd).any():
             return None
+        if step < _SCREEN_STEPS:
+            seen = np.fmax(seen, np.fmax(fc, fd))
         left = fc > fd
         a, b = np.where(left, a, c), np.where(left, d, b)
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
-        g, c = slope_all(u), curvature_all(u)
+        g, c = slope(u), curvature(u)
         step = np.where(c < 0, -g / np.where(c < 0, c, -1.0), 0.0)
         u = np.fmin(np.fmax(u + step, outer_a), outer_b)
-    values = np.concatenate([f_all(u), f_all(grid)])
+    values = np.concatenate([f(u), f_grid])
     where = np.concatenate([u, grid])
     if np.isnan(values).any() or np.isnan(where).any():
         return None
     top = values.max()
     return float(top), float(where[values == top].max())
+
+
+class _Mapped:
+    """A Function of one scalar, SX-expanded once, evaluated at every element of a row.
+
+    Through CasADi's evaluation buffer (``Function.buffer``: arguments and results in
+    numpy memory), ≈ 2 µs a call instead of ≈ 70 µs for a call with DM conversions; the
+    same evaluation, so the same bits.
+    """
+
+    def __init__(self, fn):
+        self.fn = _expanded(fn)
+        self._rows = {}  # row length → (trigger, argument, result)
+
+    def __call__(self, x) -> np.ndarray:
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        row = self._rows.get(x.size)
+        if row is None:
+            buffer, trigger = self.fn.map(x.size).buffer()
+            argument, result = np.zeros(x.size), np.zeros(x.size)
+            buffer.set_arg(0, memoryview(argument))
+            buffer.set_res(0, memoryview(result))
+            row = self._rows[x.size] = (buffer, trigger, argument, result)
+        _, trigger, argument, result = row
+        argument[:] = x
+        trigger()
+        return result.copy()
+
+
+def _window_bound(f, slope, curvature, a, b, seen):
+    """Upper bound on the value each window's refinement can still reach [units of f].
+
+    After :data:`_SCREEN_STEPS` golden steps the bracket [a, b] is 5.6 % of its window
+    wide (0.618⁶) and f, smooth on it, stays below f(m) + |f′(m)|·r + ½|f″|·r² there
+    (m the midpoint, r = (b − a)/2). The bound doubles those rise terms (f″ is read at m
+    only) above the largest value the window has shown (its grid points, its golden
+    points and f(m): the Newton steps start from the bracket and stay inside the window,
+    whose ends are within rounding of its grid points), and adds 1e-12 of the largest |f|
+    seen for the rounding of f (≈ 1e-16 relative, 1e-12 leaves a condition number of
+    10⁴): a window whose refinement could reach the top is never dropped.
+    """
+    m, r = (a + b) / 2, (b - a) / 2
+    rise = 2 * (np.abs(slope(m)) * r + 0.5 * np.abs(curvature(m)) * r**2)
+    return np.fmax(seen, f(m)) + rise + 1e-12 * np.max(np.abs(seen))
 
 
 def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):

@@ -555,11 +555,16 @@ class SampledLoop(_LoopBase):
         """
         n = self.order
         wt = omega * self.period
-        settled = linalg.solve(ca.DM.eye(n) - self.state_matrix, self.input_matrix)
         re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
-                                      ca.sin(wt) * ca.DM.eye(n), settled)
+                                      ca.sin(wt) * ca.DM.eye(n), self._settled_state)
         d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
         return d_re * re[0] - d_im * im[0], d_re * im[0] + d_im * re[0]
+
+    @cached_property
+    def _settled_state(self):
+        """(I − Φ)⁻¹Γ [m per m of reference]: the state a unit step settles to, built once per
+        loop (every response of S and every radius error reads the same expression)."""
+        return linalg.solve(ca.DM.eye(self.order) - self.state_matrix, self.input_matrix)
 
     @cached_property
     def _equivalent_poles(self):

@@ -73,6 +73,15 @@ def log_open_loop_gain_squared(loop):
     return below_nyquist(loop, gain)
 
 
+def as_number(omega):
+    """``omega`` as a float when it is an expression of numbers only (a loop of numbers:
+    the response at it is then plain float arithmetic, the same operations as evaluating
+    its graph, without building one), else ``omega`` itself."""
+    if isinstance(omega, ca.MX) and omega.is_constant():
+        return float(ca.evalf(omega))
+    return omega
+
+
 def gain_crossover(loop):
     """ω_c [rad/s]: the lowest ω where |L| = 1 (π/T on a sampled loop whose |L| stays above
     1 up to Nyquist). Located once per loop (kept in its ``__dict__``, as a cached

@@ -3,7 +3,8 @@
 from feedtune.frequency import first_crossing
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
-from feedtune.objectives.frequency_domain import has_open_loop, phase_crossover_indicator
+from feedtune.objectives.frequency_domain import (as_number, has_open_loop,
+                                                  phase_crossover_indicator)
 
 
 class GainMargin(Metric):
@@ -24,5 +25,5 @@ class GainMargin(Metric):
     def evaluate(self, loop, options):
         omega = first_crossing(phase_crossover_indicator(loop), loop.frequency_band, 0.0,
                                   "phase_crossover")
-        re, im = loop.open_loop_response(omega)
+        re, im = loop.open_loop_response(as_number(omega))
         return 1 / ca.sqrt(re**2 + im**2)

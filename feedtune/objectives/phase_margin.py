@@ -4,7 +4,7 @@ import math
 
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
-from feedtune.objectives.frequency_domain import gain_crossover, has_open_loop
+from feedtune.objectives.frequency_domain import as_number, gain_crossover, has_open_loop
 
 
 class PhaseMargin(Metric):
@@ -20,5 +20,5 @@ class PhaseMargin(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop, options):
-        re, im = loop.open_loop_response(gain_crossover(loop))
+        re, im = loop.open_loop_response(as_number(gain_crossover(loop)))
         return ca.atan2(-im, -re) * (180 / math.pi)
