@@ -24,6 +24,7 @@ from pydantic import ValidationError
 
 from feedtune.export import ControlSystems, ResultError, loop_to_control
 from feedtune.files import write_atomic
+from feedtune.labels import metric_label
 from feedtune.plants import plant_for
 from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, TunedValue,
                              TuneResult)
@@ -500,12 +501,6 @@ def _g(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.6g}"
 
 
-def _options_label(name: str, options: dict) -> str:
-    if not options:
-        return name
-    return name + "(" + ", ".join(f"{k}={v}" for k, v in options.items()) + ")"
-
-
 def summary_lines(result: TuneResult) -> list[str]:
     """Lines for people describing ``result`` (what ``feedtune tune`` prints on stderr)."""
     from feedtune.objectives import METRICS
@@ -543,7 +538,7 @@ def summary_lines(result: TuneResult) -> list[str]:
             unit = f" [{metric.unit}]" if metric is not None else ""
             verdict = ("OK" if c.satisfied else
                        "NOT MET (loop unstable)" if c.value is None and not stable else "VIOLATED")
-            lines.append(f"  {_options_label(c.metric, c.options)} = {_g(c.value)}{unit}"
+            lines.append(f"  {metric_label(c.metric, c.options)} = {_g(c.value)}{unit}"
                          f"  ({', '.join(bounds)})  {verdict}")
     stability = result.stability or {}
     text = "stable" if stable else ("UNSTABLE" if stable is not None else "unknown")

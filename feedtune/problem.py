@@ -9,6 +9,7 @@ from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
+from feedtune.labels import metric_label
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
@@ -56,8 +57,6 @@ def _options_dict(term) -> dict:
     return term.model_dump(exclude={"metric", "weight", "goal", "min", "max"})
 
 
-def _label(name: str, options: dict) -> str:
-    return name if not options else name + "(" + ",".join(f"{k}={v}" for k, v in options.items()) + ")"
 
 
 class LiftedOptions:
@@ -227,7 +226,7 @@ def _report_sets(spec: Spec, probe_loop) -> dict[str, tuple]:
             if options not in unique and metric.supports(probe_loop, options):
                 unique.append(options)
         for i, options in enumerate(unique):
-            key = name if i == 0 else _label(name, options.model_dump())
+            key = name if i == 0 else metric_label(name, options.model_dump())
             sets[key] = (metric, options)
     return sets
 
@@ -313,7 +312,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     objective = [Term(term.metric, value_fn(f"objective{i}", term),
                       term.weight if term.goal == "minimize" else -term.weight)
                  for i, term in enumerate(spec.objective)]
-    constraints = [Bound(_label(c.metric, _options_dict(c)), value_fn(f"constraint{i}", c),
+    constraints = [Bound(metric_label(c.metric, _options_dict(c)), value_fn(f"constraint{i}", c),
                          c.min, c.max)
                    for i, c in enumerate(spec.constraints)]
     plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}

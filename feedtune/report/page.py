@@ -7,6 +7,7 @@ import json
 from html import escape
 
 from feedtune import __version__
+from feedtune.labels import metric_label
 
 CSS = """body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;
@@ -34,12 +35,6 @@ def _num(value) -> str:
     return str(value)
 
 
-def _label(name: str, options: dict | None) -> str:
-    if not options:
-        return name
-    return f"{name}({', '.join(f'{k}={v}' for k, v in options.items())})"
-
-
 def _table(head: list[str], rows: list[list[str]]) -> str:
     """Cells are HTML already (escaped by the caller)."""
     out = ['<div class="scroll"><table><tr>'
@@ -63,7 +58,7 @@ def tuned_table(result: dict) -> str:
 
 
 def metrics_table(result: dict) -> str:
-    rows = [[_td(_label(m["metric"], m.get("options"))), _td(_num(m.get("value")), "num"),
+    rows = [[_td(metric_label(m["metric"], m.get("options"))), _td(_num(m.get("value")), "num"),
              _td(m.get("unit") or "")] for m in (result.get("metrics") or {}).values()]
     return _table(["metric", "value", "unit"], rows)
 
@@ -73,7 +68,7 @@ def constraints_table(result: dict) -> str:
     unstable = (result.get("stability") or {}).get("stable") is False
     for c in result.get("constraints") or []:
         ok = c.get("satisfied")
-        rows.append([_td(_label(c["metric"], c.get("options"))), _td(_num(c.get("value")), "num"),
+        rows.append([_td(metric_label(c["metric"], c.get("options"))), _td(_num(c.get("value")), "num"),
                      _td(_num(c.get("min")), "num"), _td(_num(c.get("max")), "num"),
                      _td("OK" if ok else "not met (loop unstable)" if unstable else "violated",
                          "ok" if ok else "bad")])
@@ -102,7 +97,7 @@ def validation_table(block: dict | None) -> str:
     for e in block.get("entries") or []:
         ok = e.get("ok")
         unit = e.get("unit") or ""
-        rows.append([_td(_label(e["metric"], e.get("options"))), _td(_num(e.get("reported")), "num"),
+        rows.append([_td(metric_label(e["metric"], e.get("options"))), _td(_num(e.get("reported")), "num"),
                      _td(_num(e.get("validated")), "num"), _td(unit),
                      _td("" if e.get("gap") is None else f"{e['gap']:.2g}", "num"),
                      _td("" if e.get("tolerance") is None else f"{e['tolerance']:.2g}", "num"),

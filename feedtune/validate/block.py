@@ -10,6 +10,7 @@ never imports CasADi (tests/architecture).
 
 from __future__ import annotations
 
+from feedtune.labels import metric_label
 from feedtune.validate.entries import poles_entry, stable_entry
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
@@ -88,8 +89,7 @@ def warning_lines(block: dict | None) -> list[str]:
     :func:`feedtune.validate.tolerances.judge` (``feedtune batch`` fails the same entries)."""
     lines = []
     for e in failures(block):
-        label = e["metric"] + ("(" + ",".join(f"{k}={v}" for k, v in e["options"].items())
-                               + ")" if e["options"] else "")
+        label = metric_label(e["metric"], e["options"])
         text = (f"warning: validation: {label} reported {_fmt(e['reported'])}, "
                 f"re-simulated {_fmt(e['validated'])}")
         if e["gap"] is not None:
