@@ -438,6 +438,37 @@ def _load_rejection(model: ContinuousModel, options: dict, reported, cache: dict
     return max(value, abs(steady))
 
 
+def _radial_error(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
+    """r·| |H(jω)| − 1 | [m], ω = feed/r, H = position/reference (feed-forward included):
+    the steady circle of two identical axes (Koren eqs 28, 37 in exact form), |H| − 1
+    written (|H|² − 1)/(|H| + 1). H ≈ 1 leaves rounding of ~1e-16 in |H|² − 1, i.e.
+    1e-16·r, far below the entry's scale BLU/1000 or 1e-9·r (tolerances.RULES)."""
+    radius, omega = options["radius"], options["feed"] / options["radius"]
+    h = abs(model.frequency_response(omega)[1][0])
+    return float(radius * abs((h * h - 1.0) / (h + 1.0)))
+
+
+def _pole_pair(model: ContinuousModel, options: dict, reported, cache: dict) -> tuple:
+    """(ζ, ω_n [rad/s]) of a second-order loop's poles p1, p2: ω_n = √(p1 p2),
+    ζ = −(p1 + p2)/(2ω_n)."""
+    poles = model.poles()
+    wn = math.sqrt(abs((poles[0] * poles[1]).real))
+    return -float(poles.sum().real) / (2 * wn), wn
+
+
+def _second_order(model, options: dict) -> bool:
+    return model.poles().size == 2
+
+
+#: ζ and ω_n of a continuous second-order loop (Sato's Padé model, a user-defined loop of
+#: order 2): each model that has them adds these to its table
+PAIR_MEASUREMENTS: dict[str, Measurement] = {
+    "damping_ratio": Measurement(lambda m, o, r, c: _pole_pair(m, o, r, c)[0], _second_order),
+    "natural_frequency": Measurement(lambda m, o, r, c: _pole_pair(m, o, r, c)[1],
+                                     _second_order),
+}
+
+
 def _absolute_time(model, options: dict) -> bool:
     return options.get("time", "absolute") == "absolute"
 
@@ -457,6 +488,7 @@ CONTINUOUS_MEASUREMENTS: dict[str, Measurement] = {
     "overshoot": Measurement(_overshoot),
     "settling_time": Measurement(_settling_time),
     "load_rejection": Measurement(_load_rejection, lambda m, o: m.has_load),
+    "radial_error": Measurement(_radial_error),
 }
 
 #: |G(0)·K_v·K_p| (Bhatia Ch. IV eq 1), for the models with a ``sensitivity()`` method

@@ -33,7 +33,8 @@ from scipy.optimize import brentq
 from scipy.signal import ss2tf
 
 from feedtune.validate.cascade import compensator
-from feedtune.validate.continuous import SENSITIVITY, Block, ContinuousModel, _propagate, siso
+from feedtune.validate.continuous import (PAIR_MEASUREMENTS, SENSITIVITY, Block, ContinuousModel,
+                                         _propagate, siso)
 from feedtune.validate.entries import poles_entry
 from feedtune.validate.measurements import Phase
 from feedtune.validate.model import NotCovered
@@ -393,9 +394,11 @@ class LinearModel(ContinuousModel):
         return float(abs(num[-1] / den[-1] * np.prod(list(self.gains.values()))))
 
     def measurement_tables(self) -> tuple[Phase, ...]:
-        """The continuous loop's table and Bhatia's sensitivity (Ch. IV eq 1)."""
+        """The continuous loop's table, Bhatia's sensitivity (Ch. IV eq 1), and ζ, ω_n of a
+        second-order loop."""
         (phase,) = super().measurement_tables()
-        return (replace(phase, table={**phase.table, "sensitivity": SENSITIVITY}),)
+        return (replace(phase, table={**phase.table, "sensitivity": SENSITIVITY,
+                                      **PAIR_MEASUREMENTS}),)
 
     def measure(self, result: dict) -> list[dict]:
         """The continuous loop's entries, and the velocity loop's poles."""

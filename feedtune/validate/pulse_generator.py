@@ -136,6 +136,11 @@ class PulseModel:
             v = (n[w:] - n[:-w]) * self.delta * self.frequency / w
             v = np.concatenate([np.zeros(w), v])
             return float(np.max(np.abs((v[w:] - v[:-w]) * self.frequency / w), initial=0.0))
+        if name == "sine_tracking_error":  # over the last sine period, at each period's end
+            cycle = 2 * math.pi / self.plant.get("sine_frequency", 10.0)
+            last = t >= (t[-1] if t.size else 0.0) - cycle
+            command = np.array([self._command(x) for x in t[last]])
+            return float(np.max(np.abs(command - counter[last] * self.delta), initial=0.0))
         if name == "motor_acceleration_margin":
             table = sorted(self.plant["motor_characteristic"])
             rate = np.abs(self.commanded_velocity()) / self.delta
@@ -191,10 +196,16 @@ class PulseModel:
         return {kind: Response(kind, t, reference, position, self.position_unit)}
 
 
+def _sine_input(model: PulseModel, options: dict) -> bool:
+    return model.plant.get("input", "step") == "sine"
+
+
 #: the metrics :meth:`PulseModel.metric` re-measures: metric → measurement
 PULSE_MEASUREMENTS: dict[str, Measurement] = {
-    name: Measurement(lambda m, o, r, c, name=name: m.metric(name, o))
-    for name in ("pulse_final_error", "pulse_max_velocity", "peak_commanded_acceleration",
-                 "pulse_overshoot", "pulse_rise_time", "pulse_settling_time",
-                 "peak_measured_acceleration", "motor_acceleration_margin")
+    **{name: Measurement(lambda m, o, r, c, name=name: m.metric(name, o))
+       for name in ("pulse_final_error", "pulse_max_velocity", "peak_commanded_acceleration",
+                    "pulse_overshoot", "pulse_rise_time", "pulse_settling_time",
+                    "peak_measured_acceleration", "motor_acceleration_margin")},
+    "sine_tracking_error": Measurement(lambda m, o, r, c: m.metric("sine_tracking_error", o),
+                                       _sine_input),
 }

@@ -41,7 +41,7 @@ from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.validate import sampled_frequency
-from feedtune.validate.continuous import ContinuousModel, siso
+from feedtune.validate.continuous import PAIR_MEASUREMENTS, ContinuousModel, siso
 from feedtune.validate.integrals import error_integrals
 from feedtune.validate.measurements import Measurement, Phase, measure_entries
 from feedtune.validate.model import CircleTrace, NotCovered, Response
@@ -672,13 +672,6 @@ SERVO_MEASUREMENTS: dict[str, Measurement] = {
 }
 
 
-def _pade_pair(model: PadeServoModel, name: str) -> float:
-    """ω_n = √(p1 p2), ζ = −(p1 + p2)/(2ω_n) of the two continuous poles."""
-    poles = model.poles()
-    wn = math.sqrt(abs((poles[0] * poles[1]).real))
-    return wn if name == "natural_frequency" else -float(poles.sum().real) / (2 * wn)
-
-
 def _pade_circle(model: PadeServoModel, options: dict, name: str) -> float:
     """Sato eq 3 (average radius) and eq 7 with the Padé loop's |H|."""
     radius, omega = options["radius"], options["feed"] / options["radius"]
@@ -689,9 +682,7 @@ def _pade_circle(model: PadeServoModel, options: dict, name: str) -> float:
 
 #: PadeServoModel, beyond the continuous loop's table: metric → measurement
 PADE_MEASUREMENTS: dict[str, Measurement] = {
-    **{name: Measurement(lambda m, o, r, c, name=name: _pade_pair(m, name),
-                         lambda m, o: m.poles().size == 2)
-       for name in ("damping_ratio", "natural_frequency")},
+    **PAIR_MEASUREMENTS,
     **{name: Measurement(lambda m, o, r, c, name=name: _pade_circle(m, o, name),
                          lambda m, o: bool(m.reference_interval))
        for name in ("radius_decrease", "average_radius")},
