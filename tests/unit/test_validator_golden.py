@@ -34,11 +34,13 @@ def _same(new, old, where: str) -> None:
             assert math.isclose(new, old, rel_tol=REL, abs_tol=0.0) or new == old, \
                 f"{where}: {new!r} != {old!r}"
     elif isinstance(old, dict):
-        assert isinstance(new, dict) and sorted(new) == sorted(old), f"{where}: keys {sorted(new)} != {sorted(old)}"
+        assert isinstance(new, dict) and sorted(new) == sorted(old), \
+            f"{where}: keys {sorted(new)} != {sorted(old)}"
         for key in old:
             _same(new[key], old[key], f"{where}/{key}")
     elif isinstance(old, list):
-        assert isinstance(new, list) and len(new) == len(old), f"{where}: length {len(new)} != {len(old)}"
+        assert isinstance(new, list) and len(new) == len(old), \
+            f"{where}: length {len(new)} != {len(old)}"
         for i, (a, b) in enumerate(zip(new, old)):
             _same(a, b, f"{where}/{i}")
     else:

@@ -52,7 +52,8 @@ def test_linear_second_order_pair_is_the_closed_form(gain):
     """K/(s(τs + 1)) closes to ω_n = √(K/τ), ζ = 1/(2√(Kτ)) (Koren eqs 9–10)."""
     result = _result(gain)
     entries = {e["metric"]: e for e in validate_result(result)["entries"]}
-    assert entries["natural_frequency"]["validated"] == pytest.approx(math.sqrt(gain / TAU), rel=1e-12)
+    wn = math.sqrt(gain / TAU)
+    assert entries["natural_frequency"]["validated"] == pytest.approx(wn, rel=1e-12)
     assert entries["damping_ratio"]["validated"] == pytest.approx(1 / (2 * math.sqrt(gain * TAU)),
                                                                   rel=1e-12)
 
