@@ -45,7 +45,7 @@ from feedtune.validate.continuous import PAIR_MEASUREMENTS, ContinuousModel, sis
 from feedtune.validate.integrals import error_integrals
 from feedtune.validate.measurements import Measurement, Phase, measure_entries
 from feedtune.validate.model import CircleTrace, NotCovered, Response
-from feedtune.validate.tolerances import Context, judge
+from feedtune.validate.tolerances import Context
 
 #: the minimum radius is judged on the radii where the error at V_m is BLU/2 ± this (in BLU)
 CRITERION_BAND = 1e-3

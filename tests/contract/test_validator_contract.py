@@ -14,8 +14,7 @@ from __future__ import annotations
 
 import pytest
 
-from contract_cases import (EXACT_CONFIGS, exact_metric_cases, exact_nominal, metric_cases,
-                            nominal)
+from contract_cases import exact_metric_cases, exact_nominal, metric_cases, nominal
 from feedtune.validate.block import is_measured
 from feedtune.validate.models import model_for
 
