@@ -3,7 +3,9 @@ independent numpy/scipy model re-measured it, and the gap judged on the metric's
 scale (:mod:`feedtune.validate.tolerances`).
 
 Each plant type has its model in :mod:`feedtune.validate.models`; a plant without one is
-``covered: false`` with the reason, and a metric its model does not measure is not listed.
+``covered: false`` with the reason. Each model declares the metrics it measures as tables
+(:mod:`feedtune.validate.measurements`); a metric no table measures is not listed, and the
+contract test fails for it unless it is exempt there with a reason.
 The result is taken as a plain dict (``TuneResult.model_dump()``), so that this module
 never imports CasADi (tests/architecture).
 """
@@ -12,9 +14,23 @@ from __future__ import annotations
 
 from feedtune.labels import metric_label
 from feedtune.validate.entries import poles_entry, stable_entry
+from feedtune.validate.measurements import Phase, measures
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
-from feedtune.validate.poles import pole_entries
+from feedtune.validate.poles import POLE_MEASUREMENTS, pole_entries
+
+
+def measurement_phases(model) -> tuple[Phase, ...]:
+    """Every table ``model`` is measured with: its own (``measurement_tables()``), then the
+    pole measures (:data:`feedtune.validate.poles.POLE_MEASUREMENTS`)."""
+    return tuple(model.measurement_tables()) + (Phase(POLE_MEASUREMENTS),)
+
+
+def is_measured(model, metric: str, options: dict) -> bool:
+    """Whether the validator declares a measurement of ``metric`` with ``options`` (a
+    result's options dict) on ``model``; tests/contract/test_validator_contract.py asks it
+    of every metric every loop reports."""
+    return measures(measurement_phases(model), metric, options, model)
 
 
 def _measure(model, result: dict) -> list[dict]:

@@ -19,10 +19,13 @@ University of Missouri–Rolla, 1971, Ch. IV (Fig 18, eq 1), Table 5, App. C.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from feedtune.validate.continuous import Block, ContinuousModel, siso
+from feedtune.validate.continuous import SENSITIVITY, Block, ContinuousModel, siso
 from feedtune.validate.entries import poles_entry
+from feedtune.validate.measurements import Phase
 from feedtune.validate.model import NotCovered
 
 
@@ -117,8 +120,10 @@ class CascadeModel(ContinuousModel):
 
     # -- frequency-domain metrics ------------------------------------------------------
 
-    def closed_forms(self) -> dict:
-        return {**super().closed_forms(), "sensitivity": self.sensitivity}
+    def measurement_tables(self) -> tuple[Phase, ...]:
+        """The continuous loop's table and Bhatia's sensitivity (Ch. IV eq 1)."""
+        (phase,) = super().measurement_tables()
+        return (replace(phase, table={**phase.table, "sensitivity": SENSITIVITY}),)
 
     def circle_test(self, radius, feed):
         raise NotCovered("a rotary axis: no two-axis circle test")

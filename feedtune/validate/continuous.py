@@ -18,8 +18,9 @@ from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.validate.integrals import error_integrals
+from feedtune.validate.measurements import Measurement, Phase, measure_entries
 from feedtune.validate.model import NotCovered, Response
-from feedtune.validate.tolerances import Context, judge
+from feedtune.validate.tolerances import Context
 
 #: the response is simulated until the slowest mode has decayed to this fraction
 SETTLED = 1e-12
@@ -392,54 +393,104 @@ class ContinuousModel:
         side = math.copysign(band, values[i])
         return float(brentq(lambda tt: exact(tt) - side, t[i], t[i + 1], xtol=1e-15))
 
-    def closed_forms(self) -> dict:
-        """Metric name → method of the metrics computed in closed form or by root finding."""
-        return {"m_peak": self.m_peak, "sensitivity_peak": self.sensitivity_peak,
-                "bandwidth": self.bandwidth,
-                "crossover_frequency": self.crossover, "phase_margin": self.phase_margin,
-                "gain_margin": self.gain_margin, "velocity_constant": self.velocity_constant}
+    def error(self, kind: str, cache: dict):
+        """:meth:`_error` of ``kind``, once per result (``cache`` of one measure pass)."""
+        key = ("error", kind)
+        if key not in cache:
+            cache[key] = self._error(kind)
+        return cache[key]
+
+    def measurement_tables(self) -> tuple[Phase, ...]:
+        """:data:`CONTINUOUS_MEASUREMENTS`, a reported ∞ left out."""
+        return (Phase(CONTINUOUS_MEASUREMENTS, skip_infinite=True),)
 
     def measure(self, result: dict) -> list[dict]:
-        """Entries for every frequency- and time-domain metric the result reports, judged
-        by :func:`feedtune.validate.tolerances.judge`."""
-        entries, cache = [], {}
-        context = self.context()
+        """Entries for every frequency- and time-domain metric the result reports that
+        :meth:`measurement_tables` declares, judged by
+        :func:`feedtune.validate.tolerances.judge`."""
+        return measure_entries(self, self.measurement_tables(), result, self.context())
 
-        def error(kind):
-            if kind not in cache:
-                cache[kind] = self._error(kind)
-            return cache[kind]
 
-        closed_forms = self.closed_forms()
-        for m in result.get("metrics", {}).values():
-            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
-            if reported is None or (isinstance(reported, float) and math.isinf(reported)):
-                continue
-            if name in closed_forms:
-                try:
-                    value = closed_forms[name]()
-                except NotCovered:
-                    continue
-            elif name in ("iae", "ise", "itae") and options.get("time", "absolute") == "absolute":
-                t, e, _, _ = error(options.get("input", "step"))
-                value = error_integrals(t, e)[name]
-            elif name == "overshoot":
-                t, e, exact, _ = error("step")
-                value = max(0.0, self._extreme(t, -e, lambda tt: -exact(tt), 1.0))
-            elif name == "settling_time":
-                kind = options.get("input", "step")
-                t, e, exact, steady = error(kind)
-                size = 1.0 if kind == "step" or steady == 0 else abs(steady)  # as the metric
-                value = self._last_exit(t, e, exact, options.get("band", 0.02) * size)
-            elif name == "load_rejection" and self.has_load:
-                t, e, exact, steady = error("load")
-                if options.get("measure", "peak") == "iae":
-                    value = error_integrals(t, e)["iae"]
-                else:  # |e| = |e − e_ss + e_ss|, the static error included
-                    value = max(self._extreme(t, e + steady, lambda tt: exact(tt) + steady, s)
-                                for s in (1.0, -1.0))
-                    value = max(value, abs(steady))
-            else:
-                continue
-            entries.append(judge(m, value, context))
-        return entries
+def _integral(model: ContinuousModel, options: dict, cache: dict, name: str) -> float:
+    t, e, _, _ = model.error(options.get("input", "step"), cache)
+    return error_integrals(t, e)[name]
+
+
+def _overshoot(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
+    t, e, exact, _ = model.error("step", cache)
+    return max(0.0, model._extreme(t, -e, lambda tt: -exact(tt), 1.0))
+
+
+def _settling_time(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
+    kind = options.get("input", "step")
+    t, e, exact, steady = model.error(kind, cache)
+    size = 1.0 if kind == "step" or steady == 0 else abs(steady)  # as the metric
+    return model._last_exit(t, e, exact, options.get("band", 0.02) * size)
+
+
+def _load_rejection(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
+    t, e, exact, steady = model.error("load", cache)
+    if options.get("measure", "peak") == "iae":
+        return error_integrals(t, e)["iae"]
+    # |e| = |e − e_ss + e_ss|, the static error included
+    value = max(model._extreme(t, e + steady, lambda tt: exact(tt) + steady, s)
+                for s in (1.0, -1.0))
+    return max(value, abs(steady))
+
+
+def _radial_error(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
+    """r·| |H(jω)| − 1 | [m], ω = feed/r, H = position/reference (feed-forward included):
+    the steady circle of two identical axes (Koren eqs 28, 37 in exact form), |H| − 1
+    written (|H|² − 1)/(|H| + 1). H ≈ 1 leaves rounding of ~1e-16 in |H|² − 1, i.e.
+    1e-16·r, far below the entry's scale BLU/1000 or 1e-9·r (tolerances.RULES)."""
+    radius, omega = options["radius"], options["feed"] / options["radius"]
+    h = abs(model.frequency_response(omega)[1][0])
+    return float(radius * abs((h * h - 1.0) / (h + 1.0)))
+
+
+def _pole_pair(model: ContinuousModel, options: dict, reported, cache: dict) -> tuple:
+    """(ζ, ω_n [rad/s]) of a second-order loop's poles p1, p2: ω_n = √(p1 p2),
+    ζ = −(p1 + p2)/(2ω_n)."""
+    poles = model.poles()
+    wn = math.sqrt(abs((poles[0] * poles[1]).real))
+    return -float(poles.sum().real) / (2 * wn), wn
+
+
+def _second_order(model, options: dict) -> bool:
+    return model.poles().size == 2
+
+
+#: ζ and ω_n of a continuous second-order loop (Sato's Padé model, a user-defined loop of
+#: order 2): each model that has them adds these to its table
+PAIR_MEASUREMENTS: dict[str, Measurement] = {
+    "damping_ratio": Measurement(lambda m, o, r, c: _pole_pair(m, o, r, c)[0], _second_order),
+    "natural_frequency": Measurement(lambda m, o, r, c: _pole_pair(m, o, r, c)[1],
+                                     _second_order),
+}
+
+
+def _absolute_time(model, options: dict) -> bool:
+    return options.get("time", "absolute") == "absolute"
+
+
+#: ContinuousModel (Bhatia's cascades, the user-defined loop, Sato's Padé model): metric →
+#: measurement; a subclass adds its own in ``measurement_tables``
+CONTINUOUS_MEASUREMENTS: dict[str, Measurement] = {
+    "m_peak": Measurement(lambda m, o, r, c: m.m_peak()),
+    "sensitivity_peak": Measurement(lambda m, o, r, c: m.sensitivity_peak()),
+    "bandwidth": Measurement(lambda m, o, r, c: m.bandwidth()),
+    "crossover_frequency": Measurement(lambda m, o, r, c: m.crossover()),
+    "phase_margin": Measurement(lambda m, o, r, c: m.phase_margin()),
+    "gain_margin": Measurement(lambda m, o, r, c: m.gain_margin()),
+    "velocity_constant": Measurement(lambda m, o, r, c: m.velocity_constant()),
+    **{name: Measurement(lambda m, o, r, c, name=name: _integral(m, o, c, name), _absolute_time)
+       for name in ("iae", "ise", "itae")},
+    "overshoot": Measurement(_overshoot),
+    "settling_time": Measurement(_settling_time),
+    "load_rejection": Measurement(_load_rejection, lambda m, o: m.has_load),
+    "radial_error": Measurement(_radial_error),
+}
+
+#: |G(0)·K_v·K_p| (Bhatia Ch. IV eq 1), for the models with a ``sensitivity()`` method
+#: (the cascades, the user-defined loop): each adds it to its table
+SENSITIVITY = Measurement(lambda m, o, r, c: m.sensitivity())

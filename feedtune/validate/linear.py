@@ -25,6 +25,7 @@ G. A. Baker, P. Graves-Morris, "Padé Approximants", 2nd ed., 1996, §1.2.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from scipy.linalg import expm
@@ -32,8 +33,10 @@ from scipy.optimize import brentq
 from scipy.signal import ss2tf
 
 from feedtune.validate.cascade import compensator
-from feedtune.validate.continuous import Block, ContinuousModel, _propagate, siso
+from feedtune.validate.continuous import (PAIR_MEASUREMENTS, SENSITIVITY, Block, ContinuousModel,
+                                         _propagate, siso)
 from feedtune.validate.entries import poles_entry
+from feedtune.validate.measurements import Phase
 from feedtune.validate.model import NotCovered
 
 #: the order of the tuner's Padé approximant (feedtune.plants.linear_loop.PADE_ORDER): the
@@ -390,8 +393,12 @@ class LinearModel(ContinuousModel):
             raise NotCovered("the drive's velocity per input has no finite DC gain")
         return float(abs(num[-1] / den[-1] * np.prod(list(self.gains.values()))))
 
-    def closed_forms(self) -> dict:
-        return {**super().closed_forms(), "sensitivity": self.sensitivity}
+    def measurement_tables(self) -> tuple[Phase, ...]:
+        """The continuous loop's table, Bhatia's sensitivity (Ch. IV eq 1), and ζ, ω_n of a
+        second-order loop."""
+        (phase,) = super().measurement_tables()
+        return (replace(phase, table={**phase.table, "sensitivity": SENSITIVITY,
+                                      **PAIR_MEASUREMENTS}),)
 
     def measure(self, result: dict) -> list[dict]:
         """The continuous loop's entries, and the velocity loop's poles."""

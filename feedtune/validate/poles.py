@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from feedtune.validate.measurements import Measurement, Phase, measure_entries
 from feedtune.validate.model import NotCovered
-from feedtune.validate.tolerances import judge
 
 #: |z| below this is a pole at the origin of the z-plane (a delay buffer's sample, whose
 #: computed value is rounding, ~1e-17): it decays within one sample
@@ -46,25 +46,38 @@ def pole_damping(s: np.ndarray) -> float:
     return float(np.min(np.where(size > 0, -s.real / np.where(size > 0, size, 1.0), 0.0)))
 
 
+def _s_poles(model, cache: dict) -> np.ndarray:
+    """The model's s-plane poles, once per result."""
+    if "s_poles" not in cache:
+        cache["s_poles"] = s_plane(model.poles(), model.sampled, model.period)
+    return cache["s_poles"]
+
+
+def _decay_rate(model, options: dict, reported, cache: dict):
+    """σ_min judged on |p| of the pole that sets it: an eigenvalue's rounding is relative
+    to its own magnitude (the ``poles`` entry's basis)."""
+    value, size = decay_rate(_s_poles(model, cache))
+    return value, (size, "|p| of the slowest-decaying pole")
+
+
+def _has_poles(model, options: dict) -> bool:
+    """A model without poles (the pulse generator) measures neither pole metric."""
+    try:
+        model.poles()
+    except NotCovered:
+        return False
+    return True
+
+
+#: every model with poles: metric → measurement (after the model's own table)
+POLE_MEASUREMENTS: dict[str, Measurement] = {
+    "decay_rate": Measurement(_decay_rate, _has_poles),
+    "pole_damping": Measurement(lambda m, o, r, c: pole_damping(_s_poles(m, c)), _has_poles),
+}
+
+
 def pole_entries(model, result: dict) -> list[dict]:
     """Entries for the ``decay_rate`` and ``pole_damping`` metrics of ``result``, from the
-    poles of ``model``, judged by :func:`feedtune.validate.tolerances.judge`. The decay
-    rate is judged on the magnitude |p| of the pole that sets it: an eigenvalue's rounding
-    is relative to its own magnitude (the ``poles`` entry's basis)."""
-    metrics = [m for m in (result.get("metrics") or {}).values()
-               if m["metric"] in ("decay_rate", "pole_damping") and m.get("value") is not None]
-    if not metrics:
-        return []
-    try:
-        s = s_plane(model.poles(), model.sampled, model.period)
-    except NotCovered:  # a model without poles: these metrics are left out
-        return []
-    context = model.context()
-    entries = []
-    for m in metrics:
-        if m["metric"] == "decay_rate":
-            value, size = decay_rate(s)
-            entries.append(judge(m, value, context, (size, "|p| of the slowest-decaying pole")))
-        else:
-            entries.append(judge(m, pole_damping(s), context))
-    return entries
+    poles of ``model`` (:data:`POLE_MEASUREMENTS`), judged by
+    :func:`feedtune.validate.tolerances.judge` on the model's context."""
+    return measure_entries(model, (Phase(POLE_MEASUREMENTS),), result, lambda: model.context())

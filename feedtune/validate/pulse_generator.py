@@ -15,8 +15,9 @@ import math
 
 import numpy as np
 
+from feedtune.validate.measurements import Measurement, Phase, measure_entries
 from feedtune.validate.model import NotCovered, Response
-from feedtune.validate.tolerances import Context, judge
+from feedtune.validate.tolerances import Context
 
 
 class PulseModel:
@@ -135,6 +136,11 @@ class PulseModel:
             v = (n[w:] - n[:-w]) * self.delta * self.frequency / w
             v = np.concatenate([np.zeros(w), v])
             return float(np.max(np.abs((v[w:] - v[:-w]) * self.frequency / w), initial=0.0))
+        if name == "sine_tracking_error":  # over the last sine period, at each period's end
+            cycle = 2 * math.pi / self.plant.get("sine_frequency", 10.0)
+            last = t >= (t[-1] if t.size else 0.0) - cycle
+            command = np.array([self._command(x) for x in t[last]])
+            return float(np.max(np.abs(command - counter[last] * self.delta), initial=0.0))
         if name == "motor_acceleration_margin":
             table = sorted(self.plant["motor_characteristic"])
             rate = np.abs(self.commanded_velocity()) / self.delta
@@ -149,21 +155,16 @@ class PulseModel:
 
     # -- the Model protocol ------------------------------------------------------------
 
+    def measurement_tables(self) -> tuple[Phase, ...]:
+        """:data:`PULSE_MEASUREMENTS`."""
+        return (Phase(PULSE_MEASUREMENTS),)
+
     def measure(self, result: dict) -> list[dict]:
         """Every pulse metric the result reports, judged against one pulse δ, one period
         1/f and their quotients (feedtune.validate.tolerances): the same integer arithmetic
         runs on both sides, so any gap beyond rounding is a real disagreement."""
         context = Context(period=self.period, pulse=self.delta, position_unit=self.position_unit)
-        entries = []
-        for m in (result.get("metrics") or {}).values():
-            if m.get("value") is None:
-                continue
-            try:
-                value = self.metric(m["metric"], m.get("options") or {})
-            except NotCovered:
-                continue
-            entries.append(judge(m, value, context))
-        return entries
+        return measure_entries(self, self.measurement_tables(), result, context)
 
     def stable(self) -> bool:
         """A step came to rest; a ramp or sine never saturated over the last half."""
@@ -193,3 +194,18 @@ class PulseModel:
             position = np.append(position, position[-1] if position.size else 0.0)
         kind = self.plant.get("input", "step")
         return {kind: Response(kind, t, reference, position, self.position_unit)}
+
+
+def _sine_input(model: PulseModel, options: dict) -> bool:
+    return model.plant.get("input", "step") == "sine"
+
+
+#: the metrics :meth:`PulseModel.metric` re-measures: metric → measurement
+PULSE_MEASUREMENTS: dict[str, Measurement] = {
+    **{name: Measurement(lambda m, o, r, c, name=name: m.metric(name, o))
+       for name in ("pulse_final_error", "pulse_max_velocity", "peak_commanded_acceleration",
+                    "pulse_overshoot", "pulse_rise_time", "pulse_settling_time",
+                    "peak_measured_acceleration", "motor_acceleration_margin")},
+    "sine_tracking_error": Measurement(lambda m, o, r, c: m.metric("sine_tracking_error", o),
+                                       _sine_input),
+}

@@ -18,8 +18,8 @@ discretised by ``expm``, Van Loan), never on :mod:`feedtune.loop`:
   samples from expm of the drive with the held command as a state, on SUBSTEPS points per
   sample, then refined by bounded Brent (the peak) and brentq (the last exit from the band).
 
-Entry point: :func:`measure`, called by ``ServoModel.measure`` for the names in
-:data:`MEASURES`.
+Declared in :data:`MEASUREMENTS` (metric → measurement), which a sampled
+``ServoModel`` adds to its table (:mod:`feedtune.validate.measurements`).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
+from feedtune.validate.measurements import Measurement
 from feedtune.validate.model import NotCovered
 
 #: grid [points per decade] and its low end: the slowest s-plane pole / GRID_SPAN
@@ -38,9 +39,6 @@ POINTS_PER_DECADE, GRID_SPAN = 200, 1e3
 #: sub-steps per sample of the dense step response (the peak and the last exit are then
 #: refined on the exact expm expression)
 SUBSTEPS = 64
-
-MEASURES = ("m_peak", "sensitivity_peak", "bandwidth", "crossover_frequency", "phase_margin", "gain_margin",
-            "overshoot", "settling_time")
 
 
 @functools.lru_cache(maxsize=8)
@@ -228,19 +226,20 @@ def settling_time(model, band: float) -> float:
     return float(brentq(lambda s: 1.0 - x(s) - side, t[i], t[i + 1], xtol=1e-15))
 
 
-def measure(model, name: str, options: dict) -> float:
-    """The validator's value of metric ``name`` (one of :data:`MEASURES`) with ``options``.
+def _step_input(model, options: dict) -> bool:
+    """A sampled loop's settling time is measured after a step."""
+    return options.get("input", "step") == "step"
 
-    Raises
-    ------
-    NotCovered
-        When the metric has no value to compare on this loop (no crossover below Nyquist,
-        a ramp settling time).
-    """
-    if name == "settling_time":
-        if options.get("input", "step") != "step":
-            raise NotCovered("a sampled loop's settling time is measured after a step")
-        return settling_time(model, options.get("band", 0.02))
-    return {"m_peak": m_peak, "sensitivity_peak": sensitivity_peak, "bandwidth": bandwidth, "crossover_frequency": crossover,
-            "phase_margin": phase_margin, "gain_margin": gain_margin,
-            "overshoot": overshoot}[name](model)
+
+#: metric → measurement on a sampled ServoModel (its table adds these when sampled)
+MEASUREMENTS: dict[str, Measurement] = {
+    "m_peak": Measurement(lambda m, o, r, c: m_peak(m)),
+    "sensitivity_peak": Measurement(lambda m, o, r, c: sensitivity_peak(m)),
+    "bandwidth": Measurement(lambda m, o, r, c: bandwidth(m)),
+    "crossover_frequency": Measurement(lambda m, o, r, c: crossover(m)),
+    "phase_margin": Measurement(lambda m, o, r, c: phase_margin(m)),
+    "gain_margin": Measurement(lambda m, o, r, c: gain_margin(m)),
+    "overshoot": Measurement(lambda m, o, r, c: overshoot(m)),
+    "settling_time": Measurement(lambda m, o, r, c: settling_time(m, o.get("band", 0.02)),
+                                 _step_input),
+}

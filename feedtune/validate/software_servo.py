@@ -41,10 +41,11 @@ from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.validate import sampled_frequency
-from feedtune.validate.continuous import ContinuousModel, siso
+from feedtune.validate.continuous import PAIR_MEASUREMENTS, ContinuousModel, siso
 from feedtune.validate.integrals import error_integrals
+from feedtune.validate.measurements import Measurement, Phase, measure_entries
 from feedtune.validate.model import CircleTrace, NotCovered, Response
-from feedtune.validate.tolerances import Context, judge
+from feedtune.validate.tolerances import Context
 
 #: the minimum radius is judged on the radii where the error at V_m is BLU/2 ± this (in BLU)
 CRITERION_BAND = 1e-3
@@ -407,67 +408,20 @@ class ServoModel:
         vertex = radius * np.exp(1j * theta * side)
         return vertex + fraction * vertex * (np.exp(1j * theta) - 1)
 
+    def measurement_tables(self) -> tuple[Phase, ...]:
+        """The metrics this loop re-measures (:data:`SERVO_MEASUREMENTS`), and on a
+        sampled loop the frequency and step-shape ones
+        (:data:`feedtune.validate.sampled_frequency.MEASUREMENTS`)."""
+        if self.sampled:
+            return (Phase({**SERVO_MEASUREMENTS, **sampled_frequency.MEASUREMENTS}),)
+        return (Phase(SERVO_MEASUREMENTS),)
+
     def measure(self, result: dict) -> list[dict]:
         """Entries for the step integrals (plain and natural time), ζ, ω_n, C_v, the radial
         error (Koren eq 28), the minimum radius, Sato's average radius and decrease in
         radius (eqs 3, 7) and the circle test, judged by
         :func:`feedtune.validate.tolerances.judge`."""
-        entries = []
-        context = self.context()
-        tuned = {name: t["value"] for name, t in result.get("tuned", {}).items()}
-        zeta = wn = None
-        try:
-            zeta, wn = self.equivalent_pair()
-        except NotCovered:
-            pass
-        integrals = None
-        circles = {}
-        for m in result.get("metrics", {}).values():
-            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
-            if reported is None:
-                continue
-            scale = None
-            if name in ("iae", "ise", "itae") and options.get("input", "step") == "step":
-                if integrals is None:
-                    integrals = self.error_integrals()
-                value = integrals[name]
-                if options.get("time", "absolute") == "natural":
-                    if wn is None:
-                        continue
-                    value *= wn ** {"iae": 1, "ise": 1, "itae": 2}[name]
-            elif name == "damping_ratio" and zeta is not None:
-                value = zeta
-            elif name == "natural_frequency" and wn is not None:
-                value = wn
-            elif name == "velocity_constant":
-                value = 1.0 / self.ramp_following_error()
-            elif name == "radial_error" and "radius" in options and "feed" in options:
-                value = self.radial_error(options["radius"], options["feed"])
-            elif name in ("radius_decrease", "average_radius") and "reference_interval" in tuned:
-                omega, interval = options["feed"] / options["radius"], tuned["reference_interval"]
-                value = (average_polygon_radius(options["radius"], omega, interval)
-                         if name == "average_radius" else
-                         self.radius_decrease(options["radius"], options["feed"], interval))
-            elif name == "min_radius" and self.blu is not None and self.max_velocity is not None:
-                try:
-                    value, scale = self.min_radius_judged(reported)
-                except NotCovered:  # beyond the scan: this entry only is left out
-                    continue
-            elif (name in ("circle_mean_deviation", "circularity", "circle_roughness")
-                  and self.reference_interval is not None):
-                key = (options["radius"], options["feed"])
-                if key not in circles:
-                    circles[key] = self.circle_statistics(*key)
-                value = circles[key][name]
-            elif self.sampled and name in sampled_frequency.MEASURES:
-                try:
-                    value = sampled_frequency.measure(self, name, options)
-                except NotCovered:
-                    continue
-            else:
-                continue
-            entries.append(judge(m, value, context, scale))
-        return entries
+        return measure_entries(self, self.measurement_tables(), result, self.context())
 
     def blu_criterion(self, radii) -> np.ndarray:
         """r·| |H(jV_m/r)| − 1 | [m] at each radius r [m]: the radial error of a circle at
@@ -594,27 +548,11 @@ class PadeServoModel(ContinuousModel):
         raise NotCovered("the Padé model is a continuous stand-in for the sampled loop: no "
                          "circle test (tune with model 'exact' for it)")
 
-    def measure(self, result: dict) -> list[dict]:
-        """The continuous loop's entries, ζ and ω_n of a second-order loop, and Sato's
-        average radius and decrease in radius (eqs 3, 7) with this loop's |H|."""
-        entries = super().measure(result)
-        poles, context = self.poles(), self.context()
-        for m in result.get("metrics", {}).values():
-            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
-            if reported is None:
-                continue
-            if name in ("damping_ratio", "natural_frequency") and poles.size == 2:
-                wn = math.sqrt(abs((poles[0] * poles[1]).real))
-                value = wn if name == "natural_frequency" else -float(poles.sum().real) / (2 * wn)
-            elif name in ("radius_decrease", "average_radius") and self.reference_interval:
-                radius, omega = options["radius"], options["feed"] / options["radius"]
-                average = average_polygon_radius(radius, omega, self.reference_interval)
-                h = abs(self.frequency_response(omega)[1][0])
-                value = average if name == "average_radius" else abs(radius - average * h)
-            else:
-                continue
-            entries.append(judge(m, value, context))
-        return entries
+    def measurement_tables(self) -> tuple[Phase, ...]:
+        """The continuous loop's tables, then ζ and ω_n of a second-order loop and Sato's
+        average radius and decrease in radius with this loop's |H|
+        (:data:`PADE_MEASUREMENTS`)."""
+        return super().measurement_tables() + (Phase(PADE_MEASUREMENTS),)
 
 
 def average_polygon_radius(radius: float, omega: float, reference_interval: float) -> float:
@@ -645,3 +583,107 @@ def _orbit(matrix: np.ndarray, start: np.ndarray, count: int) -> np.ndarray:
         rows = np.vstack([rows, rows @ power.T])
         power = power @ power
     return rows[:count]
+
+
+# -- the tables: metric → measurement ---------------------------------------------------
+
+
+def _equivalent_pair(model: ServoModel, cache: dict) -> tuple[float, float] | None:
+    """(ζ, ω_n) of a second-order loop, None otherwise; once per result."""
+    if "pair" not in cache:
+        try:
+            cache["pair"] = model.equivalent_pair()
+        except NotCovered:
+            cache["pair"] = None
+    return cache["pair"]
+
+
+def _step_integral(model: ServoModel, options: dict, cache: dict, name: str) -> float:
+    """IAE, ISE or ITAE after a unit step; in natural time ω_n·t multiplies by ω_n^p."""
+    if "integrals" not in cache:
+        cache["integrals"] = model.error_integrals()
+    value = cache["integrals"][name]
+    if options.get("time", "absolute") == "natural":
+        pair = _equivalent_pair(model, cache)
+        if pair is None:
+            raise NotCovered("natural time needs a second-order loop's ω_n")
+        value *= pair[1] ** {"iae": 1, "ise": 1, "itae": 2}[name]
+    return value
+
+
+def _pair_value(index: int):
+    def measure(model: ServoModel, options: dict, reported, cache: dict) -> float:
+        pair = _equivalent_pair(model, cache)
+        if pair is None:
+            raise NotCovered("ζ and ω_n need a second-order loop")
+        return pair[index]
+    return measure
+
+
+def _sato_circle(model: ServoModel, options: dict, name: str) -> float:
+    """Sato's average radius (eq 3) or decrease in radius (eq 7) at the tuned interval."""
+    omega, interval = options["feed"] / options["radius"], model.reference_interval
+    if name == "average_radius":
+        return average_polygon_radius(options["radius"], omega, interval)
+    return model.radius_decrease(options["radius"], options["feed"], interval)
+
+
+def _circle_statistic(model: ServoModel, options: dict, cache: dict, name: str) -> float:
+    """One statistic of the simulated circle test, the test run once per circle."""
+    key = ("circle", options["radius"], options["feed"])
+    if key not in cache:
+        cache[key] = model.circle_statistics(options["radius"], options["feed"])
+    return cache[key][name]
+
+
+def _min_radius(model: ServoModel, options: dict, reported: float, cache: dict):
+    """(r_min, its judging scale) for the reported radius (a radius beyond the scan is
+    NotCovered: that entry only is left out)."""
+    return model.min_radius_judged(reported)
+
+
+def _step_input(model, options: dict) -> bool:
+    return options.get("input", "step") == "step"
+
+
+def _has_interpolator(model, options: dict) -> bool:
+    return model.reference_interval is not None
+
+
+def _has_koren_scales(model, options: dict) -> bool:
+    return model.blu is not None and model.max_velocity is not None
+
+
+#: ServoModel (continuous or sampled): metric → measurement
+SERVO_MEASUREMENTS: dict[str, Measurement] = {
+    **{name: Measurement(lambda m, o, r, c, name=name: _step_integral(m, o, c, name), _step_input)
+       for name in ("iae", "ise", "itae")},
+    "damping_ratio": Measurement(_pair_value(0)),
+    "natural_frequency": Measurement(_pair_value(1)),
+    "velocity_constant": Measurement(lambda m, o, r, c: 1.0 / m.ramp_following_error()),
+    "radial_error": Measurement(lambda m, o, r, c: m.radial_error(o["radius"], o["feed"]),
+                                lambda m, o: "radius" in o and "feed" in o),
+    **{name: Measurement(lambda m, o, r, c, name=name: _sato_circle(m, o, name), _has_interpolator)
+       for name in ("radius_decrease", "average_radius")},
+    "min_radius": Measurement(_min_radius, _has_koren_scales),
+    **{name: Measurement(lambda m, o, r, c, name=name: _circle_statistic(m, o, c, name),
+                         _has_interpolator)
+       for name in ("circle_mean_deviation", "circularity", "circle_roughness")},
+}
+
+
+def _pade_circle(model: PadeServoModel, options: dict, name: str) -> float:
+    """Sato eq 3 (average radius) and eq 7 with the Padé loop's |H|."""
+    radius, omega = options["radius"], options["feed"] / options["radius"]
+    average = average_polygon_radius(radius, omega, model.reference_interval)
+    h = abs(model.frequency_response(omega)[1][0])
+    return average if name == "average_radius" else abs(radius - average * h)
+
+
+#: PadeServoModel, beyond the continuous loop's table: metric → measurement
+PADE_MEASUREMENTS: dict[str, Measurement] = {
+    **PAIR_MEASUREMENTS,
+    **{name: Measurement(lambda m, o, r, c, name=name: _pade_circle(m, o, name),
+                         lambda m, o: bool(m.reference_interval))
+       for name in ("radius_decrease", "average_radius")},
+}
