@@ -251,10 +251,18 @@ class SampledLTILoop(_LoopBase):
 
     def sensitivity_response(self, omega):
         """Re and Im of S = 1/(1 + L) at z = e^{jωT} [1]: the feedback's sensitivity, which
-        differs from the error per reference (:meth:`error_response`) with a feed-forward."""
-        re, im = self.open_loop_response(omega)
-        magnitude = (1 + re) ** 2 + im**2
-        return (1 + re) / magnitude, -im / magnitude
+        differs from the error per reference (:meth:`error_response`) with a feed-forward.
+
+        The measured position w = y + d of an output disturbance d is S·d; with the loop
+        closed, S(z) = 1 + C(zI − Φ)⁻¹Γ_w, and S(1) = 0 for a type-1 loop (the only ones
+        the plants build), so S(z) = −(z − 1)·C(zI − Φ)⁻¹(I − Φ)⁻¹Γ_w: no cancellation at
+        low ω, and no pole on the unit circle (L has one at z = 1)."""
+        _, gamma_w = self._open_matrices
+        settled = linalg.solve(ca.DM.eye(self.order) - self.state_matrix, gamma_w)
+        re, im = self._resolvent(omega, settled)
+        wt = omega * self.period
+        d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
+        return -(d_re * re - d_im * im), -(d_re * im + d_im * re)
 
     def dc_gain(self):
         """H(z = 1) = C(I − Φ)⁻¹Γ [1]: 1 for a loop that follows a constant reference, kept
