@@ -325,7 +325,8 @@ class LinearParams(SpecModel):
     @field_validator("computation_delay", "discretisation")
     @classmethod
     def _sampled_only(cls, value, info: ValidationInfo):
-        if info.data.get("implementation") == "continuous":
+        default = cls.model_fields[info.field_name].default  # a result's spec holds defaults
+        if info.data.get("implementation") == "continuous" and value != default:
             raise ValueError(f"{info.field_name} applies to implementation 'sampled' only")
         return value
 
@@ -398,10 +399,13 @@ class Linear:
         if velocity is not None:
             tunables.update(controller_tunables("velocity", velocity, velocity_unit))
         if getattr(p, "implementation", "continuous") == "sampled":
+            # T_min ≥ θ: the dead time stays within one sample over the default box (a
+            # whole number of samples that varies over the box is refused)
+            low = max(PERIOD_BOUNDS[0], getattr(p, "dead_time", 0.0))
             tunables["sampling_period"] = Tunable(
                 "s", "Sampling period T of the digital controller [s] (required: the "
                      "dead time's whole samples and the step horizon depend on its box)",
-                *PERIOD_BOUNDS, required=True)
+                low, PERIOD_BOUNDS[1], required=True)
         return tunables
 
     def drive_polynomials(self) -> tuple[list, list, list | None, list]:

@@ -253,13 +253,13 @@ def test_validator_does_not_measure_a_sampled_loop_as_a_continuous_one():
 
 
 def test_readme_drive_sampled_at_1khz_tunes_from_the_cli(tmp_path):
-    """examples/user-defined-drive-sampled.json (the README's axis, PI-in-P at 1 kHz) from
+    """examples/user-defined-sampled-drive.json (the README's axis, PI-in-P at 1 kHz) from
     `feedtune tune`, its phase-margin constraint left out to keep the test short (it costs
     5 s of NLP build): exit 0, a stable loop, the decay rate of its slowest pole."""
     import subprocess
     import sys
 
-    spec = json.loads((EXAMPLES / "user-defined-drive-sampled.json").read_text())
+    spec = json.loads((EXAMPLES / "user-defined-sampled-drive.json").read_text())
     assert spec["plant"]["implementation"] == "sampled"
     spec["constraints"] = []
     path, out = tmp_path / "spec.json", tmp_path / "result.json"
@@ -277,3 +277,12 @@ def test_readme_drive_sampled_at_1khz_tunes_from_the_cli(tmp_path):
     radius = np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(loop.state_matrix)))))
     slowest = -np.log(radius) / tuned["sampling_period"]
     assert result["metrics"]["decay_rate"]["value"] == pytest.approx(slowest, rel=1e-6)
+
+
+def test_a_continuous_spec_may_state_the_sampled_options_defaults():
+    """A result embeds its spec with every default written out (computation_delay 0,
+    discretisation tustin): reloading a continuous one must not refuse them."""
+    spec = spec_with(KOREN_LINEAR, None, implementation="continuous", computation_delay=0,
+                     discretisation="tustin")
+    spec["tunables"].pop("sampling_period")
+    assert parse_spec(spec).plant.implementation == "continuous"
