@@ -285,4 +285,6 @@ def test_a_continuous_spec_may_state_the_sampled_options_defaults():
     spec = spec_with(KOREN_LINEAR, None, implementation="continuous", computation_delay=0,
                      discretisation="tustin")
     spec["tunables"].pop("sampling_period")
+    spec["objective"] = [{"metric": "phase_margin", "goal": "maximize"}]  # IAE: sampled only
+    spec["constraints"] = []
     assert parse_spec(spec).plant.implementation == "continuous"
