@@ -102,23 +102,25 @@ def error_controller(numerator: list, denominator: list, period, method: str = "
 
 
 def cascade_controller(position_gain, velocity_numerator: list, velocity_denominator: list,
-                       period, method: str = "tustin", feedforward: bool = False):
+                       period, method: str = "tustin", feedforward=0.0):
     """P position loop around a velocity controller (e.g. PI K(1 + 1/(T_i s))).
 
     v_ref = K_p(r − y), u = C_v(z)·(v_ref − v); K_p [1/s], v the sampled velocity C A x.
-    With ``feedforward`` v_ref also carries the reference's velocity (r(k) − r(k−1))/T, one
-    more state holding r(k−1): a ramp is then followed without steady error.
+    With ``feedforward`` k_ff (0 … 1 [1]; True counts as 1) v_ref also carries k_ff times
+    the reference's velocity (r(k) − r(k−1))/T, one more state holding r(k−1): with k_ff = 1
+    a ramp is followed without steady error.
     """
     a, b, c, d = transfer_state_space(
         *discretise_transfer(velocity_numerator, velocity_denominator, period, method))
     weights = ca.horzcat(position_gain, -position_gain, -1)  # v_ref − v
-    if not feedforward:
+    if isinstance(feedforward, (bool, int, float)) and float(feedforward) == 0:
         return DiscreteController(a, ca.mtimes(b, weights), c, ca.mtimes(d, weights),
                                   uses_velocity=True)
-    # states [x_v, r(k−1)]: e_v = (K_p + 1/T) r − K_p y − v − r(k−1)/T
-    weights = weights + ca.horzcat(1 / period, 0, 0)
+    # states [x_v, r(k−1)]: e_v = (K_p + k_ff/T) r − K_p y − v − k_ff r(k−1)/T
+    rate = feedforward / period
+    weights = weights + ca.horzcat(rate, 0, 0)
     order = a.shape[0]
-    a_ff = ca.vertcat(ca.horzcat(a, -b / period), ca.MX.zeros(1, order + 1))
+    a_ff = ca.vertcat(ca.horzcat(a, -b * rate), ca.MX.zeros(1, order + 1))
     b_ff = ca.vertcat(ca.mtimes(b, weights), ca.horzcat(1, 0, 0))
-    c_ff = ca.horzcat(c, -d / period)
+    c_ff = ca.horzcat(c, -d * rate)
     return DiscreteController(a_ff, b_ff, c_ff, ca.mtimes(d, weights), uses_velocity=True)

@@ -61,6 +61,10 @@ class SampledLTILoop(_LoopBase):
         are summed over ``horizon / T_min`` samples, then in closed form.
     drive : Drive
     interpolator : Interpolator or None
+    frequency_band : tuple or None
+        (low, high) [rad/s] numbers: ``low`` below every corner of the loop, ``high`` above
+        the Nyquist frequency π/T of every period in the box (as
+        :attr:`feedtune.loop.SampledLoop.frequency_band`); None: no frequency metric.
     """
 
     plant: ContinuousPlant | DiscretePlant
@@ -71,6 +75,7 @@ class SampledLTILoop(_LoopBase):
     horizon: float = 1.0
     drive: Drive = field(default_factory=Drive)
     interpolator: Interpolator | None = None
+    frequency_band: tuple | None = None
     discrete = True
 
     def __post_init__(self):
@@ -151,45 +156,63 @@ class SampledLTILoop(_LoopBase):
                     else ca.DM.zeros(1, self.plant.order))
         return c, velocity
 
-    def command(self, lag: int):
-        """(K, k): u(k − lag) = K·state + k·r, the command ``lag`` samples old."""
+    def command(self, lag: int, cut: bool = False):
+        """(K, k): u(k − lag) = K·state + k·r, the command ``lag`` samples old; with ``cut``
+        the controller's position input is not the plant's (the loop opened there, see
+        :meth:`open_loop_response`) and K leaves it out."""
         n, nc, total = self.plant.order, self.controller.order, self.order
         if lag == 0:
             c, velocity = self._measurement
             dc = ca.MX(self.controller.d)
-            kx = dc[0, 1] * c + dc[0, 2] * velocity
+            kx = dc[0, 2] * velocity + (0 if cut else dc[0, 1] * c)
             row = ca.horzcat(kx, ca.MX(self.controller.c), ca.MX.zeros(1, self.held_samples))
             return row, dc[0, 0]
         row = ca.DM.zeros(1, total)
         row[0, n + nc + lag - 1] = 1
         return ca.MX(row), 0
 
-    @cached_property
-    def _matrices(self):
+    def _assemble(self, cut: bool):
+        """(Φ, Γ_r, Γ_w): state(k+1) = Φ state(k) + Γ_r r(k) + Γ_w w(k), w the controller's
+        position input: the sampled position (Γ_w = 0, folded into Φ) unless ``cut``."""
         n, nc, held = self.plant.order, self.controller.order, self.held_samples
         total = self.order
         phi_p, gamma0, gamma1 = self.plant_transition
+        dc = ca.MX(self.controller.d)
         lag = self.delay + self._split[0]
-        k0, r0 = self.command(lag)
+        k0, r0 = self.command(lag, cut)
         rows = [ca.horzcat(phi_p, ca.MX.zeros(n, total - n)) + ca.mtimes(gamma0, k0)]
         inputs = [gamma0 * r0]
+        cut_inputs = [gamma0 * dc[0, 1] if cut and lag == 0 else ca.MX.zeros(n, 1)]
         if self.has_fraction:
-            k1, r1 = self.command(lag + 1)
+            k1, r1 = self.command(lag + 1, cut)
             rows[0] = rows[0] + ca.mtimes(gamma1, k1)
             inputs[0] = inputs[0] + gamma1 * r1
         if nc:
             c, velocity = self._measurement
             bc = ca.MX(self.controller.b)
-            x_part = ca.mtimes(bc[:, 1], c) + ca.mtimes(bc[:, 2], velocity)
+            x_part = ca.mtimes(bc[:, 2], velocity) + (0 if cut else ca.mtimes(bc[:, 1], c))
             rows.append(ca.horzcat(x_part, ca.MX(self.controller.a), ca.MX.zeros(nc, held)))
             inputs.append(bc[:, 0])
+            cut_inputs.append(bc[:, 1] if cut else ca.MX.zeros(nc, 1))
         if held:
-            k_now, r_now = self.command(0)
+            k_now, r_now = self.command(0, cut)
             shift = ca.horzcat(ca.DM.zeros(held - 1, n + nc), ca.DM.eye(held - 1),
                                ca.DM.zeros(held - 1, 1)) if held > 1 else ca.DM.zeros(0, total)
             rows += [k_now, ca.MX(shift)]
             inputs += [r_now, ca.MX.zeros(held - 1, 1)]
-        return ca.vertcat(*rows), ca.vertcat(*[ca.MX(i) for i in inputs])
+            cut_inputs += [dc[0, 1] if cut else ca.MX(0), ca.MX.zeros(held - 1, 1)]
+        return (ca.vertcat(*rows), ca.vertcat(*[ca.MX(i) for i in inputs]),
+                ca.vertcat(*[ca.MX(i) for i in cut_inputs]))
+
+    @cached_property
+    def _matrices(self):
+        return self._assemble(cut=False)[:2]
+
+    @cached_property
+    def _open_matrices(self):
+        """(Φ_o, Γ_w) of the loop opened at the controller's position input."""
+        phi, _, gamma_w = self._assemble(cut=True)
+        return phi, gamma_w
 
     @property
     def state_matrix(self):
@@ -206,13 +229,46 @@ class SampledLTILoop(_LoopBase):
 
     # -- responses ----------------------------------------------------------------------
 
-    def _resolvent(self, omega, rhs):
+    def _resolvent(self, omega, rhs, matrix=None):
+        """C(zI − Φ)⁻¹·rhs at z = e^{jωT} (Φ the closed loop's, or ``matrix``)."""
         n = self.order
         wt = omega * self.period
-        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - self.state_matrix,
+        matrix = self.state_matrix if matrix is None else matrix
+        re, im = linalg.complex_solve(ca.cos(wt) * ca.DM.eye(n) - matrix,
                                       ca.sin(wt) * ca.DM.eye(n), rhs)
         c = self.position_row
         return ca.mtimes(c, re), ca.mtimes(c, im)
+
+    def open_loop_response(self, omega):
+        """Re and Im of L(e^{jωT}) [1], ω [rad/s] ≤ π/T: the loop opened at the controller's
+        sampled position input, L = −C(zI − Φ_o)⁻¹Γ_w (the position a unit input there
+        brings back, sign of the negative feedback removed). Hold, computation delay and
+        dead time included; an inner velocity loop stays closed, as in Bhatia's outer loop
+        (Ch. IV, Fig 18); periodic in ω with period 2π/T."""
+        phi, gamma_w = self._open_matrices
+        re, im = self._resolvent(omega, gamma_w, phi)
+        return -re, -im
+
+    def sensitivity_response(self, omega):
+        """Re and Im of S = 1/(1 + L) at z = e^{jωT} [1]: the feedback's sensitivity, which
+        differs from the error per reference (:meth:`error_response`) with a feed-forward.
+
+        The measured position w = y + d of an output disturbance d is S·d; with the loop
+        closed, S(z) = 1 + C(zI − Φ)⁻¹Γ_w, and S(1) = 0 for a type-1 loop (the only ones
+        the plants build), so S(z) = −(z − 1)·C(zI − Φ)⁻¹(I − Φ)⁻¹Γ_w: no cancellation at
+        low ω, and no pole on the unit circle (L has one at z = 1)."""
+        _, gamma_w = self._open_matrices
+        settled = linalg.solve(ca.DM.eye(self.order) - self.state_matrix, gamma_w)
+        re, im = self._resolvent(omega, settled)
+        wt = omega * self.period
+        d_re, d_im = -2 * ca.sin(wt / 2) ** 2, ca.sin(wt)
+        return -(d_re * re - d_im * im), -(d_re * im + d_im * re)
+
+    def dc_gain(self):
+        """H(z = 1) = C(I − Φ)⁻¹Γ [1]: 1 for a loop that follows a constant reference, kept
+        as an expression for the normalisation |H/H(1)|."""
+        settled = linalg.solve(ca.DM.eye(self.order) - self.state_matrix, self.input_matrix)
+        return ca.mtimes(self.position_row, settled)
 
     def frequency_response(self, omega):
         """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s] ≤ π/T."""

@@ -18,6 +18,7 @@ from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter
 from typing_extensions import TypedDict
 
 from feedtune.loop import HorizonError
+from feedtune.sampled_plants import SampledModelError
 from feedtune.model import SpecModel
 from feedtune.objectives import METRICS
 from feedtune.objectives.step_error import StepErrorMetric, has_exact_step
@@ -610,6 +611,10 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
         if name not in tunables:
             errors.append((f"/tunables/{_escape(name)}",
                            f"unknown tunable for this plant; known: {', '.join(tunables)}"))
+    given = raw_tunables if isinstance(raw_tunables, dict) else {}
+    errors += [(f"/tunables/{_escape(name)}", f"required by this plant configuration "
+                                              f"[{tunable.unit}]: give min/max or a value")
+               for name, tunable in tunables.items() if tunable.required and name not in given]
     box, box_errors, box_complete = tunable_box(raw_tunables, tunables)
     errors += box_errors
     constraints = raw.get("constraints")
@@ -617,7 +622,11 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
             and len(constraints) == MAX_CONSTRAINTS):
         errors.append(("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints with "
                                        "integer_ratio, which adds one (q = a whole number)"))
-    loop = plant.loop({n: hi for n, (lo, hi) in box.items()}, box)
+    try:
+        loop = plant.loop({n: hi for n, (lo, hi) in box.items()}, box)
+    except SampledModelError as exc:  # "<pointer>: <message>" (feedtune.plants.linear)
+        pointer, _, message = str(exc).partition(": ")
+        return errors + [(pointer, message)]
     supported = optimisable = None  # computed when a message needs them
     for section, adapter in _TERM.items():
         terms = raw.get(section)

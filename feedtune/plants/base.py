@@ -31,9 +31,12 @@ class Tunable:
     min, max : float
         Default bounds used when the spec does not narrow them (both > 0: the tuner works
         on the logarithm of every tunable).
+    required : bool
+        The spec must give it (bounds or a value): its default box fits no drive in general.
     """
 
     unit: str
     description: str
     min: float
     max: float
+    required: bool = False

@@ -53,6 +53,13 @@ from feedtune.plants.cascade import close_loops, compensator_corners
 from feedtune.plants.compensator import CompensatorKind
 from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
 from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
+from feedtune.plants.software_servo import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS
+from feedtune.sampled_controllers import cascade_controller, error_controller
+from feedtune.sampled_lti import SampledLTILoop
+from feedtune.sampled_plants import ContinuousPlant, SampledModelError
+
+#: default box of the sampling period T [s]: 10 µs (a fast drive's current loop) to 0.5 s
+PERIOD_BOUNDS = (1e-5, 0.5)
 
 POSITION_UNITS = ("m", "rad")
 VELOCITY_UNITS = ("m/s", "rad/s")
@@ -258,6 +265,17 @@ class LinearParams(SpecModel):
     dead_time: NonNegativeFloat = Field(
         0.0, description="Input dead time θ [s] ≥ 0: exact e^{−jωθ} in frequency responses, "
                          "its 4th-order Padé approximant in time responses and stability")
+    implementation: Literal["continuous", "sampled"] = Field(
+        "continuous", description="continuous: analogue controllers; sampled: a digital "
+                                  "controller sampling every T (tunable sampling_period [s]), "
+                                  "its command held by a zero-order hold")
+    computation_delay: int = Field(
+        0, ge=0, le=8, description="Delay between sampling and output, in whole sampling "
+                                   "periods [samples] (sampled only)")
+    discretisation: Literal["tustin", "backward_euler"] = Field(
+        "tustin", description="How the sampled controllers are discretised from their C(s): "
+                              "tustin s = (2/T)(z − 1)/(z + 1) or backward_euler "
+                              "s = (z − 1)/(T z) (sampled only)")
     velocity_controller: Literal["none", "p", "pi", "pid"] = Field(
         "none", description="Velocity loop inside the position loop: none, p, pi or pid")
     velocity_compensator: CompensatorKind = Field(
@@ -274,7 +292,9 @@ class LinearParams(SpecModel):
         0.0, ge=0.0, le=1.0, description="Velocity feed-forward gain k_ff [1], 0 to 1: adds "
                                          "k_ff·dr/dt to the velocity command (velocity loop only)")
     stable_velocity_loop: bool = Field(
-        True, description="Require the velocity loop to be stable on its own (Bhatia Ch. IV)")
+        True, description="Require the velocity loop to be stable on its own (Bhatia Ch. IV; "
+                          "continuous implementation only: a sampled loop's velocity loop is "
+                          "not constrained on its own)")
 
     @field_validator("velocity_controller")
     @classmethod
@@ -301,6 +321,27 @@ class LinearParams(SpecModel):
             raise ValueError("a notch in the velocity loop needs a velocity loop: set "
                              "velocity_controller, or put the notch in the position_loop")
         return notch
+
+    @field_validator("computation_delay", "discretisation")
+    @classmethod
+    def _sampled_only(cls, value, info: ValidationInfo):
+        default = cls.model_fields[info.field_name].default  # a result's spec holds defaults
+        if info.data.get("implementation") == "continuous" and value != default:
+            raise ValueError(f"{info.field_name} applies to implementation 'sampled' only")
+        return value
+
+    @field_validator("position_controller", "position_compensator", "notch")
+    @classmethod
+    def _sampled_cascade(cls, value, info: ValidationInfo):
+        """The sampled cascade's position loop is a gain (:func:`feedtune.sampled_controllers
+        .cascade_controller`): its dynamics go in the velocity loop."""
+        if (info.data.get("implementation") == "sampled"
+                and info.data.get("velocity_controller", "none") != "none"
+                and value not in ("p", "none", "velocity_loop")):
+            raise ValueError(f"{info.field_name} {value!r}: a sampled cascade's position "
+                             "controller is a plain p gain (put compensators and the notch in "
+                             "the velocity loop), or use implementation 'continuous'")
+        return value
 
     @field_validator("position_controller")
     @classmethod
@@ -357,6 +398,14 @@ class Linear:
         tunables = controller_tunables("position", position, position_unit)
         if velocity is not None:
             tunables.update(controller_tunables("velocity", velocity, velocity_unit))
+        if getattr(p, "implementation", "continuous") == "sampled":
+            # T_min ≥ θ: the dead time stays within one sample over the default box (a
+            # whole number of samples that varies over the box is refused)
+            low = max(PERIOD_BOUNDS[0], getattr(p, "dead_time", 0.0))
+            tunables["sampling_period"] = Tunable(
+                "s", "Sampling period T of the digital controller [s] (required: the "
+                     "dead time's whole samples and the step horizon depend on its box)",
+                low, PERIOD_BOUNDS[1], required=True)
         return tunables
 
     def drive_polynomials(self) -> tuple[list, list, list | None, list]:
@@ -411,9 +460,13 @@ class Linear:
         return trailing_zeros(closed.open_denominator) - trailing_zeros(closed.open_numerator)
 
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
-             horizon_scale: float = 1.0) -> LinearLoop:
-        """The closed loop at ``values`` (expressions or numbers per tunable name)."""
+             horizon_scale: float = 1.0) -> LinearLoop | SampledLTILoop:
+        """The closed loop at ``values`` (expressions or numbers per tunable name): a
+        :class:`LinearLoop`, or for ``implementation: sampled`` a
+        :class:`~feedtune.sampled_lti.SampledLTILoop` (:meth:`sampled_loop`)."""
         p = self.params
+        if p.implementation == "sampled":
+            return self.sampled_loop(values, box, horizon_scale)
         n_g, d_g, n_x, q = self.drive_polynomials()
         position_structure, velocity_structure = self._structures()
         position = controller("position", position_structure, values)
@@ -446,6 +499,83 @@ class Linear:
             blocks=blocks,
             loop_type=self.loop_type())
 
+    def sampled_state_space(self) -> tuple:
+        """(A, B, C) [numbers] with C reading the position, balanced: the drive's own for a
+        position output, for a velocity output with one more state, the position ∫y dt
+        (ẋ_p = C x + D u, C = [0 … 0 1]).
+
+        The states are rescaled, x = S x̃ (S diagonal, powers of two: exact), so that
+        [[A, B], [C, 0]] has balanced rows and columns (scipy ``matrix_balance``): the
+        companion form of the README's two-mass drive has A up to 3e6 and C up to 1e9, and
+        its closed loop's zI − Φ a condition number of 7e21, which left its frequency
+        response without a correct digit; balanced, every response is python-control's to
+        1e-8 (tests/unit/test_sampled_linear.py). C and C A, all the loop reads, are
+        unchanged by the rescaling."""
+        from scipy.linalg import matrix_balance
+
+        a, b, c, d, _ = self.state_space()
+        if not self.params.position_output:
+            n = a.shape[0]
+            a_x = np.zeros((n + 1, n + 1))
+            a_x[:n, :n], a_x[n, :n] = a, c[0]
+            a, b, c = a_x, np.vstack([b, d]), np.eye(1, n + 1, n)
+        n = a.shape[0]
+        system = np.block([[a, b], [c, np.zeros((1, 1))]])
+        _, (scaling, _) = matrix_balance(system, permute=False, separate=True)
+        states = scaling[:n] / scaling[n]  # S: the input/output keep their scale
+        return a * states[None, :] / states[:, None], b / states[:, None], c * states[None, :]
+
+    def sampled_loop(self, values: Mapping[str, object],
+                     box: Mapping[str, tuple[float, float]],
+                     horizon_scale: float = 1.0) -> SampledLTILoop:
+        """The digital loop: the drive behind a ZOH, sampled every T = ``sampling_period``,
+        controllers discretised (``discretisation``), commands held ``computation_delay``
+        samples late. Without a velocity loop u = C_p(z)(r − y)
+        (:func:`~feedtune.sampled_controllers.error_controller`); with one, the P position
+        gain around C_v(z) reading the sampled velocity C A x, k_ff feed-forward
+        (:func:`~feedtune.sampled_controllers.cascade_controller`).
+
+        Raises
+        ------
+        SampledModelError
+            Its message starts with the spec's pointer (``/plant/...`` or
+            ``/tunables/sampling_period``).
+        """
+        p = self.params
+        period = values["sampling_period"]
+        position_structure, velocity_structure = self._structures()
+        position = controller("position", position_structure, values)
+        try:
+            plant = ContinuousPlant(*self.sampled_state_space(), dead_time=p.dead_time)
+            if velocity_structure is None:
+                law = error_controller(linalg.poly_scale(position.numerator, position.gain),
+                                       position.denominator, period, p.discretisation)
+            else:
+                velocity = controller("velocity", velocity_structure, values)
+                _ = plant.velocity_row  # raises unless C B = 0: v = C A x, read from the states
+                law = cascade_controller(
+                    position.gain, linalg.poly_scale(velocity.numerator, velocity.gain),
+                    velocity.denominator, period, p.discretisation, p.velocity_feedforward)
+            t_min, t_max = box["sampling_period"]
+            plant.split_dead_time(t_max, (t_min, t_max))  # refuses whole samples that vary
+            return SampledLTILoop(
+                plant, law, period, (t_min, t_max), delay=p.computation_delay,
+                horizon=SETTLING_TIME_CONSTANTS * self._settle_time(t_min) * horizon_scale,
+                frequency_band=(self.frequency_band(box)[0],
+                                math.pi / t_min * NYQUIST_MARGIN))
+        except SampledModelError as exc:
+            raise SampledModelError(_spec_pointer(str(exc))) from None
+
+    def _settle_time(self, period_min: float) -> float:
+        """2·(the drive's slowest time constant 1/|Re p| over its stable nonzero poles) + θ +
+        (computation delay + 1)·T_min [s]: the time scale of a step's transient, as
+        :meth:`feedtune.plants.software_servo.SoftwareServo.loop`'s 2τ + dead time."""
+        _, den = self.params.model.polynomials()
+        decays = [-r.real for r in np.roots(den) if r.real < 0]
+        slowest = 1 / min(decays) if decays else 0.0
+        return (2 * slowest + self.params.dead_time
+                + (self.params.computation_delay + 1) * period_min)
+
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         """(low, high) [rad/s]: two decades beyond every corner the loop can have: the
         drive's roots (bounded from its coefficients, Fujiwara's bound), the controllers'
@@ -458,6 +588,21 @@ class Linear:
             found.append(1 / self.params.dead_time)
         found = [f for f in found if f > 0 and math.isfinite(f)] or [1.0]
         return min(found) / 100, max(found) * 100
+
+
+#: the engine's field paths (:mod:`feedtune.sampled_plants`) as the spec's pointers
+_POINTERS = {"/plant/dead_time": "/plant/dead_time", "/tunables/sampling_period":
+             "/tunables/sampling_period", "/controller": "/plant/discretisation",
+             "/plant": "/plant/model"}
+
+
+def _spec_pointer(message: str) -> str:
+    """``message`` with the engine's leading field path replaced by the spec's pointer."""
+    path, _, text = message.partition(": ")
+    for engine, spec in _POINTERS.items():
+        if path == engine or path.startswith(engine + "/"):
+            return f"{spec}: {text}"
+    return message
 
 
 def _root_bounds(p: list[float]) -> list[float]:

@@ -172,13 +172,15 @@ def assert_same_poles(found, expected, rtol):
 PULSE_EXAMPLES = ["tian-vf-pulse"]
 #: user-defined drives with a velocity feed-forward: T ≠ L/(1 + L)
 FEEDFORWARD_EXAMPLES = ["user-defined-drive"]
+#: sampled user-defined drives (SampledLTILoop): no python-control export yet
+UNEXPORTED_EXAMPLES = ["user-defined-sampled-drive"]
 
 
 def test_every_bundled_example_is_covered():
     from conftest import EXAMPLES as DIRECTORY
 
     assert sorted(p.stem for p in DIRECTORY.glob("*.json")) == sorted(
-        EXAMPLES + PULSE_EXAMPLES + FEEDFORWARD_EXAMPLES)
+        EXAMPLES + PULSE_EXAMPLES + FEEDFORWARD_EXAMPLES + UNEXPORTED_EXAMPLES)
 
 
 @pytest.mark.parametrize("name", FEEDFORWARD_EXAMPLES)

@@ -14,6 +14,7 @@ import pytest
 
 from feedtune.loop import HorizonError
 from feedtune.plants import plant_for
+from feedtune.sampled_plants import SampledModelError
 from feedtune.spec import _PLANT, tunable_box
 
 REPO = Path(__file__).resolve().parents[2]
@@ -68,7 +69,13 @@ def test_numeric_answers_equal_the_expressions(variant, box_name):
     raw_box = {name: bounds for name, bounds in BOXES[box_name].items() if name in tunables}
     box, errors, complete = tunable_box(raw_box, tunables)
     assert not errors and complete
-    symbolic = _symbolic_loop(plant, box)
+    try:
+        symbolic = _symbolic_loop(plant, box)
+    except SampledModelError as exc:
+        # a dead time whose whole number of samples varies over the box: the spec refuses it
+        # at its pointer (exit 2; tests/unit/test_sampled_linear.py)
+        assert str(exc).startswith("/plant/dead_time:")
+        return
     for end in (0, 1):  # validate builds its loop at the upper end of the box
         loop = plant.loop({name: bounds[end] for name, bounds in box.items()}, box)
         assert type(loop) is type(symbolic)
