@@ -98,6 +98,9 @@ EXTRA_VARIANTS: dict[str, list[dict]] = {
         # a velocity output, integrated to the position; given as state space
         {"output_unit": "rad/s", "model": _VELOCITY_SS},
         {"output_unit": "rad/s", "model": _VELOCITY_SS, "velocity_controller": "pi"},
+        # the sampled implementation's other discretisation of the velocity PI
+        {"implementation": "sampled", "discretisation": "backward_euler",
+         "velocity_controller": "pi"},
     ],
 }
 

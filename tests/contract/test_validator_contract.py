@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import pytest
 
+from feedtune.validate.model import NotCovered
+
 from contract_cases import exact_metric_cases, exact_nominal, metric_cases, nominal
 from feedtune.validate.block import is_measured
 from feedtune.validate.models import model_for
@@ -56,6 +58,16 @@ EXEMPT: dict[tuple[str, str], str] = {
 }
 
 
+#: plant configurations (contract ids, prefix) the validator has no model of yet: their
+#: results say ``covered: false``. Listed, not hidden: each case is an expected failure
+#: (xfail) that fails outright once a model exists, so the entry must then be dropped.
+UNCOVERED: dict[tuple[str, str], str] = {
+    ("linear[", "implementation=sampled"): "the sampled implementation of plant 'linear' has "
+                                           "no validator model yet (issue 16 item 6 is open "
+                                           "for it)",
+}
+
+
 def _exempt(model, name: str) -> str | None:
     return EXEMPT.get((type(model).__name__, name))
 
@@ -74,6 +86,12 @@ CASE_IDS = [f"{name}-{config.id}-{options.model_dump(mode='json')}"
 
 @pytest.mark.parametrize("config, name, options, point", CASES, ids=CASE_IDS)
 def test_every_reported_metric_has_a_validator_measurement(config, name, options, point):
+    gap = next((why for (plant, choice), why in UNCOVERED.items()
+                if config.id.startswith(plant) and choice in config.id), None)
+    if gap is not None:
+        with pytest.raises(NotCovered):  # a model now exists: drop the UNCOVERED entry
+            _model(config, point(config))
+        pytest.xfail(gap)
     model = _model(config, point(config))
     opts = options.model_dump(mode="json")
     reason = _exempt(model, name)
