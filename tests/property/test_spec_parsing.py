@@ -417,6 +417,8 @@ def test_key_named_like_the_metric_does_not_confuse_the_pointer():
 #: Python's names for types (and its constants) that a message for a JSON author must not use
 PYTHON_WORDS = re.compile(r"\b(NoneType|None|True|False|dict|dictionary|list|tuple|bool|"
                           r"boolean|int|float|str|bytes|Decimal|instance)\b")
+#: a JSON string literal in a message (the user's own text, echoed)
+JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 
 
 @SETTINGS
@@ -425,17 +427,21 @@ PYTHON_WORDS = re.compile(r"\b(NoneType|None|True|False|dict|dictionary|list|tup
 @example(site=(_SERVO, ("objective",)), value={"metric": "iae"})
 @example(site=(_SERVO, ("plant",)), value=[1])
 @example(site=(_SERVO, ("plant", "type")), value=1.5)
+@example(site=(_SERVO, ("plant", "type")), value={"True": None})  # a tag echoed as JSON
 @example(site=(_SERVO, ("solver", "expand")), value="yes")
 @example(site=(_SERVO, ("solver", "ipopt_options")), value={"mu_init": None, "max_soc": True})
 @example(site=(_HYDRAULIC, ("tunables",)), value=[])
 def test_messages_name_json_types_never_python_ones(site, value):
     """Whatever value lands on whatever field, a message says null, true/false, number,
-    string, array or object: never NoneType, dict, list, bool (issue 14)."""
+    string, array or object: never NoneType, dict, list, bool (issue 14). The user's own
+    strings, echoed back as JSON string literals (a tag {"True": null}), are theirs, not
+    Python's: they are blanked before the search."""
     plant, path = site
     outcome = _outcome(replaced(PLANT_EXAMPLES[plant], path, value))
     if isinstance(outcome, SpecError):
         for pointer, message in outcome.errors:
-            assert not PYTHON_WORDS.search(message), (pointer, message)
+            ours = JSON_STRING.sub('""', message)
+            assert not PYTHON_WORDS.search(ours), (pointer, message)
 
 
 @pytest.mark.parametrize("document, given", [
