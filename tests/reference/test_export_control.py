@@ -26,44 +26,12 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 import feedtune
-from conftest import load_example, tune_dict
+from conftest import TUNED, load_example, tune_dict
 from feedtune.api import Result, ResultError
 from feedtune.export import loop_to_control
 from feedtune.loop import ContinuousLoop
 from feedtune.plants.software_servo import koren_step_response
 
-TUNED = {
-    "bhatia-1971-hydraulic": {
-        "position_gain": 263.7033733791451, "velocity_gain": 1000.0000688232861,
-        "velocity_compensator.tau1": 0.09122719628730186,
-        "velocity_compensator.tau2": 0.09122719628730348,
-        "velocity_compensator.tau12": 100.00000454929132,
-        "position_compensator.tau1": 9.999999090636816e-05,
-        "position_compensator.tau2": 9.999999090636816e-05,
-        "position_compensator.tau12": 0.004350557048934217},
-    "ward-leonard-feed-drive": {
-        "position_gain": 1000.000063749983, "velocity_gain": 905.325213845655,
-        "velocity_compensator.tau1": 0.6016647294655322,
-        "velocity_compensator.tau2": 0.6016647294655322,
-        "velocity_compensator.tau12": 100.0000045639364,
-        "position_compensator.tau1": 0.3370152041330752,
-        "position_compensator.tau2": 0.33701520413306374,
-        "position_compensator.tau12": 100.00000412534224},
-    "koren-1979-encoder-limit": {"position_gain": 38.55622513822891,
-                                 "sampling_period": 0.012499999882021723},
-    "koren-1979-iae-natural": {"position_gain": 28.48968885097107},
-    "koren-1979-min-iae-radius": {"position_gain": 22.169033028950597, "sampling_period": 0.01},
-    "koren-1979-reference-pulse": {"position_gain": 25.24999999999964},
-    "koren-1979-sampled-data": {"position_gain": 18.17336280332592, "sampling_period": 0.015625},
-    "sato-finish": {"position_gain": 43.83990622444932, "sampling_period": 0.0019999999348473824,
-                    "reference_interval": 0.009999999627665394},
-    "sato-table2-a": {"position_gain": 40.0, "sampling_period": 0.002,
-                      "reference_interval": 0.2617993877991494},
-    "sato-table2-b": {"position_gain": 40.0, "sampling_period": 0.002,
-                      "reference_interval": 0.1308996938995747},
-    "sato-throughput": {"position_gain": 49.65629088022349, "sampling_period": 0.002,
-                        "reference_interval": 0.026308003854479553},
-}
 EXAMPLES = sorted(TUNED)
 #: (kind of export, dt is the sampling period) per example
 DISCRETE = {"koren-1979-encoder-limit", "koren-1979-min-iae-radius", "koren-1979-sampled-data",
@@ -207,7 +175,7 @@ def test_feedforward_export_has_the_reference_path(name, tmp_path):
 
 @pytest.mark.parametrize("name", PULSE_EXAMPLES)
 def test_a_pulse_simulation_has_no_linear_export(name, tmp_path):
-    from conftest import load_example, tune_dict
+    from conftest import TUNED, load_example, tune_dict
 
     spec = load_example(name)
     spec["solver"] = {"multistart": 1, "max_iter": 2}

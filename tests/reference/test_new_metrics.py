@@ -19,34 +19,13 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 import feedtune
-from conftest import load_example, tune_dict
+from conftest import TUNED, load_example, tune_dict
 
-#: tuned values of bundled examples (the optimum `feedtune tune` finds for each, as
-#: tests/reference/test_export_control.py holds them): evaluated, not solved
-FIXED = {
-    "bhatia-1971-hydraulic": {
-        "position_gain": 263.7033733791451, "velocity_gain": 1000.0000688232861,
-        "velocity_compensator.tau1": 0.09122719628730186,
-        "velocity_compensator.tau2": 0.09122719628730348,
-        "velocity_compensator.tau12": 100.00000454929132,
-        "position_compensator.tau1": 9.999999090636816e-05,
-        "position_compensator.tau2": 9.999999090636816e-05,
-        "position_compensator.tau12": 0.004350557048934217},
-    "ward-leonard-feed-drive": {
-        "position_gain": 1000.000063749983, "velocity_gain": 905.325213845655,
-        "velocity_compensator.tau1": 0.6016647294655322,
-        "velocity_compensator.tau2": 0.6016647294655322,
-        "velocity_compensator.tau12": 100.0000045639364,
-        "position_compensator.tau1": 0.3370152041330752,
-        "position_compensator.tau2": 0.33701520413306374,
-        "position_compensator.tau12": 100.00000412534224},
-    "koren-1979-sampled-data": {"position_gain": 18.17336280332592, "sampling_period": 0.015625},
-    "koren-1979-reference-pulse": {"position_gain": 25.24999999999964},
-    "sato-finish": {"position_gain": 43.83990622444932, "sampling_period": 0.0019999999348473824,
-                    "reference_interval": 0.009999999627665394},
-    "sato-table2-a": {"position_gain": 40.0, "sampling_period": 0.002,
-                      "reference_interval": 0.2617993877991494},
-}
+#: tuned values of bundled examples (the optimum `feedtune tune` finds for each, shared with
+#: tests/reference/test_export_control.py in conftest.TUNED): evaluated, not solved
+FIXED = {name: TUNED[name] for name in (
+    "bhatia-1971-hydraulic", "ward-leonard-feed-drive", "koren-1979-sampled-data",
+    "koren-1979-reference-pulse", "sato-finish", "sato-table2-a")}
 #: examples whose continuous loop has an open loop L(jω) (M_s reported; the sampled-data
 #: loops report it too, checked against python-control at z = e^{jωT} in
 #: tests/unit/test_sampled_frequency.py)
