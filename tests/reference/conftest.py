@@ -32,6 +32,8 @@ def tuned_example():
     return get
 
 
+#: the optimum `feedtune tune` finds for each bundled example (measured with the bundled spec;
+#: see test_export_control.py): tests that only evaluate fix the tunables at these values
 TUNED = {
     "bhatia-1971-hydraulic": {
         "position_gain": 263.7033733791451, "velocity_gain": 1000.0000688232861,
