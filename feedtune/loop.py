@@ -393,8 +393,88 @@ class ContinuousLoop(_LoopBase):
         return second_order_error_integrals(a1, a0, 1.0, de0)
 
 
+class _SampledLoopBase(_LoopBase):
+    """What every sampled-data loop derives the same way from its state matrix, its
+    characteristic polynomial in z, ``period``, ``period_min`` and ``horizon``: the
+    equivalent s-plane pole pair, the step integrals' horizon and their settling conditions
+    (Koren's :class:`SampledLoop`, the general :class:`feedtune.sampled_lti.SampledLTILoop`)."""
+
+    @cached_property
+    def _equivalent_poles(self):
+        """(ζ, ω_n·T) of the closed-loop pole pair (:func:`_pole_pair`); order-2 loops."""
+        _, c1, c0 = self.characteristic_polynomial
+        return _pole_pair()(c1, c0)
+
+    def natural_frequency(self):
+        """ω_n [rad/s] of the equivalent s-plane poles s = ln(z)/T (Koren eqs 17–19)."""
+        return self._equivalent_poles[1] / self.period
+
+    def damping_ratio(self):
+        """ζ = αT / √((αT)² + (ωT)²), Koren eq 19, extended to real pole pairs."""
+        return self._equivalent_poles[0]
+
+    @property
+    def unrolled_steps(self) -> int:
+        return self.horizon_samples if "step_error_integrals" in self.__dict__ else 0
+
+    def settling_conditions(self) -> list:
+        """Every pole inside |z| < SETTLE_FRACTION^(1/N), N = horizon_samples, once the step
+        integrals are in use: positive iff a mode left after the summed samples is below
+        SETTLE_FRACTION of its start.
+
+        The closed-form tail is exact only for an error that no longer changes sign; a loop
+        still ringing at the horizon would look better than it is, and an optimiser would
+        drift towards it. Schur conditions of p(r·z) (a pole-margin bound) keep it honest;
+        the tuner lengthens the horizon when they bind.
+        """
+        if "step_error_integrals" not in self.__dict__:
+            return []
+        radius = SETTLE_FRACTION ** (1 / self.horizon_samples)
+        poly = self.characteristic_polynomial
+        scaled = [c * radius ** (-k) for k, c in enumerate(poly)]  # monic p(r z)/r^n
+        return linalg.hurwitz_conditions(linalg.bilinear_to_continuous(scaled))
+
+    @cached_property
+    def _numeric_spectral_radius(self) -> float | None:
+        """max |pole| when the loop holds numbers only, else None (symbolic)."""
+        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
+            return None
+        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
+
+    @property
+    def horizon_samples(self) -> int:
+        """Samples summed one by one before the closed-form tail.
+
+        Symbolic loops: ``horizon / period_min``. Loops of numbers also run until the free
+        response has decayed by SETTLED (from the spectral radius), so what a result
+        reports is exact even for lightly damped loops.
+        """
+        radius = self._numeric_spectral_radius
+        if radius is None:
+            return self.symbolic_horizon_samples
+        samples = math.ceil(self.horizon / float(ca.evalf(ca.MX(self.period))))
+        if 0 < radius < 1:
+            samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
+        return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
+
+    @property
+    def symbolic_horizon_samples(self) -> int:
+        """:attr:`horizon_samples` of this loop built on symbols, ``horizon / period_min``,
+        from the numbers alone (no expression is built)."""
+        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
+
+    def _within_limit(self, samples: int, limit: int) -> int:
+        """``samples``, or HorizonError when above ``limit``."""
+        if samples > limit:
+            raise HorizonError(
+                f"a step response over {self.horizon:.3g} s at periods down to "
+                f"{self.period_min:.3g} s needs {samples} samples (limit "
+                f"{limit}); raise the minimum sampling period or gain")
+        return samples
+
+
 @dataclass(frozen=True, eq=False)
-class SampledLoop(_LoopBase):
+class SampledLoop(_SampledLoopBase):
     """Sampled-data position loop (Koren Fig 4), exact between samples.
 
     Every period T the position is sampled, the error e(n) = r − x(nT) times the gain K
@@ -566,83 +646,10 @@ class SampledLoop(_LoopBase):
         loop (every response of S and every radius error reads the same expression)."""
         return linalg.solve(ca.DM.eye(self.order) - self.state_matrix, self.input_matrix)
 
-    @cached_property
-    def _equivalent_poles(self):
-        """(ζ, ω_n·T) of the closed-loop pole pair (:func:`_pole_pair`); order-2 loops."""
-        _, c1, c0 = self.characteristic_polynomial
-        return _pole_pair()(c1, c0)
-
-    def natural_frequency(self):
-        """ω_n [rad/s] of the equivalent s-plane poles s = ln(z)/T (Koren eqs 17–19)."""
-        return self._equivalent_poles[1] / self.period
-
-    def damping_ratio(self):
-        """ζ = αT / √((αT)² + (ωT)²), Koren eq 19, extended to real pole pairs."""
-        return self._equivalent_poles[0]
-
     @property
     def has_exact_step_error(self) -> bool:
         """The intersample error is integrated for a drive with a time constant only."""
         return self.plant.time_constant is not None
-
-    @property
-    def unrolled_steps(self) -> int:
-        return self.horizon_samples if "step_error_integrals" in self.__dict__ else 0
-
-    def settling_conditions(self) -> list:
-        """Every pole inside |z| < SETTLE_FRACTION^(1/N), N = horizon_samples, once the step
-        integrals are in use: positive iff a mode left after the summed samples is below
-        SETTLE_FRACTION of its start.
-
-        The closed-form tail is exact only for an error that no longer changes sign; a loop
-        still ringing at the horizon would look better than it is, and an optimiser would
-        drift towards it. Schur conditions of p(r·z) (a pole-margin bound) keep it honest;
-        the tuner lengthens the horizon when they bind.
-        """
-        if "step_error_integrals" not in self.__dict__:
-            return []
-        radius = SETTLE_FRACTION ** (1 / self.horizon_samples)
-        poly = self.characteristic_polynomial
-        scaled = [c * radius ** (-k) for k, c in enumerate(poly)]  # monic p(r z)/r^n
-        return linalg.hurwitz_conditions(linalg.bilinear_to_continuous(scaled))
-
-    @cached_property
-    def _numeric_spectral_radius(self) -> float | None:
-        """max |pole| when the loop holds numbers only, else None (symbolic)."""
-        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
-            return None
-        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
-
-    @property
-    def horizon_samples(self) -> int:
-        """Samples summed one by one before the closed-form tail.
-
-        Symbolic loops: ``horizon / period_min``. Loops of numbers also run until the free
-        response has decayed by SETTLED (from the spectral radius), so what a result
-        reports is exact even for lightly damped loops.
-        """
-        radius = self._numeric_spectral_radius
-        if radius is None:
-            return self.symbolic_horizon_samples
-        samples = math.ceil(self.horizon / float(ca.evalf(self.period)))
-        if 0 < radius < 1:
-            samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
-        return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
-
-    @property
-    def symbolic_horizon_samples(self) -> int:
-        """:attr:`horizon_samples` of this loop built on symbols, ``horizon / period_min``,
-        from the numbers alone (no expression is built)."""
-        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
-
-    def _within_limit(self, samples: int, limit: int) -> int:
-        """``samples``, or HorizonError when above ``limit``."""
-        if samples > limit:
-            raise HorizonError(
-                f"a step response over {self.horizon:.3g} s at periods down to "
-                f"{self.period_min:.3g} s needs {samples} samples (limit "
-                f"{limit}); raise the minimum sampling period or gain")
-        return samples
 
     @cached_property
     def step_error_integrals(self) -> StepIntegrals:

@@ -30,15 +30,14 @@ from functools import cached_property
 
 from feedtune import linalg
 from feedtune.lazy import ca, np
-from feedtune.loop import (MAX_HORIZON_SAMPLES, SETTLE_FRACTION, SETTLED, Drive, HorizonError,
-                           Interpolator, StepIntegrals, _LoopBase, _pole_pair)
+from feedtune.loop import Drive, Interpolator, StepIntegrals, _SampledLoopBase
 from feedtune.sampled_controllers import DiscreteController
 from feedtune.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
                                      expm_function)
 
 
 @dataclass(frozen=True, eq=False)
-class SampledLTILoop(_LoopBase):
+class SampledLTILoop(_SampledLoopBase):
     """Sampled-data loop of an LTI plant, a ZOH and a discrete controller, exact between samples.
 
     State at sample k: [plant x (n), controller x_c, u(k−1), …, u(k−L)], with L the held
@@ -297,69 +296,12 @@ class SampledLTILoop(_LoopBase):
         twice = linalg.solve(eye - self.state_matrix, once)
         return 1 / (self.period * ca.mtimes(self.position_row, twice))
 
-    @cached_property
-    def _equivalent_poles(self):
-        _, c1, c0 = self.characteristic_polynomial
-        return _pole_pair()(c1, c0)
-
-    def natural_frequency(self):
-        """ω_n [rad/s] of the pole pair s = ln(z)/T (order-2 loops, Koren eqs 17–19)."""
-        return self._equivalent_poles[1] / self.period
-
-    def damping_ratio(self):
-        """ζ of the pole pair s = ln(z)/T (order-2 loops, Koren eq 19)."""
-        return self._equivalent_poles[0]
-
     # -- step-error integrals -----------------------------------------------------------
 
     @property
     def has_exact_step_error(self) -> bool:
         """A continuous plant: its intersample error is integrated exactly."""
         return isinstance(self.plant, ContinuousPlant)
-
-    @property
-    def unrolled_steps(self) -> int:
-        return self.horizon_samples if "step_error_integrals" in self.__dict__ else 0
-
-    def settling_conditions(self) -> list:
-        """Schur conditions of p(r·z), r = SETTLE_FRACTION^(1/N), once the step integrals are
-        in use (as :meth:`feedtune.loop.SampledLoop.settling_conditions`)."""
-        if "step_error_integrals" not in self.__dict__:
-            return []
-        radius = SETTLE_FRACTION ** (1 / self.horizon_samples)
-        scaled = [c * radius ** (-k) for k, c in enumerate(self.characteristic_polynomial)]
-        return linalg.hurwitz_conditions(linalg.bilinear_to_continuous(scaled))
-
-    @cached_property
-    def _numeric_spectral_radius(self) -> float | None:
-        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
-            return None
-        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
-
-    @property
-    def horizon_samples(self) -> int:
-        """``horizon / T_min`` samples; a loop of numbers also runs until its free response
-        decayed by SETTLED (as :attr:`feedtune.loop.SampledLoop.horizon_samples`)."""
-        radius = self._numeric_spectral_radius
-        if radius is None:
-            return self.symbolic_horizon_samples
-        samples = math.ceil(self.horizon / float(ca.evalf(ca.MX(self.period))))
-        if 0 < radius < 1:
-            samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
-        return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
-
-    @property
-    def symbolic_horizon_samples(self) -> int:
-        """:attr:`horizon_samples` of this loop built on symbols, ``horizon / T_min``, from
-        the numbers alone (no expression is built; feedtune.spec checks it)."""
-        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
-
-    def _within_limit(self, samples: int, limit: int) -> int:
-        if samples > limit:
-            raise HorizonError(
-                f"a step response over {self.horizon:.3g} s at periods down to "
-                f"{self.period_min:.3g} s needs {samples} samples (limit {limit})")
-        return samples
 
     @cached_property
     def step_error_integrals(self) -> StepIntegrals:
