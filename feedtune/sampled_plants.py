@@ -39,6 +39,22 @@ def _float_matrix(value, name: str, shape=None) -> np.ndarray:
     return array
 
 
+def _state_space(a, b, c, d) -> tuple:
+    """(A, B, C, D) as float arrays of a SISO model with a position output: A square n×n,
+    B n×1, C 1×n, D 1×1 and 0; a bad one is a SampledModelError naming its field."""
+    a = _float_matrix(a, "/plant/a")
+    n = a.shape[0]
+    if a.shape != (n, n) or n == 0:
+        raise SampledModelError(f"/plant/a: shape {a.shape}, expected square n×n, n ≥ 1")
+    b = _float_matrix(np.reshape(b, (-1, 1)) if np.size(b) == n else b, "/plant/b", (n, 1))
+    c = _float_matrix(c, "/plant/c", (1, n))
+    d = _float_matrix(d, "/plant/d", (1, 1))
+    if d[0, 0] != 0:
+        raise SampledModelError("/plant/d: must be 0 (the position output has no direct "
+                                "feedthrough of the drive's input)")
+    return a, b, c, d
+
+
 def balance(matrix) -> tuple:
     """(D⁻¹MD, d): a diagonal similarity by powers of two (exact in floating point) that
     equalises row and column norms (scipy.linalg.matrix_balance, no permutation). A drive's
@@ -111,17 +127,7 @@ class ContinuousPlant:
     dead_time_samples: float | None = None
 
     def __post_init__(self):
-        a = _float_matrix(self.a, "/plant/a")
-        n = a.shape[0]
-        if a.shape != (n, n) or n == 0:
-            raise SampledModelError(f"/plant/a: shape {a.shape}, expected square n×n, n ≥ 1")
-        b = _float_matrix(np.reshape(self.b, (-1, 1)) if np.size(self.b) == n else self.b,
-                          "/plant/b", (n, 1))
-        c = _float_matrix(self.c, "/plant/c", (1, n))
-        d = _float_matrix(self.d, "/plant/d", (1, 1))
-        if d[0, 0] != 0:
-            raise SampledModelError("/plant/d: must be 0 (the position output has no "
-                                    "direct feedthrough of the drive's input)")
+        a, b, c, d = _state_space(self.a, self.b, self.c, self.d)
         if not (math.isfinite(self.dead_time) and self.dead_time >= 0):
             raise SampledModelError(f"/plant/dead_time: {self.dead_time} s, must be ≥ 0")
         if self.dead_time_samples is not None:
@@ -191,16 +197,7 @@ class DiscretePlant:
     dead_time_samples: int = 0
 
     def __post_init__(self):
-        a = _float_matrix(self.a, "/plant/a")
-        n = a.shape[0]
-        if a.shape != (n, n) or n == 0:
-            raise SampledModelError(f"/plant/a: shape {a.shape}, expected square n×n, n ≥ 1")
-        b = _float_matrix(np.reshape(self.b, (-1, 1)) if np.size(self.b) == n else self.b,
-                          "/plant/b", (n, 1))
-        c = _float_matrix(self.c, "/plant/c", (1, n))
-        d = _float_matrix(self.d, "/plant/d", (1, 1))
-        if d[0, 0] != 0:
-            raise SampledModelError("/plant/d: must be 0 (no direct feedthrough to position)")
+        a, b, c, d = _state_space(self.a, self.b, self.c, self.d)
         if not (self.period > 0 and math.isfinite(self.period)):
             raise SampledModelError(f"/plant/period: {self.period} s, must be > 0")
         if int(self.dead_time_samples) != self.dead_time_samples or self.dead_time_samples < 0:
