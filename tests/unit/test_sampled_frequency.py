@@ -31,6 +31,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
+from discrete_checks import control_peak_and_bandwidth
 from feedtune.objectives import METRICS
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.tuner.terms import exact_value
@@ -64,32 +65,6 @@ def control_open_loop(gain, period, delay, tau):
     drive = control.tf([1.0], [tau, 1.0, 0.0]) if tau else control.tf([1.0], [1.0, 0.0])
     sampled = control.sample_system(gain * drive, period, method="zoh")
     return sampled * control.tf([1.0], [1.0] + [0.0] * delay, period)
-
-
-def control_peak_and_bandwidth(closed, period):
-    """(M_peak, bandwidth [rad/s]) of a discrete closed loop by python-control's own
-    evaluation at z = e^{jωT}: a grid of 20 001 points up to π/T, the peak polished by
-    bounded Brent, the first crossing of 1/√2 by brentq (π/T when there is none)."""
-    nyquist = math.pi / period
-    grid = np.geomspace(nyquist * 1e-5, nyquist, 20_001)
-
-    def gain(w):
-        return float(np.abs(closed(np.exp(1j * w * period))))
-
-    dc = float(np.abs(closed(1.0)))
-    mag = np.abs(np.asarray(closed(np.exp(1j * grid * period))).ravel()) / dc
-    k = int(np.argmax(mag))
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-    polished = minimize_scalar(lambda u: -gain(math.exp(u)) / dc, method="bounded",
-                               bounds=(math.log(lo), math.log(hi)), options={"xatol": 1e-12})
-    peak = max(1.0, float(mag[k]), -polished.fun)
-    below = np.flatnonzero(mag < 1 / math.sqrt(2))
-    if below.size == 0:
-        return peak, nyquist
-    j = int(below[0])
-    bandwidth = brentq(lambda w: gain(w) / dc - 1 / math.sqrt(2), grid[j - 1], grid[j],
-                       xtol=1e-13 * grid[j], rtol=1e-15)
-    return peak, bandwidth
 
 
 @pytest.mark.parametrize("gain, period, delay, tau", CASES)
