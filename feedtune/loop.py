@@ -291,6 +291,12 @@ class _LoopBase:
     def order(self) -> int:
         return self.state_matrix.shape[0]
 
+    def sensitivity_response(self, omega):
+        """Re and Im of the feedback loop's S = 1/(1 + L) at ω [rad/s]: the error per
+        reference of a unity-feedback loop (``error_response``); a loop whose reference path
+        differs (a velocity feed-forward) overrides it."""
+        return self.error_response(omega)
+
     @property
     def unrolled_steps(self) -> int:
         """Loop steps inside the expressions built so far (a cost hint for the tuner)."""

@@ -16,10 +16,9 @@ class SensitivityPeak(Metric):
     Not Bhatia's ``sensitivity`` (the loop-gain product |G K'_v K'_p| that makes the closed
     loop insensitive to the plant at low frequency): a peak over all frequencies, located
     on a grid and refined by golden section and Newton steps, held in the NLP as a
-    supremum (the exchange method), as ``m_peak``. S is evaluated as den L/(den L + num L),
-    exact at low ω: the loop's ``sensitivity_response`` where its reference path differs
-    from its feedback path (a velocity feed-forward), else its ``error_response`` (unity
-    feedback: the error per reference is S).
+    supremum (the exchange method), as ``m_peak``. S is the loop's ``sensitivity_response``
+    (den L/(den L + num L), exact at low ω; the error per reference unless a feed-forward
+    makes the reference path differ from the feedback path).
     """
 
     name = "sensitivity_peak"
@@ -32,10 +31,8 @@ class SensitivityPeak(Metric):
         return has_open_loop(loop) and hasattr(loop, "error_response")
 
     def evaluate(self, loop, options):
-        response = getattr(loop, "sensitivity_response", loop.error_response)
-
         def gain(omega):
-            re, im = response(omega)
+            re, im = loop.sensitivity_response(omega)
             return re**2 + im**2
 
         value, omega_peak = peak(gain, loop.frequency_band, "sensitivity_peak")
