@@ -279,18 +279,27 @@ def tracked(row_at, slots: ca.MX, step: float, maximum: bool) -> ca.MX:
     to 4e-2 relative excess each round, until none was left). At the moved point the row
     follows its local extremum to second order: δ = r_u / max(∓r_uu, |r_u|/step) (u = ln
     slot), so |δ| ≤ step, and δ = 0 at a point where the extremum is (where the exchange
-    check puts it). ``row_at`` maps a 1×n row of slot values to a 1×n row of expressions.
+    check puts it). ``row_at`` maps a 1×n row of slot values to a 1×n row of expressions,
+    each entry depending on its own slot only.
+
+    All slots are one row: ``row_at`` is called on the whole row (at the slots, and at the
+    moved slots), so what does not depend on ω (a loop's polynomial coefficients) is
+    computed once for all slots, and r_u, r_uu are the diagonals of the row's elementwise
+    Jacobians. Mapping a one-slot Function over the slots instead computed the
+    coefficients again in every slot once expanded (measured on the bundled Ward-Leonard
+    spec: 32 rows, 26k of the NLP's 65k SX instructions).
     """
-    u = ca.MX.sym("log_slot")
+    n = slots.numel()
+    u = ca.MX.sym("log_slot", 1, n)
     sign = 1.0 if maximum else -1.0
     row = sign * row_at(ca.exp(u))
     free = [v for v in ca.symvar(row) if not ca.is_equal(v, u)]
-    r_u = ca.jacobian(row, u)
-    r_uu = ca.jacobian(r_u, u)
+    r_u = ca.diag(ca.jacobian(row, u)).T
+    r_uu = ca.diag(ca.jacobian(r_u, u)).T
     delta = r_u / ca.fmax(ca.fmax(-r_uu, ca.fabs(r_u) / step), 1e-300)
-    moved = ca.substitute(row, u, u + delta)
-    one = ca.Function("tracked", [u, *free], [sign * moved])
-    return one.map(slots.numel())(ca.log(slots), *free)
+    moved = row_at(ca.exp(u + delta))
+    one = ca.Function("tracked", [u, *free], [moved])
+    return one(ca.log(slots), *free)
 
 
 def _exchange_rows(builder: NlpBuilder, group: ExchangeGroup, default: float, constraint_at,
