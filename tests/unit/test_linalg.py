@@ -113,6 +113,26 @@ def test_hurwitz_conditions_on_known_polynomials():
     assert np.all(unstable[:3] > 0) and unstable[3] == pytest.approx(-6.0)
 
 
+@pytest.mark.parametrize("kind", [ca.MX, ca.SX])
+def test_symbolic_hurwitz_conditions_are_one_call_with_the_same_values(kind):
+    """On MX symbols the conditions are one call of a Function built once per degree (the
+    pivoted minors are not written out again per loop); on MX and SX they give the
+    written-out conditions' numbers bit for bit, stable and unstable."""
+    a = kind.sym("a", 9)
+    conditions = linalg.hurwitz_conditions([a[i] for i in range(9)])
+    function = ca.Function("conditions", [a], [ca.vertcat(*conditions)])
+    written = ca.Function("written", [a], [ca.vertcat(*linalg._hurwitz_conditions(
+        [a[i] for i in range(9)]))])
+    if kind is ca.MX:
+        assert function.n_instructions() < written.n_instructions() / 10
+    rng = np.random.default_rng(8)
+    for stable in (True, False):
+        coefficients = np.real(np.poly(_random_roots(rng, 8, stable)))
+        got = np.asarray(function(coefficients), dtype=float).ravel()
+        assert np.array_equal(got, np.asarray(written(coefficients), dtype=float).ravel())
+        assert bool(np.all(got > 0)) == stable
+
+
 # -- bilinear_to_continuous -----------------------------------------------------------------
 
 @pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])

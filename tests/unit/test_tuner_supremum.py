@@ -184,6 +184,28 @@ def test_an_exchange_row_moves_at_most_one_step():
 
 
 
+def test_exchange_rows_compute_what_does_not_depend_on_omega_once():
+    """A row whose factor c(k) (2000 operations, no ω) multiplies a peak in ω: 16 tracked
+    slots cost c once, not once per slot (a one-slot Function mapped over the slots,
+    expanded, repeated it: the NLP's coefficients 16 times per group), and each slot's
+    value is the one-slot row's."""
+    z = ca.MX.sym("z")
+    factor = ca.exp(z)
+    for _ in range(1000):
+        factor = ca.sin(factor) + factor
+    step = math.log(10) / 40
+
+    def expanded(slots):
+        rows = tracked(lambda w: factor * w / (1 + w**2), ca.DM(slots).T, step, True)
+        return ca.Function("t", [z], [rows]).expand()
+
+    many, one = expanded(list(np.geomspace(0.2, 5.0, 16))), expanded([0.2])
+    assert many.n_instructions() - one.n_instructions() < one.n_instructions()  # 15 slots
+    values = np.asarray(many(0.3), dtype=float).ravel()
+    for omega, value in zip(np.geomspace(0.2, 5.0, 16), values):
+        assert value == pytest.approx(float(expanded([omega])(0.3)), rel=1e-14)
+
+
 def test_a_round_that_goes_on_from_an_optimum_starts_warm():
     """Resumed from where a start ended (its primal and dual point), IPOPT confirms the
     optimum in a couple of iterations; cold (μ = 0.1, pushed off the active bound) it takes
