@@ -100,6 +100,7 @@ REFERENCE: dict[str, float] = {
     "ward-leonard-feed-drive-variant08": 22.02674332875889,
     "ward-leonard-feed-drive-variant09": 24.273794134051414,
     "ward-leonard-feed-drive-variant10": 31.549632193699885,
+    "ward-leonard-feed-drive-variant11": 29.52502487391483,
 }
 
 
