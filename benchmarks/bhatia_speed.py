@@ -71,8 +71,8 @@ NOT_CONSTANTS = {"type", "velocity_compensator", "position_compensator", "stable
 #: (h-wl, 2026-11-25): 25.5627 rad/s (K'_p = K'_v = 1000, position τ12 = 40.8 s), above the
 #: 25.5571 rad/s that 8 starts of the previous tuners found (K'_v = 905, τ12 = 100 s).
 #: Ward-Leonard variant 05: 8 starts of the code at 90bb3e2; 04, 06 and 08: 8 starts of
-#: h-wl's tuner (load 9-11); 07 and 09-12: 8 starts of main at 0311d56 (2026-11-27, load
-#: 10-20, 4-15 min each), exported with ``git archive`` and run in the background with
+#: h-wl's tuner (load 9-11); 07 and 09-11: 8 starts of main at 0311d56 (2026-11-27, load
+#: 10-20, 4-18 min each; 12's run hit the 60 s per-start limit at load 20), exported with ``git archive`` and run in the background with
 #: ``OPENBLAS_NUM_THREADS=1 PYTHONPATH=<export> nice -n 19 .venv/bin/python
 #: benchmarks/bhatia_speed.py --reference 8 --only 'ward-leonard-feed-drive-variant(07|09|10|11|12)'``.
 REFERENCE: dict[str, float] = {
