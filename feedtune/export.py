@@ -153,7 +153,7 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
                               open_loop=ss(open_a, b, c, zero, "open_loop", input_=ERROR),
                               error=ss(a, b, -c, np.ones((1, 1)), "error", output=ERROR),
                               load=None, dt=dt, position_unit=position_unit)
-    if getattr(loop, "exact_only", False):
+    if loop.exact_only:
         raise TypeError(f"a {type(loop).__name__} is a discrete pulse simulation, not a linear "
                         "system: it has no python-control export")
     raise TypeError(f"no python-control export for a {type(loop).__name__}")

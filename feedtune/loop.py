@@ -23,6 +23,7 @@ from functools import cached_property, lru_cache
 
 from feedtune import linalg
 from feedtune.lazy import ca, np
+from feedtune.protocols import Capability, Declared
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                               second_order_error_integrals)
 
@@ -278,9 +279,11 @@ class IntegratorLag:
         return phi, gamma
 
 
-class _LoopBase:
-    """Shared algebra of both loop kinds; subclasses set the matrices."""
+class _LoopBase(Declared):
+    """Shared algebra of the linear loops; subclasses set the matrices and declare their
+    capabilities (:mod:`feedtune.protocols`)."""
 
+    exact_only = False
     discrete: bool
     state_matrix: object
     input_matrix: object
@@ -362,6 +365,8 @@ class ContinuousLoop(_LoopBase):
     drive: Drive = field(default_factory=Drive)
     discrete = False
     period = None
+    capabilities = frozenset({Capability.LINEAR, Capability.VELOCITY_CONSTANT,
+                              Capability.EXACT_STEP_ERROR})
 
     def frequency_response(self, omega):
         """Re and Im of position/reference at s = jω, ω [rad/s]."""
@@ -522,6 +527,10 @@ class SampledLoop(_SampledLoopBase):
     interpolator: Interpolator | None = None
     frequency_band: tuple | None = None
     discrete = True
+    capabilities = frozenset({Capability.LINEAR, Capability.FREQUENCY_RESPONSE,
+                              Capability.OPEN_LOOP, Capability.VELOCITY_CONSTANT,
+                              Capability.EXACT_STEP_ERROR, Capability.SAMPLE_HORIZON,
+                              Capability.HELD_COMMAND})
 
     @property
     def order(self) -> int:
@@ -726,6 +735,10 @@ class TransferLoop(_LoopBase):
     interpolator: Interpolator | None = None
     discrete = False
     period = None
+    capabilities = frozenset({Capability.LINEAR, Capability.FREQUENCY_RESPONSE,
+                              Capability.OPEN_LOOP, Capability.VELOCITY_CONSTANT,
+                              Capability.NUMERIC_TRANSFER, Capability.LOAD_INPUT,
+                              Capability.LOOP_GAIN_PRODUCT})
 
     @cached_property
     def closed_denominator(self) -> list:

@@ -374,7 +374,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                 at_bound = "max"
         tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=name in fixed,
                                  min=lower, max=upper, at_bound=at_bound)
-    position_unit = getattr(plant, "position_unit", "m")
+    position_unit = plant.position_unit
     # an unstable loop has no steady state, response or margin: its objective, metrics and
     # constraint values mean nothing, so none is reported and no constraint is met
     stable = bool(outcome.stability.get("stable"))

@@ -41,6 +41,7 @@ from fractions import Fraction
 from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
+from feedtune.protocols import Capability, Loop
 
 #: sub-sample points per servo sample for the continuous response between samples
 SUBDIVISIONS = 16
@@ -104,16 +105,16 @@ class CircleTest:
         return float(np.max(peaks - valleys))
 
 
-def supports(loop) -> bool:
+def supports(loop: Loop) -> bool:
     """A sampled loop behind an interpolator, for which the test is defined."""
-    return loop.interpolator is not None and loop.discrete and hasattr(loop, "hold_input")
+    return loop.interpolator is not None and loop.offers(Capability.HELD_COMMAND)
 
 
 def _numbers(value) -> np.ndarray:
     return np.array(ca.evalf(value), dtype=float)
 
 
-def circle_test(loop, radius: float, feed: float) -> CircleTest | None:
+def circle_test(loop: Loop, radius: float, feed: float) -> CircleTest | None:
     """The steady circle test of ``loop`` (a loop of numbers); None when it is unstable.
 
     Raises
@@ -182,7 +183,7 @@ def circle_test(loop, radius: float, feed: float) -> CircleTest | None:
                       points_per_side=round(SUBDIVISIONS * a / b), ratio=ratio)
 
 
-def circle_value(loop, options, quantity: str):
+def circle_value(loop: Loop, options, quantity: str):
     """``quantity`` of the circle test for the metric ``options`` (radius, feed), as a ca.DM;
     +∞ for an unstable loop."""
     test = circle_test(loop, options.radius, options.feed)
@@ -200,11 +201,11 @@ class CircleTestMetric(Metric):
     Options = CircleOptions
     quantity: str
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return supports(loop)
 
-    def optimisable(self, loop, options=None):
+    def optimisable(self, loop: Loop, options=None):
         return False
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return circle_value(loop, options, self.quantity)

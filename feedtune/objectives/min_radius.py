@@ -7,6 +7,7 @@ import math
 from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import radius_gain_excess
+from feedtune.protocols import Loop
 
 #: radii scanned, per decade of r, over SPAN decades from V_m/C_v up (ω from C_v down);
 #: the symbolic scan (inside the NLP) is coarser than the exact one (reported values)
@@ -51,10 +52,10 @@ class MinRadius(Metric):
                    "≤ BLU/2 (exact)")
     reference = "Koren 1979 eqs 30–33, 38–39"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.drive.blu is not None and loop.drive.max_velocity is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         v, blu = loop.drive.max_velocity, loop.drive.blu
         log_r = ca.MX.sym("log_r")
         radius = ca.exp(log_r)

@@ -14,6 +14,7 @@ import math
 from feedtune import linalg
 from feedtune.expr import PoleRegion
 from feedtune.lazy import ca, np
+from feedtune.protocols import Loop
 
 
 def s_plane_poles(matrix, discrete: bool, period: float | None):
@@ -25,7 +26,7 @@ def s_plane_poles(matrix, discrete: bool, period: float | None):
     return poles
 
 
-def pole_region(loop, measure, conditions, lower: float, upper: float) -> PoleRegion:
+def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> PoleRegion:
     """The :class:`~feedtune.expr.PoleRegion` of ``loop`` for ``measure(s-plane poles)``
     (numpy, a float), ``conditions(level)`` (or None) and the measure's range over stable
     loops [``lower``, ``upper``].
@@ -107,7 +108,7 @@ def rotated_product(poly: list, angle) -> list:
     return list(reversed(out))
 
 
-def decay_conditions(loop):
+def decay_conditions(loop: Loop):
     """level σ [1/s] ↦ expressions all positive iff every closed-loop pole has −Re p > σ.
 
     Continuous: the Routh test (:func:`routh_column`) of p(s − σ), whose roots are the
@@ -165,7 +166,7 @@ def routh_column(coefficients: list) -> list:
     return column
 
 
-def damping_conditions(loop):
+def damping_conditions(loop: Loop):
     """level ζ [1] ↦ expressions all positive iff every closed-loop pole of a continuous
     loop has −Re p/|p| > ζ, or None for a sampled loop.
 

@@ -41,7 +41,7 @@ GENERATIONS = 40
 
 def is_exact_only(loop) -> bool:
     """The loop is an exact (discrete) simulation that only this tuner can tune."""
-    return bool(getattr(loop, "exact_only", False))
+    return bool(loop.exact_only)
 
 
 def problem_class(loop) -> type:
