@@ -38,6 +38,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from feedtune.expr import is_symbolic, to_array
 from feedtune.loop import ContinuousLoop, SampledLoop, TransferLoop
 
 #: the open loop rebuilt from a state-space closed loop must give the loop's own velocity
@@ -184,10 +185,9 @@ def _check_open_loop(a, b, c, dt, velocity_constant, kind) -> None:
 
 
 def _numbers(x) -> np.ndarray:
-    value = ca.MX(x) if not isinstance(x, (ca.MX, ca.SX)) else x
-    if value.is_symbolic() or ca.symvar(ca.vec(value)):
+    if is_symbolic(x):
         raise ValueError("the loop still holds symbols; build it with numbers")
-    return np.array(ca.evalf(value), dtype=float)
+    return to_array(x)
 
 
 def _matrix(x) -> np.ndarray:

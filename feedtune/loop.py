@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
 from feedtune import linalg
+from feedtune.expr import is_symbolic, to_array, to_float
 from feedtune.lazy import ca, np
 from feedtune.protocols import Capability, Declared
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
@@ -396,8 +397,7 @@ class ContinuousLoop(_LoopBase):
         if self.order != 2:
             raise NotImplementedError("exact step-error integrals need a second-order loop")
         _, a1, a0 = self.characteristic_polynomial
-        if not ca.symvar(ca.veccat(ca.MX(a1), ca.MX(a0))) and not (
-                float(ca.evalf(a1)) > 0 and float(ca.evalf(a0)) > 0):
+        if not is_symbolic(a1, a0) and not (to_float(a1) > 0 and to_float(a0) > 0):
             return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
         de0 = -ca.mtimes(self.position_row, self.input_matrix)
@@ -448,9 +448,9 @@ class _SampledLoopBase(_LoopBase):
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:
         """max |pole| when the loop holds numbers only, else None (symbolic)."""
-        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
+        if is_symbolic(self.state_matrix, self.period):
             return None
-        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
+        return float(np.max(np.abs(np.linalg.eigvals(to_array(self.state_matrix)))))
 
     @property
     def horizon_samples(self) -> int:
@@ -463,7 +463,7 @@ class _SampledLoopBase(_LoopBase):
         radius = self._numeric_spectral_radius
         if radius is None:
             return self.symbolic_horizon_samples
-        samples = math.ceil(self.horizon / float(ca.evalf(ca.MX(self.period))))
+        samples = math.ceil(self.horizon / to_float(self.period))
         if 0 < radius < 1:
             samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
         return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
@@ -634,10 +634,10 @@ class SampledLoop(_SampledLoopBase):
         tau = self.plant.time_constant
         if tau is not None:
             values.append(ca.MX(tau))
-        if ca.symvar(ca.veccat(*[ca.vec(v) for v in values])):
+        if is_symbolic(*values):
             raise TypeError("the sampled step response is evaluated on a loop of numbers "
                             "only (reported on the tuned design, never in the NLP)")
-        arrays = [np.array(ca.evalf(v), dtype=float) for v in values]
+        arrays = [to_array(v) for v in values]
         phi, gamma, kx, kr, period = arrays[:5]
         return (phi, gamma.ravel(), kx.ravel(), float(kr.item()), float(period.item()),
                 float(arrays[5].item()) if tau is not None else None)
@@ -812,7 +812,7 @@ class TransferLoop(_LoopBase):
         [rad] or ``error`` [rad] (reference − position). For loops of numbers only.
         """
         def floats(p):
-            return np.array([float(ca.evalf(ca.MX(c))) for c in p])
+            return np.array([to_float(c) for c in p])
 
         den = floats(self.closed_denominator)
         if input == "reference":

@@ -9,6 +9,7 @@ from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
+from feedtune.expr import is_symbolic
 from feedtune.labels import metric_label
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
@@ -183,7 +184,7 @@ class Reports:
             value = ca.fabs(expr) if magnitude else expr
             if isinstance(value, (ca.MX, ca.DM, int, float)):
                 exprs[key] = ca.MX(value)
-        if not exprs or ca.symvar(ca.veccat(*exprs.values())):
+        if not exprs or is_symbolic(*exprs.values()):
             return {}
         return dict(zip(exprs, ca.Function("reports", [], list(exprs.values())).call([])))
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from feedtune.expr import Magnitude
+from feedtune.expr import Magnitude, to_float
 from feedtune.lazy import ca
 from feedtune.objectives.circle_test import CircleTestMetric
 from feedtune.protocols import Loop
@@ -20,7 +20,7 @@ def relative_gap(formula, exact) -> ca.DM:
 
 def _number(value) -> float:
     expr = value.expr if isinstance(value, Magnitude) else value  # a Magnitude: its |·|
-    return abs(float(ca.evalf(ca.MX(expr))))
+    return abs(to_float(expr))
 
 
 class FormulaGap(CircleTestMetric):

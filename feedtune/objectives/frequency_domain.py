@@ -10,6 +10,7 @@ value below their level beyond π/T (:func:`below_nyquist`), so such a crossing 
 π/T itself (a bandwidth "at Nyquist": the loop passes everything it can represent).
 """
 
+from feedtune.expr import to_float
 from feedtune.frequency import first_crossing
 from feedtune.lazy import ca
 from feedtune.protocols import Capability, Loop
@@ -80,7 +81,7 @@ def as_number(omega):
     the response at it is then plain float arithmetic, the same operations as evaluating
     its graph, without building one), else ``omega`` itself."""
     if isinstance(omega, ca.MX) and omega.is_constant():
-        return float(ca.evalf(omega))
+        return to_float(omega)
     return omega
 
 

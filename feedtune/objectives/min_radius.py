@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from feedtune.expr import to_float
 from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import radius_gain_excess
@@ -64,7 +65,7 @@ class MinRadius(Metric):
         free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
         excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
         if not free:  # a loop of numbers: scalar arithmetic, evaluated faster as SX
-            return ca.DM(_exact(_vectorised(excess_fn.expand()), float(ca.evalf(low))))
+            return ca.DM(_exact(_vectorised(excess_fn.expand()), to_float(low)))
         count = PER_DECADE_SYMBOLIC * SPAN
         cell = math.log(10) / PER_DECADE_SYMBOLIC
         grid = low + ca.DM(np.arange(count + 1) * cell).T

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from feedtune import linalg
-from feedtune.expr import PoleRegion
+from feedtune.expr import PoleRegion, is_symbolic
 from feedtune.lazy import ca, np
 from feedtune.protocols import Loop
 
@@ -47,7 +47,7 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> 
             return math.nan
         return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
 
-    if not ca.symvar(inputs):
+    if not is_symbolic(inputs):
         exact = ca.MX(of_numbers(ca.evalf(inputs)))
     elif conditions is None:  # reported only: never an expression the NLP would trust
         raise TypeError("this pole measure has no polynomial test on this loop: it is "

@@ -19,6 +19,7 @@ from typing import Literal
 from pydantic import Field
 
 from feedtune import timeresponse
+from feedtune.expr import is_symbolic
 from feedtune.lazy import ca
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
@@ -81,20 +82,12 @@ def step_error_unit(options: StepErrorOptions, absolute: str, natural: str) -> s
 
 # -- numeric responses of loops given by polynomials ---------------------------------------
 
-def _is_symbolic(value) -> bool:
-    if isinstance(value, ca.SX):
-        return not value.is_constant()
-    if isinstance(value, ca.MX):
-        return bool(ca.symvar(value))
-    return False
-
-
 def numeric_transfer(loop: Loop, metric_name: str, output: str, input: str):
     """(numerator, denominator) float arrays of ``loop``, or TypeError for a symbolic loop."""
     polynomials = list(loop.open_numerator) + list(loop.open_denominator)
     if input == "load" and loop.load_numerator is not None:
         polynomials += list(loop.load_numerator)
-    if any(_is_symbolic(c) for c in polynomials):
+    if is_symbolic(*polynomials):
         raise TypeError(
             f"metric {metric_name!r} is evaluated numerically from the time response of this "
             "loop and cannot be an objective term or a constraint (it is reported on the "

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 from feedtune import linalg
+from feedtune.expr import to_float
 from feedtune.lazy import ca, np
 from feedtune.loop import TransferLoop
 from feedtune.protocols import Capability
@@ -200,8 +201,8 @@ class LinearLoop(TransferLoop):
         (and the dead time as its Padé approximant)."""
         if self.error_numerator is None or input != "reference":
             return super().numeric_transfer(output, input)
-        den = np.array([float(ca.evalf(ca.MX(c))) for c in self.closed_denominator])
-        error = np.array([float(ca.evalf(ca.MX(c))) for c in self.error_numerator])
+        den = np.array([to_float(c) for c in self.closed_denominator])
+        error = np.array([to_float(c) for c in self.error_numerator])
         if output == "error":
             return error, den
         return np.polysub(den, error), den

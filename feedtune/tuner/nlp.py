@@ -31,6 +31,7 @@ from typing import Callable, Mapping
 import casadi as ca
 import numpy as np
 
+from feedtune.expr import to_array, to_float
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build
 from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
@@ -245,8 +246,8 @@ class Problem:
         objective = (None if any(v is None for v in terms)
                      else sum(t.weight * v for t, v in zip(self.objective_terms, terms)))
         bounds = [number(b.value(loop)) for b in self.bounds]
-        conditions = np.array([float(ca.evalf(c)) for c in loop.stability_conditions()])
-        matrices = {name: np.array(ca.evalf(m), dtype=float)
+        conditions = np.array([to_float(c) for c in loop.stability_conditions()])
+        matrices = {name: to_array(m)
                     for name, m in loop.stability_matrices().items()}
         reports = {key: number(fn(loop)) for key, fn in self.reports.items()}
         return objective, bounds, conditions, matrices, reports
