@@ -18,6 +18,7 @@ from feedtune.plausibility import plausibility_warnings
 from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult, SpreadValue,
                              StartResult, TunedValue, TuneResult, provenance)
 from feedtune.spec import Spec, SpecError, parse_spec, tunable_box
+from feedtune.status import ERROR
 from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import problem_class
 from feedtune.tuner.terms import exact_value
@@ -447,7 +448,7 @@ def _validation(result: TuneResult) -> dict:
 def _error_result(spec: Spec, message: str) -> TuneResult:
     """The result of a tuning that failed before IPOPT could report a status."""
     return TuneResult(
-        name=spec.name, success=False, status="error", message=message, objective=None,
+        name=spec.name, success=False, status=ERROR, message=message, objective=None,
         tuned={}, metrics={}, constraints=[], stability={"stable": False},
         solver=SolverResult(return_status="not_run", message=message, iterations=0,
                             solve_time=0.0, build_time=0.0, evaluation_time=0.0, model_gap=None,

@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import to_array, to_float
+from feedtune.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build
 from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
@@ -281,7 +282,7 @@ class Problem:
                     solutions[index] = (solver, solution)
                     status = STATUS.get(return_status, "error")
                 else:
-                    z_opt, return_status, status = z0, "No_Free_Tunables", "optimal"
+                    z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
                 objective, bounds, conditions, matrices = self._evaluate(z_opt)
                 feasible, _ = self._feasible(bounds, conditions, matrices)
                 if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
@@ -324,13 +325,13 @@ class Problem:
         evaluation_time = time.perf_counter() - started
         success = status in SOLVED and feasible and objective is not None
         if status in SOLVED and feasible and objective is None:
-            status = "error"
+            status = ERROR
             message = ("the objective is not a finite number at the tuned point (an input far "
                        "outside the model's range?)")
         elif success:
             message = f"start {index + 1} of {len(starts)} gave the best feasible optimum"
         elif status in SOLVED:
-            status = "infeasible"
+            status = INFEASIBLE
             broken = [b.label for v, b in zip(bounds, self.bounds) if not within(v, b.lower, b.upper)]
             if not stability["stable"]:
                 inner = [name for name, check in stability.items()
