@@ -24,7 +24,7 @@ from functools import cached_property, lru_cache
 from feedtune import linalg
 from feedtune.expr import is_symbolic, to_array, to_float
 from feedtune.lazy import ca, np
-from feedtune.protocols import Capability, Declared
+from feedtune.protocols import Capability, DeclaredCapabilities
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                               second_order_error_integrals)
 
@@ -280,7 +280,7 @@ class IntegratorLag:
         return phi, gamma
 
 
-class _LoopBase(Declared):
+class _LoopBase(DeclaredCapabilities):
     """Shared algebra of the linear loops; subclasses set the matrices and declare their
     capabilities (:mod:`feedtune.protocols`)."""
 

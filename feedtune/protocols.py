@@ -292,7 +292,7 @@ WITHDRAWN: dict[Capability, Callable[[Any], bool]] = {
 }
 
 
-class Declared:
+class DeclaredCapabilities:
     """The shared :meth:`Loop.offers` of the loop classes: ``capability`` is in the class's
     ``capabilities`` and the loop's data does not withdraw it (:data:`WITHDRAWN`)."""
 

@@ -59,7 +59,7 @@ from typing import Sequence
 
 from feedtune.lazy import np
 from feedtune.loop import Drive
-from feedtune.protocols import Capability, Declared
+from feedtune.protocols import Capability, DeclaredCapabilities
 
 #: automatic horizon: this many times the time a step needs by the plain estimate
 HORIZON_SAFETY = 3.0
@@ -447,7 +447,7 @@ class MotorCharacteristic:
 
 
 @dataclass(frozen=True, eq=False)
-class PulseLoop(Declared):
+class PulseLoop(DeclaredCapabilities):
     """A reference-pulse controller (Tian's V-F transformation) as a loop feedtune tunes.
 
     Not a linear loop: metrics read :attr:`response`, the exact simulation, computed once
@@ -456,8 +456,9 @@ class PulseLoop(Declared):
     of building an NLP (:func:`feedtune.tuner.search.problem_class`).
 
     It has the members every loop has (:class:`feedtune.protocols.Loop`: ``interpolator``,
-    ``order``, ``drive`` empty) and offers only :attr:`~feedtune.protocols.Capability.PULSE_SIMULATION`,
-    so every linear-loop metric declines it.
+    ``order``, ``drive`` empty) and offers only
+    :attr:`~feedtune.protocols.Capability.PULSE_SIMULATION`, so every linear-loop metric
+    declines it.
     """
 
     pulse_equivalent: object

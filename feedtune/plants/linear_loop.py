@@ -161,8 +161,8 @@ class LinearLoop(TransferLoop):
         return super().velocity_constant
 
     def offers(self, capability: Capability) -> bool:
-        """As every loop (:class:`feedtune.protocols.Declared`); a loop of type 2 or more
-        offers no velocity constant."""
+        """As every loop (:class:`feedtune.protocols.DeclaredCapabilities`); a loop of type
+        2 or more offers no velocity constant."""
         if capability is Capability.VELOCITY_CONSTANT and self.loop_type > 1:
             return False
         return super().offers(capability)

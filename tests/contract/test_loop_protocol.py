@@ -25,7 +25,7 @@ import pytest
 import feedtune
 from contract_cases import ALL_CONFIGS, CONFIGS, nominal
 from feedtune.plants import PLANTS
-from feedtune.protocols import PROTOCOLS, Capability, Declared, Loop, Plant
+from feedtune.protocols import PROTOCOLS, Capability, DeclaredCapabilities, Loop, Plant
 
 PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 
@@ -74,7 +74,7 @@ REGISTRY_LOOPS = _registry_loops()
 
 def _loop_classes() -> list[type]:
     """Every concrete class that declares capabilities, after the registry built its loops."""
-    found, stack = set(), [Declared]
+    found, stack = set(), [DeclaredCapabilities]
     while stack:
         for sub in stack.pop().__subclasses__():
             stack.append(sub)
@@ -88,7 +88,8 @@ LOOP_CLASSES = _loop_classes()
 
 @pytest.mark.parametrize("config_id, loop", REGISTRY_LOOPS, ids=[i for i, _ in REGISTRY_LOOPS])
 def test_registry_loop_declares_capabilities(config_id, loop):
-    assert isinstance(loop, Declared), f"{config_id}: {type(loop).__name__} declares nothing"
+    assert isinstance(loop, DeclaredCapabilities), \
+        f"{config_id}: {type(loop).__name__} declares nothing"
     assert type(loop) in LOOP_CLASSES
     offered = {c for c in Capability if loop.offers(c)}
     assert all(isinstance(loop.offers(c), bool) for c in Capability)
