@@ -12,7 +12,6 @@ import casadi as ca
 from pydantic import Field
 
 from feedtune.model import SpecModel
-
 from feedtune.status import Status
 
 
