@@ -419,7 +419,7 @@ class Result:
         >>> systems = feedtune.load_result("result.json").to_control()   # doctest: +SKIP
         >>> control.stability_margins(systems.open_loop)                   # doctest: +SKIP
         """
-        unit = getattr(plant_for(self.spec.plant), "position_unit", "m")
+        unit = plant_for(self.spec.plant).position_unit
         return loop_to_control(self.loop(), unit)
 
     # -- for people --------------------------------------------------------------------------

@@ -928,6 +928,7 @@ def _write_chart(kind: str, data: dict, path: Path, data_path: Path | None, quie
     import io
 
     from feedtune.charts.koren import PLOTS, write_data
+    from feedtune.status import SKIPPED
 
     buffer = io.BytesIO()  # drawn in memory, then written atomically
     PLOTS[kind](data, buffer, path.suffix.lstrip(".").lower())
@@ -942,7 +943,7 @@ def _write_chart(kind: str, data: dict, path: Path, data_path: Path | None, quie
                for name, entry in data.get("series", {}).items()
                for p in entry["points"]
                if (p.get("k_tau", 0) is None or p.get("r_blu", 0) is None)
-               and not str(p.get("status", "")).startswith("skipped")]
+               and not str(p.get("status", "")).startswith(SKIPPED)]
     if missing:
         _err("no optimum (gain on its bound or solver failure), left out: " + ", ".join(missing))
         raise SystemExit(EXIT_NOT_SUCCESS)

@@ -38,7 +38,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from feedtune.expr import is_symbolic, to_array
 from feedtune.loop import ContinuousLoop, SampledLoop, TransferLoop
+from feedtune.pulse_train import PulseLoop
 
 #: the open loop rebuilt from a state-space closed loop must give the loop's own velocity
 #: constant to this relative tolerance, or the loop is not the unity-feedback loop assumed
@@ -153,7 +155,7 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
                               open_loop=ss(open_a, b, c, zero, "open_loop", input_=ERROR),
                               error=ss(a, b, -c, np.ones((1, 1)), "error", output=ERROR),
                               load=None, dt=dt, position_unit=position_unit)
-    if getattr(loop, "exact_only", False):
+    if isinstance(loop, PulseLoop):  # exact_only: no linear model
         raise TypeError(f"a {type(loop).__name__} is a discrete pulse simulation, not a linear "
                         "system: it has no python-control export")
     raise TypeError(f"no python-control export for a {type(loop).__name__}")
@@ -184,10 +186,9 @@ def _check_open_loop(a, b, c, dt, velocity_constant, kind) -> None:
 
 
 def _numbers(x) -> np.ndarray:
-    value = ca.MX(x) if not isinstance(x, (ca.MX, ca.SX)) else x
-    if value.is_symbolic() or ca.symvar(ca.vec(value)):
+    if is_symbolic(x):
         raise ValueError("the loop still holds symbols; build it with numbers")
-    return np.array(ca.evalf(value), dtype=float)
+    return to_array(x)
 
 
 def _matrix(x) -> np.ndarray:

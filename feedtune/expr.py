@@ -1,11 +1,38 @@
-"""Expression wrappers shared by metrics and the tuner.
+"""Expression wrappers shared by metrics and the tuner, and the one test of "symbols or numbers".
 
 A metric returns a plain CasADi expression, or one of these when its value is not smooth
 in the tunables; the tuner then reformulates it so that the NLP stays smooth
 (docs/design.md: non-smooth metrics are reformulated by the tuner, not by each metric).
+
+A Loop holds expressions of the tunables: symbols inside the NLP, numbers on a tuned
+design. :func:`is_symbolic` tells them apart and :func:`to_array` / :func:`to_float` give
+the numbers of a loop of numbers; every module asks these, none writes its own.
 """
 
 from typing import Callable, NamedTuple
+
+from feedtune.lazy import ca, np
+
+
+def is_symbolic(*values) -> bool:
+    """Whether any of ``values`` depends on a CasADi symbol (an NLP variable or parameter).
+
+    False for numbers (float, int, numpy, ``ca.DM``) and for expressions of numbers only
+    (the MX or SX of a loop built from numbers).
+    """
+    return any(isinstance(v, (ca.SX, ca.MX)) and bool(ca.symvar(v)) for v in values)
+
+
+def to_array(value) -> "np.ndarray":
+    """The numbers of an expression of numbers (or of a number, a DM), as a float array
+    of its shape; evaluated by ``casadi.evalf`` (check :func:`is_symbolic` first)."""
+    return np.array(ca.evalf(value if isinstance(value, (ca.SX, ca.MX)) else ca.MX(value)),
+                    dtype=float)
+
+
+def to_float(value) -> float:
+    """The number of a scalar expression of numbers (or of a number), as :func:`to_array`."""
+    return float(to_array(value).reshape(-1)[0])
 
 
 class Magnitude(NamedTuple):

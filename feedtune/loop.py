@@ -22,7 +22,9 @@ from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
 from feedtune import linalg
+from feedtune.expr import is_symbolic, to_array, to_float
 from feedtune.lazy import ca, np
+from feedtune.protocols import Capability, DeclaredCapabilities
 from feedtune.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                               second_order_error_integrals)
 
@@ -278,9 +280,11 @@ class IntegratorLag:
         return phi, gamma
 
 
-class _LoopBase:
-    """Shared algebra of both loop kinds; subclasses set the matrices."""
+class _LoopBase(DeclaredCapabilities):
+    """Shared algebra of the linear loops; subclasses set the matrices and declare their
+    capabilities (:mod:`feedtune.protocols`)."""
 
+    exact_only = False
     discrete: bool
     state_matrix: object
     input_matrix: object
@@ -362,6 +366,8 @@ class ContinuousLoop(_LoopBase):
     drive: Drive = field(default_factory=Drive)
     discrete = False
     period = None
+    capabilities = frozenset({Capability.LINEAR, Capability.VELOCITY_CONSTANT,
+                              Capability.EXACT_STEP_ERROR})
 
     def frequency_response(self, omega):
         """Re and Im of position/reference at s = jω, ω [rad/s]."""
@@ -391,8 +397,7 @@ class ContinuousLoop(_LoopBase):
         if self.order != 2:
             raise NotImplementedError("exact step-error integrals need a second-order loop")
         _, a1, a0 = self.characteristic_polynomial
-        if not ca.symvar(ca.veccat(ca.MX(a1), ca.MX(a0))) and not (
-                float(ca.evalf(a1)) > 0 and float(ca.evalf(a0)) > 0):
+        if not is_symbolic(a1, a0) and not (to_float(a1) > 0 and to_float(a0) > 0):
             return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
         de0 = -ca.mtimes(self.position_row, self.input_matrix)
@@ -443,9 +448,9 @@ class _SampledLoopBase(_LoopBase):
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:
         """max |pole| when the loop holds numbers only, else None (symbolic)."""
-        if ca.symvar(ca.veccat(ca.vec(ca.MX(self.state_matrix)), ca.MX(self.period))):
+        if is_symbolic(self.state_matrix, self.period):
             return None
-        return float(np.max(np.abs(np.linalg.eigvals(np.array(ca.evalf(self.state_matrix))))))
+        return float(np.max(np.abs(np.linalg.eigvals(to_array(self.state_matrix)))))
 
     @property
     def horizon_samples(self) -> int:
@@ -458,7 +463,7 @@ class _SampledLoopBase(_LoopBase):
         radius = self._numeric_spectral_radius
         if radius is None:
             return self.symbolic_horizon_samples
-        samples = math.ceil(self.horizon / float(ca.evalf(ca.MX(self.period))))
+        samples = math.ceil(self.horizon / to_float(self.period))
         if 0 < radius < 1:
             samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
         return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
@@ -522,6 +527,10 @@ class SampledLoop(_SampledLoopBase):
     interpolator: Interpolator | None = None
     frequency_band: tuple | None = None
     discrete = True
+    capabilities = frozenset({Capability.LINEAR, Capability.FREQUENCY_RESPONSE,
+                              Capability.OPEN_LOOP, Capability.VELOCITY_CONSTANT,
+                              Capability.EXACT_STEP_ERROR, Capability.SAMPLE_HORIZON,
+                              Capability.HELD_COMMAND})
 
     @property
     def order(self) -> int:
@@ -625,10 +634,10 @@ class SampledLoop(_SampledLoopBase):
         tau = self.plant.time_constant
         if tau is not None:
             values.append(ca.MX(tau))
-        if ca.symvar(ca.veccat(*[ca.vec(v) for v in values])):
+        if is_symbolic(*values):
             raise TypeError("the sampled step response is evaluated on a loop of numbers "
                             "only (reported on the tuned design, never in the NLP)")
-        arrays = [np.array(ca.evalf(v), dtype=float) for v in values]
+        arrays = [to_array(v) for v in values]
         phi, gamma, kx, kr, period = arrays[:5]
         return (phi, gamma.ravel(), kx.ravel(), float(kr.item()), float(period.item()),
                 float(arrays[5].item()) if tau is not None else None)
@@ -726,6 +735,10 @@ class TransferLoop(_LoopBase):
     interpolator: Interpolator | None = None
     discrete = False
     period = None
+    capabilities = frozenset({Capability.LINEAR, Capability.FREQUENCY_RESPONSE,
+                              Capability.OPEN_LOOP, Capability.VELOCITY_CONSTANT,
+                              Capability.NUMERIC_TRANSFER, Capability.LOAD_INPUT,
+                              Capability.LOOP_GAIN_PRODUCT})
 
     @cached_property
     def closed_denominator(self) -> list:
@@ -799,7 +812,7 @@ class TransferLoop(_LoopBase):
         [rad] or ``error`` [rad] (reference − position). For loops of numbers only.
         """
         def floats(p):
-            return np.array([float(ca.evalf(ca.MX(c))) for c in p])
+            return np.array([to_float(c) for c in p])
 
         den = floats(self.closed_denominator)
         if input == "reference":

@@ -90,7 +90,7 @@ _HYDRAULIC_IMPLIED = (
 def _hydraulic_warnings(plant) -> list[str]:
     """ω_n and ξ given together with the data that imply them (the plant's own formulas,
     App. A2), where the two differ by more than HYDRAULIC_MISMATCH."""
-    if getattr(plant, "type", None) != "hydraulic_rotary":
+    if plant.type != "hydraulic_rotary":
         return []
     implied = plant.model_copy(update={field: None for field, *_ in _HYDRAULIC_IMPLIED})
     warnings = []

@@ -9,6 +9,7 @@ from typing import Callable, Literal, get_args, get_origin
 
 import casadi as ca
 
+from feedtune.expr import is_symbolic
 from feedtune.labels import metric_label
 from feedtune.loop import HorizonError
 from feedtune.objectives import METRICS
@@ -17,6 +18,7 @@ from feedtune.plausibility import plausibility_warnings
 from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult, SpreadValue,
                              StartResult, TunedValue, TuneResult, provenance)
 from feedtune.spec import Spec, SpecError, parse_spec, tunable_box
+from feedtune.status import ERROR
 from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import problem_class
 from feedtune.tuner.terms import exact_value
@@ -183,7 +185,7 @@ class Reports:
             value = ca.fabs(expr) if magnitude else expr
             if isinstance(value, (ca.MX, ca.DM, int, float)):
                 exprs[key] = ca.MX(value)
-        if not exprs or ca.symvar(ca.veccat(*exprs.values())):
+        if not exprs or is_symbolic(*exprs.values()):
             return {}
         return dict(zip(exprs, ca.Function("reports", [], list(exprs.values())).call([])))
 
@@ -374,7 +376,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                 at_bound = "max"
         tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=name in fixed,
                                  min=lower, max=upper, at_bound=at_bound)
-    position_unit = getattr(plant, "position_unit", "m")
+    position_unit = plant.position_unit
     # an unstable loop has no steady state, response or margin: its objective, metrics and
     # constraint values mean nothing, so none is reported and no constraint is met
     stable = bool(outcome.stability.get("stable"))
@@ -446,7 +448,7 @@ def _validation(result: TuneResult) -> dict:
 def _error_result(spec: Spec, message: str) -> TuneResult:
     """The result of a tuning that failed before IPOPT could report a status."""
     return TuneResult(
-        name=spec.name, success=False, status="error", message=message, objective=None,
+        name=spec.name, success=False, status=ERROR, message=message, objective=None,
         tuned={}, metrics={}, constraints=[], stability={"stable": False},
         solver=SolverResult(return_status="not_run", message=message, iterations=0,
                             solve_time=0.0, build_time=0.0, evaluation_time=0.0, model_gap=None,

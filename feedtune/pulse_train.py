@@ -59,6 +59,7 @@ from typing import Sequence
 
 from feedtune.lazy import np
 from feedtune.loop import Drive
+from feedtune.protocols import Capability, DeclaredCapabilities
 
 #: automatic horizon: this many times the time a step needs by the plain estimate
 HORIZON_SAFETY = 3.0
@@ -446,7 +447,7 @@ class MotorCharacteristic:
 
 
 @dataclass(frozen=True, eq=False)
-class PulseLoop:
+class PulseLoop(DeclaredCapabilities):
     """A reference-pulse controller (Tian's V-F transformation) as a loop feedtune tunes.
 
     Not a linear loop: metrics read :attr:`response`, the exact simulation, computed once
@@ -454,8 +455,10 @@ class PulseLoop:
     raises TypeError: ``exact_only`` tells the tuner to search on the simulation instead
     of building an NLP (:func:`feedtune.tuner.search.problem_class`).
 
-    The linear-loop attributes the other metrics look at (``interpolator``, ``order``,
-    ``drive``) are present and empty, so every linear-loop metric declines this loop.
+    It has the members every loop has (:class:`feedtune.protocols.Loop`: ``interpolator``,
+    ``order``, ``drive`` empty) and offers only
+    :attr:`~feedtune.protocols.Capability.PULSE_SIMULATION`, so every linear-loop metric
+    declines it.
     """
 
     pulse_equivalent: object
@@ -470,6 +473,7 @@ class PulseLoop:
     horizon_scale: float = 1.0
 
     exact_only = True  # the tuner must search on the simulation, not build an NLP
+    capabilities = frozenset({Capability.PULSE_SIMULATION})
     interpolator = None
     order = 0
     discrete = True

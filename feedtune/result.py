@@ -12,8 +12,7 @@ import casadi as ca
 from pydantic import Field
 
 from feedtune.model import SpecModel
-
-Status = Literal["optimal", "acceptable", "infeasible", "iteration_limit", "time_limit", "error"]
+from feedtune.status import Status
 
 
 ResultModel = SpecModel  # results are as strict as specs: frozen, no unknown keys, no NaN

@@ -31,6 +31,7 @@ from functools import cached_property
 from feedtune import linalg
 from feedtune.lazy import ca, np
 from feedtune.loop import Drive, Interpolator, StepIntegrals, _SampledLoopBase
+from feedtune.protocols import Capability
 from feedtune.sampled_controllers import DiscreteController
 from feedtune.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
                                      expm_function)
@@ -76,6 +77,9 @@ class SampledLTILoop(_SampledLoopBase):
     interpolator: Interpolator | None = None
     frequency_band: tuple | None = None
     discrete = True
+    capabilities = frozenset({Capability.LINEAR, Capability.FREQUENCY_RESPONSE,
+                              Capability.OPEN_LOOP, Capability.VELOCITY_CONSTANT,
+                              Capability.EXACT_STEP_ERROR, Capability.SAMPLE_HORIZON})
 
     def __post_init__(self):
         if int(self.delay) != self.delay or self.delay < 0:

@@ -24,6 +24,7 @@ from feedtune.objectives import METRICS
 from feedtune.objectives.step_error import StepErrorMetric, has_exact_step
 from feedtune.plants import PLANTS, plant_for
 from feedtune.plants.linear import MODEL_TYPES
+from feedtune.protocols import Capability
 
 MAX_SPEC_BYTES = 1_000_000
 MAX_JSON_DEPTH = 32
@@ -657,7 +658,7 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
                                f"{', '.join(optimisable) or 'none'}"))
             elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
                   and has_exact_step(loop, term)):
-                if not hasattr(type(loop), "horizon_samples"):
+                if not loop.offers(Capability.SAMPLE_HORIZON):
                     continue  # a continuous loop's integrals are closed-form lobe sums
                 try:
                     _tuner_horizon_samples(plant, box, loop)

@@ -75,6 +75,7 @@ from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 
 from feedtune.lazy import np
+from feedtune.protocols import Capability
 
 DECAY = 1e-12  # a mode is followed until it has decayed to this fraction of its largest size
 #: a mode's contribution is dropped once below this fraction of its largest size (far below
@@ -683,7 +684,7 @@ class SampledStepError:
 
 def has_sampled_step(loop) -> bool:
     """The loop is a sampled-data loop whose step response :class:`SampledStepError` gives."""
-    return callable(getattr(loop, "numeric_hold", None))
+    return loop.offers(Capability.HELD_COMMAND)
 
 
 def sampled_step_error(loop) -> SampledStepError | None:

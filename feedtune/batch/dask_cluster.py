@@ -24,6 +24,7 @@ from typing import Callable
 
 from feedtune.batch.job import WORKER_DIED, Outcome, solve
 from feedtune.batch.runner import ExecutorError
+from feedtune.status import ERROR
 
 WINDOW = 64
 #: default wait for the scheduler's connection and its first worker [s]
@@ -99,7 +100,7 @@ class DaskExecutor:
                 raise ExecutorError(f"lost the Dask scheduler at {where} mid-run; the "
                                     "results that finished are kept, rerun to finish") from None
             except Exception as exc:  # noqa: BLE001 — e.g. the spec did not pickle
-                return Outcome("error", f"Dask task failed: {type(exc).__name__}: {exc}")
+                return Outcome(ERROR, f"Dask task failed: {type(exc).__name__}: {exc}")
 
         width = max(1, len(client.scheduler_info()["workers"])) * WINDOW
         pending = iter(tasks)

@@ -11,8 +11,7 @@ import time
 import traceback
 from dataclasses import dataclass, field
 
-#: statuses a batch row can have besides a TuneResult's own (feedtune.result.Status)
-INVALID, RESUMED, WORKER_DIED, TIMEOUT = "invalid", "resumed", "worker_died", "timeout"
+from feedtune.status import ERROR, INVALID, RESUMED, TIMEOUT, WORKER_DIED  # noqa: F401
 
 
 @dataclass
@@ -148,5 +147,5 @@ def _internal(exc: BaseException, started: float, sha: str | None = None) -> Out
     """An exception feedtune did not expect: status ``error`` with the traceback's last frame."""
     frame = traceback.extract_tb(exc.__traceback__)[-1:] if exc.__traceback__ else []
     where = f" (at {frame[0].filename}:{frame[0].lineno})" if frame else ""
-    return Outcome("error", f"internal error {type(exc).__name__}: {exc}{where}",
+    return Outcome(ERROR, f"internal error {type(exc).__name__}: {exc}{where}",
                    spec_sha256=sha, time=time.perf_counter() - started)

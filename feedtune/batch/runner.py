@@ -28,11 +28,10 @@ from feedtune.batch.inputs import InputError, Item, check_output_apart, load_ite
 from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
 from feedtune.batch.reports import BASELINE_RTOL, compare, judge, summary_document
 from feedtune.files import remove_stale_temporaries, write_atomic
+from feedtune.status import ERROR, NOT_RUN
 
 SUMMARY_SECONDS = 10.0
 LOCK_NAME = ".feedtune-batch.lock"
-#: status of a spec the batch did not reach (interrupted)
-NOT_RUN = "not_run"
 
 
 class ExecutorError(RuntimeError):
@@ -185,7 +184,7 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
                 result = TuneResult.model_validate_json(path.read_bytes())
                 row.update(summary_fields(result), result=path.name, resumed=True)
             except (OSError, ValueError) as exc:  # replaced meanwhile: say so, don't guess
-                row.update(status="error", message=f"{path.name}: cannot reread: {exc}")
+                row.update(status=ERROR, message=f"{path.name}: cannot reread: {exc}")
         elif outcome.result is not None:
             write_atomic(path, outcome.result)
             row.update(outcome.row, result=path.name)

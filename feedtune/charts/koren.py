@@ -33,6 +33,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from feedtune.charts import selection as sel
+from feedtune.status import SKIPPED
 
 KINDS = ("min_iae", "min_radial_error", "damping_0707")
 LABELS = {
@@ -185,7 +186,7 @@ def loci(time_constant: float = 0.02, ratio_min: float = 0.0, ratio_max: float =
         for i, ratio in enumerate(ratios):
             if kind == "min_iae" and iae_time == "absolute" and ratio == 0:
                 rows.append({"kind": kind, "ratio": ratio, "k_tau": None, "gain": None,
-                             "status": "skipped: plain-time IAE has no interior optimum at "
+                             "status": f"{SKIPPED}: plain-time IAE has no interior optimum at "
                                        "T = 0 (docs/errata.md)"})
                 if progress:
                     progress(f"{LABELS[kind]}: T/τ = 0 ({i + 1}/{len(ratios)}): skipped, no "
@@ -254,7 +255,7 @@ def min_radius(tau_fm_min: float = 40.0, tau_fm_max: float = 1000.0, points: int
             ratio = encoder_ratio / tau_fm if sampled else 0.0
             if sampled and ratio >= max_ratio:
                 rows.append({"tau_fm": tau_fm, "ratio": ratio, "r_blu": None,
-                             "status": f"skipped: T/τ = {ratio:.3g} ≥ {max_ratio:.4g} (eq 22)"})
+                             "status": f"{SKIPPED}: T/τ = {ratio:.3g} ≥ {max_ratio:.4g} (eq 22)"})
                 continue
             row = tune_point(kind, time_constant, ratio, iae_time=iae_time, omega_t=omega_t,
                              blu=blu, max_velocity=f_m * blu)

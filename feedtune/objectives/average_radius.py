@@ -3,6 +3,7 @@
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
+from feedtune.protocols import Loop
 
 
 def polygon_average_radius(radius, omega, interval):
@@ -31,9 +32,9 @@ class AverageRadius(Metric):
     Options = CircleOptions
     lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.interpolator is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return polygon_average_radius(options.radius, options.feed / options.radius,
                                       loop.interpolator.reference_interval)

@@ -5,6 +5,7 @@ from feedtune.frequency import first_crossing, log_grid, lowest_value, relative_
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import (below_nyquist, has_frequency_band,
                                                   normalised_gain_squared)
+from feedtune.protocols import Loop
 
 
 class Bandwidth(Metric):
@@ -25,10 +26,10 @@ class Bandwidth(Metric):
     description = "Lowest frequency where the normalised closed-loop gain falls to 0.707 (-3 dB)"
     reference = "Bhatia 1971 Ch. IV A (b)"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return has_frequency_band(loop)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         gain = below_nyquist(loop, normalised_gain_squared(loop), 0.0)  # |H|² = 0 beyond π/T
         band = loop.frequency_band
         omega = first_crossing(gain, band, 0.5, "bandwidth")

@@ -12,6 +12,7 @@ from typing import ClassVar
 
 from feedtune.expr import Magnitude  # noqa: F401  (re-exported for metric modules)
 from feedtune.model import SpecModel
+from feedtune.protocols import Loop
 
 
 class NoOptions(SpecModel):
@@ -44,13 +45,13 @@ class Metric:
         ``position_unit`` (m, or rad for a rotary axis); most metrics: ``unit``."""
         return self.unit
 
-    def supports(self, loop, options=None) -> bool:
+    def supports(self, loop: Loop, options=None) -> bool:
         """Whether this metric is defined on ``loop``; by default on every linear loop, never
         on an exact-only loop (a pulse simulation, :class:`feedtune.pulse_train.PulseLoop`),
         whose metrics say so themselves."""
-        return not getattr(loop, "exact_only", False)
+        return not loop.exact_only
 
-    def optimisable(self, loop, options=None) -> bool:
+    def optimisable(self, loop: Loop, options=None) -> bool:
         """Whether the metric can be an objective term or a constraint on this loop.
 
         False: reported only, evaluated on the tuned design (e.g. a time response computed
@@ -58,6 +59,6 @@ class Metric:
         """
         return True
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         """The metric's value on ``loop``: an expression, or a :class:`Magnitude`."""
         raise NotImplementedError

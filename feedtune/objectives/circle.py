@@ -4,6 +4,7 @@ from pydantic import Field, PositiveFloat
 
 from feedtune.lazy import ca
 from feedtune.model import SpecModel
+from feedtune.protocols import Loop
 
 
 class CircleOptions(SpecModel):
@@ -13,7 +14,7 @@ class CircleOptions(SpecModel):
     feed: PositiveFloat = Field(description="Path velocity V along the circle [m/s]; ω = V/r")
 
 
-def radius_gain_excess(loop, omega):
+def radius_gain_excess(loop: Loop, omega):
     """|H(jω)| − 1 [1], the relative radius error of a circle tracked at ω [rad/s].
 
     From S = 1 − H: |H|² − 1 = |S|² − 2 Re S, divided by |H| + 1; accurate where the

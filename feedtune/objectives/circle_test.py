@@ -38,9 +38,11 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
+from feedtune.expr import is_symbolic, to_array
 from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
+from feedtune.protocols import Capability, Loop
 
 #: sub-sample points per servo sample for the continuous response between samples
 SUBDIVISIONS = 16
@@ -104,16 +106,12 @@ class CircleTest:
         return float(np.max(peaks - valleys))
 
 
-def supports(loop) -> bool:
+def supports(loop: Loop) -> bool:
     """A sampled loop behind an interpolator, for which the test is defined."""
-    return loop.interpolator is not None and loop.discrete and hasattr(loop, "hold_input")
+    return loop.interpolator is not None and loop.offers(Capability.HELD_COMMAND)
 
 
-def _numbers(value) -> np.ndarray:
-    return np.array(ca.evalf(value), dtype=float)
-
-
-def circle_test(loop, radius: float, feed: float) -> CircleTest | None:
+def circle_test(loop: Loop, radius: float, feed: float) -> CircleTest | None:
     """The steady circle test of ``loop`` (a loop of numbers); None when it is unstable.
 
     Raises
@@ -121,20 +119,18 @@ def circle_test(loop, radius: float, feed: float) -> CircleTest | None:
     TypeError
         For a loop of symbols: the test is numeric, evaluated on a tuned design only.
     """
-    parts = ca.veccat(ca.vec(ca.MX(loop.state_matrix)), ca.MX(loop.period),
-                      ca.MX(loop.interpolator.reference_interval))
-    if ca.symvar(parts):
+    if is_symbolic(loop.state_matrix, loop.period, loop.interpolator.reference_interval):
         raise TypeError("the exact circle test is evaluated on a loop of numbers only "
                         "(reported only, never optimised)")
-    phi = _numbers(loop.state_matrix)
+    phi = to_array(loop.state_matrix)
     if np.max(np.abs(np.linalg.eigvals(phi))) >= 1:
         return None
     n = phi.shape[0]
-    gamma = _numbers(loop.input_matrix).reshape(n)
-    kx, kr = (_numbers(v) for v in loop.hold_input)
+    gamma = to_array(loop.input_matrix).reshape(n)
+    kx, kr = (to_array(v) for v in loop.hold_input)
     kx, kr = kx.reshape(n), float(kr.ravel()[0])
-    period = float(_numbers(loop.period).ravel()[0])
-    interval = float(_numbers(loop.interpolator.reference_interval).ravel()[0])
+    period = float(to_array(loop.period).ravel()[0])
+    interval = float(to_array(loop.interpolator.reference_interval).ravel()[0])
     omega = feed / radius
     ratio = Fraction(interval / period).limit_denominator(MAX_CHORDS)
     if ratio <= 0:
@@ -182,7 +178,7 @@ def circle_test(loop, radius: float, feed: float) -> CircleTest | None:
                       points_per_side=round(SUBDIVISIONS * a / b), ratio=ratio)
 
 
-def circle_value(loop, options, quantity: str):
+def circle_value(loop: Loop, options, quantity: str):
     """``quantity`` of the circle test for the metric ``options`` (radius, feed), as a ca.DM;
     +∞ for an unstable loop."""
     test = circle_test(loop, options.radius, options.feed)
@@ -200,11 +196,11 @@ class CircleTestMetric(Metric):
     Options = CircleOptions
     quantity: str
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return supports(loop)
 
-    def optimisable(self, loop, options=None):
+    def optimisable(self, loop: Loop, options=None):
         return False
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return circle_value(loop, options, self.quantity)

@@ -1,6 +1,7 @@
 """Fraction of the feedback counter's range used per sample at full speed."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class CounterUtilisation(Metric):
@@ -14,10 +15,10 @@ class CounterUtilisation(Metric):
     description = "Pulses per sample at V_m over the counter's capacity 2^(bits−1)"
     reference = "Koren 1979, discussion after eq 26"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         d = loop.drive
         return loop.discrete and d.max_pulse_rate is not None and d.counter_bits is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         d = loop.drive
         return d.max_pulse_rate * loop.period / 2 ** (d.counter_bits - 1)

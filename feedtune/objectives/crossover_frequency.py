@@ -2,6 +2,7 @@
 
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import gain_crossover, has_open_loop
+from feedtune.protocols import Loop
 
 
 class CrossoverFrequency(Metric):
@@ -13,8 +14,8 @@ class CrossoverFrequency(Metric):
     description = "Lowest frequency where the open-loop gain |L| falls to 1"
     reference = "Bhatia 1971 Ch. IV G (crossover frequency sets the speed of response)"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return has_open_loop(loop)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return gain_crossover(loop)

@@ -1,6 +1,7 @@
 """Damping ratio of a second-order closed loop (Koren eqs 9 and 19)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class DampingRatio(Metric):
@@ -11,8 +12,8 @@ class DampingRatio(Metric):
     description = "Damping ratio ζ of the closed-loop pole pair"
     reference = "Koren 1979 eqs 9, 19"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.order == 2
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.damping_ratio()

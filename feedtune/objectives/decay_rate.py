@@ -4,6 +4,7 @@ import math
 
 from feedtune.objectives.base import Metric
 from feedtune.objectives.pole_region import decay_conditions, decay_of, pole_region
+from feedtune.protocols import Capability, Loop
 
 
 class DecayRate(Metric):
@@ -23,8 +24,8 @@ class DecayRate(Metric):
     reference = "MATLAB TuningGoal.Poles (MinDecay); Hurwitz conditions of p(s - sigma)"
     direction = "min"
 
-    def supports(self, loop, options=None):
-        return super().supports(loop, options) and hasattr(loop, "characteristic_polynomial")
+    def supports(self, loop: Loop, options=None):
+        return super().supports(loop, options) and loop.offers(Capability.LINEAR)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return pole_region(loop, decay_of, decay_conditions(loop), 0.0, math.inf)

@@ -1,6 +1,7 @@
 """Encoder pulses per sample at full speed, f_m/f_s (Koren eq 26)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class EncoderRatio(Metric):
@@ -11,8 +12,8 @@ class EncoderRatio(Metric):
     description = "Encoder frequency at V_m over sampling frequency, f_m/f_s"
     reference = "Koren 1979 eqs 1, 25, 26"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.discrete and loop.drive.max_pulse_rate is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.drive.max_pulse_rate * loop.period

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import math
 
+from feedtune.expr import Magnitude, to_float
 from feedtune.lazy import ca
 from feedtune.objectives.circle_test import CircleTestMetric
+from feedtune.protocols import Loop
 
 
 def relative_gap(formula, exact) -> ca.DM:
@@ -17,8 +19,8 @@ def relative_gap(formula, exact) -> ca.DM:
 
 
 def _number(value) -> float:
-    expr = value.expr if hasattr(value, "expr") else value  # a Magnitude: its |·|
-    return abs(float(ca.evalf(ca.MX(expr))))
+    expr = value.expr if isinstance(value, Magnitude) else value  # a Magnitude: its |·|
+    return abs(to_float(expr))
 
 
 class FormulaGap(CircleTestMetric):
@@ -31,9 +33,9 @@ class FormulaGap(CircleTestMetric):
     unit = "1"
     formula: type
 
-    def exact(self, loop, options) -> float:
+    def exact(self, loop: Loop, options) -> float:
         return float(super().evaluate(loop, options))
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         exact = self.exact(loop, options)  # first: it refuses a loop of symbols (TypeError)
         return relative_gap(_number(self.formula().evaluate(loop, options)), exact)

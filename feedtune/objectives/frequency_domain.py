@@ -10,24 +10,27 @@ value below their level beyond π/T (:func:`below_nyquist`), so such a crossing 
 π/T itself (a bandwidth "at Nyquist": the loop passes everything it can represent).
 """
 
+from feedtune.expr import to_float
 from feedtune.frequency import first_crossing
 from feedtune.lazy import ca
+from feedtune.protocols import Capability, Loop
 
 #: what a sampled loop's crossing functions read beyond π/T by default: −1, below the
 #: level of −Im L/|L| and of ln|L|² (0); |H/H(0)|² takes 0 there, below its level ½
 BEYOND_NYQUIST = -1.0
 
 
-def has_frequency_band(loop) -> bool:
-    """The loop declares the band [rad/s] its frequency responses live in."""
-    return getattr(loop, "frequency_band", None) is not None
+def has_frequency_band(loop: Loop) -> bool:
+    """The loop has frequency responses over a band [rad/s] (``frequency_band``)."""
+    return loop.offers(Capability.FREQUENCY_RESPONSE)
 
 
-def has_open_loop(loop) -> bool:
-    return has_frequency_band(loop) and hasattr(loop, "open_loop_response")
+def has_open_loop(loop: Loop) -> bool:
+    """The loop has frequency responses and its open loop L (``open_loop_response``)."""
+    return loop.offers(Capability.OPEN_LOOP)
 
 
-def below_nyquist(loop, fn, beyond: float = BEYOND_NYQUIST):
+def below_nyquist(loop: Loop, fn, beyond: float = BEYOND_NYQUIST):
     """``fn`` on a continuous loop; on a sampled loop ω ↦ fn(ω) for ωT ≤ π, else
     ``beyond`` (ω [rad/s], T the loop's period, a number or an expression). For the
     functions crossings are located on, never under a square root (its derivative at the
@@ -41,7 +44,7 @@ def below_nyquist(loop, fn, beyond: float = BEYOND_NYQUIST):
     return cut
 
 
-def normalised_gain_squared(loop):
+def normalised_gain_squared(loop: Loop):
     """ω ↦ |T(jω)/T(0)|² [1]: the closed loop normalised to unit DC gain (Bhatia Ch. IV A);
     on a sampled loop at z = e^{jωT} (periodic in ω: take :func:`below_nyquist` of it to
     locate a crossing)."""
@@ -54,7 +57,7 @@ def normalised_gain_squared(loop):
     return gain
 
 
-def phase_crossover_indicator(loop):
+def phase_crossover_indicator(loop: Loop):
     """ω ↦ −Im L/|L| [1]: +1 at low ω for a type-1 loop, 0 where the phase reaches −180°
     (on a sampled loop also at π/T when L(−1) < 0: L is real there)."""
     def indicator(omega):
@@ -64,7 +67,7 @@ def phase_crossover_indicator(loop):
     return below_nyquist(loop, indicator)
 
 
-def log_open_loop_gain_squared(loop):
+def log_open_loop_gain_squared(loop: Loop):
     """ω ↦ ln |L(jω)|² [1]: positive below the gain crossover of a type-1 loop."""
     def gain(omega):
         re, im = loop.open_loop_response(omega)
@@ -78,11 +81,11 @@ def as_number(omega):
     the response at it is then plain float arithmetic, the same operations as evaluating
     its graph, without building one), else ``omega`` itself."""
     if isinstance(omega, ca.MX) and omega.is_constant():
-        return float(ca.evalf(omega))
+        return to_float(omega)
     return omega
 
 
-def gain_crossover(loop):
+def gain_crossover(loop: Loop):
     """ω_c [rad/s]: the lowest ω where |L| = 1 (π/T on a sampled loop whose |L| stays above
     1 up to Nyquist). Located once per loop (kept in its ``__dict__``, as a cached
     property is): the crossover frequency and the phase margin share it."""

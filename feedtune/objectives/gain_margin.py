@@ -5,6 +5,7 @@ from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import (as_number, has_open_loop,
                                                   phase_crossover_indicator)
+from feedtune.protocols import Loop
 
 
 class GainMargin(Metric):
@@ -19,10 +20,10 @@ class GainMargin(Metric):
     description = "Factor by which the open-loop gain may grow before instability (ratio, not dB)"
     reference = "Bhatia 1971 Ch. IV F (gain margin 1.2 of the uncompensated loop)"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return has_open_loop(loop)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         omega = first_crossing(phase_crossover_indicator(loop), loop.frequency_band, 0.0,
                                   "phase_crossover")
         re, im = loop.open_loop_response(as_number(omega))

@@ -1,6 +1,7 @@
 """Servo steps per interpolated side, q = T/Δt_p (Sato et al. §3.2.1)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class InterpolationRatio(Metric):
@@ -15,8 +16,8 @@ class InterpolationRatio(Metric):
     description = "Reference interval over sampling period, q = T/Δt_p"
     reference = "Sato et al. §3.2.1, Table 1"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.interpolator is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.interpolator.steps_per_interval

@@ -7,6 +7,7 @@ from pydantic import Field
 from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric
 from feedtune.objectives.step_error import as_number, has_numeric_response, numeric_response
+from feedtune.protocols import Capability, Loop
 
 
 class LoadRejectionOptions(SpecModel):
@@ -44,13 +45,13 @@ class LoadRejection(Metric):
         per_torque = f"{position_unit}/(N·m)"
         return per_torque if options.measure == "peak" else f"{position_unit}·s/(N·m)"
 
-    def supports(self, loop, options=None):
-        return has_numeric_response(loop) and getattr(loop, "load_numerator", None) is not None
+    def supports(self, loop: Loop, options=None):
+        return has_numeric_response(loop) and loop.offers(Capability.LOAD_INPUT)
 
-    def optimisable(self, loop, options=None):
+    def optimisable(self, loop: Loop, options=None):
         return False
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         response = numeric_response(loop, self.name, "load")
         if response is None:
             return as_number(None)

@@ -5,6 +5,7 @@ from feedtune.frequency import log_grid, peak
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import has_frequency_band, normalised_gain_squared
+from feedtune.protocols import Loop
 
 
 class MPeak(Metric):
@@ -19,10 +20,10 @@ class MPeak(Metric):
     description = "Peak of the closed-loop gain |position/reference|, normalised to unit DC gain"
     reference = "Bhatia 1971 Ch. IV A (a); M_peak ≤ 1.3"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return has_frequency_band(loop)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         gain = normalised_gain_squared(loop)
         value, omega_peak = peak(gain, loop.frequency_band, "m_peak")
         return Supremum(lambda omega: ca.sqrt(gain(omega)), log_grid(loop.frequency_band),

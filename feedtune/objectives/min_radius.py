@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 
+from feedtune.expr import to_float
 from feedtune.lazy import ca, np
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import radius_gain_excess
+from feedtune.protocols import Loop
 
 #: radii scanned, per decade of r, over SPAN decades from V_m/C_v up (ω from C_v down);
 #: the symbolic scan (inside the NLP) is coarser than the exact one (reported values)
@@ -51,10 +53,10 @@ class MinRadius(Metric):
                    "≤ BLU/2 (exact)")
     reference = "Koren 1979 eqs 30–33, 38–39"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.drive.blu is not None and loop.drive.max_velocity is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         v, blu = loop.drive.max_velocity, loop.drive.blu
         log_r = ca.MX.sym("log_r")
         radius = ca.exp(log_r)
@@ -63,7 +65,7 @@ class MinRadius(Metric):
         free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
         excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
         if not free:  # a loop of numbers: scalar arithmetic, evaluated faster as SX
-            return ca.DM(_exact(_vectorised(excess_fn.expand()), float(ca.evalf(low))))
+            return ca.DM(_exact(_vectorised(excess_fn.expand()), to_float(low)))
         count = PER_DECADE_SYMBOLIC * SPAN
         cell = math.log(10) / PER_DECADE_SYMBOLIC
         grid = low + ca.DM(np.arange(count + 1) * cell).T

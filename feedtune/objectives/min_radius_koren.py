@@ -2,6 +2,7 @@
 
 from feedtune.objectives.base import Metric
 from feedtune.objectives.radial_error_koren import koren_l
+from feedtune.protocols import Loop
 
 
 class MinRadiusKoren(Metric):
@@ -17,11 +18,11 @@ class MinRadiusKoren(Metric):
     description = "Minimum radius by Koren's eq 32 (sampled) or eq 33 (reference pulse)"
     reference = "Koren 1979 eqs 29, 32, 33"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         d = loop.drive
         return d.time_constant is not None and d.max_pulse_rate is not None and loop.order == 2
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         d = loop.drive
         k, tau, fm = loop.velocity_constant, d.time_constant, d.max_pulse_rate
         if loop.discrete:

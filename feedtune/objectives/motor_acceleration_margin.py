@@ -1,6 +1,7 @@
 """Margin to the motor's torque–frequency characteristic (Tian et al. §3)."""
 
 from feedtune.objectives.pulse_metric import PulseMetric, is_pulse_loop
+from feedtune.protocols import Loop
 
 
 class MotorAccelerationMargin(PulseMetric):
@@ -19,8 +20,8 @@ class MotorAccelerationMargin(PulseMetric):
     description = "Relative margin of the commanded acceleration and pulse rate to the motor's characteristic"
     reference = "Tian et al. §3"
 
-    def supports(self, loop, options=None) -> bool:
+    def supports(self, loop: Loop, options=None) -> bool:
         return is_pulse_loop(loop) and loop.motor is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.motor.margin(loop.response)

@@ -1,6 +1,7 @@
 """Natural frequency of a second-order closed loop (Koren eq 10; eqs 17–18 sampled)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class NaturalFrequency(Metric):
@@ -11,8 +12,8 @@ class NaturalFrequency(Metric):
     description = "Natural frequency ω_n of the closed-loop pole pair"
     reference = "Koren 1979 eqs 10, 17, 18"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.order == 2
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.natural_frequency()

@@ -3,6 +3,7 @@
 from feedtune.objectives.base import Metric
 from feedtune.objectives.step_error import as_number, has_numeric_response, numeric_response
 from feedtune.timeresponse import has_sampled_step, sampled_step_error
+from feedtune.protocols import Loop
 
 
 class Overshoot(Metric):
@@ -26,13 +27,13 @@ class Overshoot(Metric):
     description = "Peak of the position step response above its final value, as a fraction"
     reference = "Bhatia 1971 Ch. IV B"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return has_numeric_response(loop) or has_sampled_step(loop)
 
-    def optimisable(self, loop, options=None):
+    def optimisable(self, loop: Loop, options=None):
         return False
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         if has_sampled_step(loop):
             error = sampled_step_error(loop)
             return as_number(None if error is None else max(0.0, -error.lowest()))  # max y − 1

@@ -2,6 +2,7 @@
 
 from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
+from feedtune.protocols import Loop
 
 
 class PeakCommandedAcceleration(PulseMetric):
@@ -20,5 +21,5 @@ class PeakCommandedAcceleration(PulseMetric):
     description = "Largest change of the commanded velocity per period, per second"
     reference = "Tian et al. eqs 1–2"
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return float(np.abs(loop.response.commanded_acceleration).max(initial=0.0))

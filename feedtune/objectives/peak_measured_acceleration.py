@@ -2,6 +2,7 @@
 
 from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric, WindowOptions
+from feedtune.protocols import Loop
 
 
 class PeakMeasuredAcceleration(PulseMetric):
@@ -20,6 +21,6 @@ class PeakMeasuredAcceleration(PulseMetric):
     reference = "Tian et al. §4, Fig 4"
     Options = WindowOptions
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         r = loop.response
         return float(np.abs(r.measured_acceleration(r.window(options.window))).max(initial=0.0))

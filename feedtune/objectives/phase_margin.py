@@ -5,6 +5,7 @@ import math
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import as_number, gain_crossover, has_open_loop
+from feedtune.protocols import Loop
 
 
 class PhaseMargin(Metric):
@@ -16,9 +17,9 @@ class PhaseMargin(Metric):
     description = "180 deg plus the open-loop phase where |L| = 1 [deg]"
     reference = "Bhatia 1971 Ch. IV F (phase margin 73° of the uncompensated loop)"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return has_open_loop(loop)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         re, im = loop.open_loop_response(as_number(gain_crossover(loop)))
         return ca.atan2(-im, -re) * (180 / math.pi)

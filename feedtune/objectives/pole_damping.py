@@ -2,6 +2,7 @@
 
 from feedtune.objectives.base import Metric
 from feedtune.objectives.pole_region import damping_conditions, damping_of, pole_region
+from feedtune.protocols import Capability, Loop
 
 
 class PoleDamping(Metric):
@@ -23,14 +24,14 @@ class PoleDamping(Metric):
     reference = "MATLAB TuningGoal.Poles (MinDamping); Hurwitz conditions of p(e^{ja}s)p(e^{-ja}s)"
     direction = "min"
 
-    def supports(self, loop, options=None):
-        return super().supports(loop, options) and hasattr(loop, "characteristic_polynomial")
+    def supports(self, loop: Loop, options=None):
+        return super().supports(loop, options) and loop.offers(Capability.LINEAR)
 
-    def optimisable(self, loop, options=None):
+    def optimisable(self, loop: Loop, options=None):
         """Continuous loops only: on a sampled loop the region ζ ≥ ζ0 is bounded by a
         logarithmic spiral in the z-plane, which no polynomial (Schur) test describes, so
         the NLP has no smooth rows for it; the value is reported on the tuned design."""
         return not loop.discrete
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return pole_region(loop, damping_of, damping_conditions(loop), 0.0, 1.0)

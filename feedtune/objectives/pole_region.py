@@ -12,8 +12,9 @@ from __future__ import annotations
 import math
 
 from feedtune import linalg
-from feedtune.expr import PoleRegion
+from feedtune.expr import PoleRegion, is_symbolic
 from feedtune.lazy import ca, np
+from feedtune.protocols import Loop
 
 
 def s_plane_poles(matrix, discrete: bool, period: float | None):
@@ -25,7 +26,7 @@ def s_plane_poles(matrix, discrete: bool, period: float | None):
     return poles
 
 
-def pole_region(loop, measure, conditions, lower: float, upper: float) -> PoleRegion:
+def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> PoleRegion:
     """The :class:`~feedtune.expr.PoleRegion` of ``loop`` for ``measure(s-plane poles)``
     (numpy, a float), ``conditions(level)`` (or None) and the measure's range over stable
     loops [``lower``, ``upper``].
@@ -46,7 +47,7 @@ def pole_region(loop, measure, conditions, lower: float, upper: float) -> PoleRe
             return math.nan
         return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
 
-    if not ca.symvar(inputs):
+    if not is_symbolic(inputs):
         exact = ca.MX(of_numbers(ca.evalf(inputs)))
     elif conditions is None:  # reported only: never an expression the NLP would trust
         raise TypeError("this pole measure has no polynomial test on this loop: it is "
@@ -107,7 +108,7 @@ def rotated_product(poly: list, angle) -> list:
     return list(reversed(out))
 
 
-def decay_conditions(loop):
+def decay_conditions(loop: Loop):
     """level σ [1/s] ↦ expressions all positive iff every closed-loop pole has −Re p > σ.
 
     Continuous: the Routh test (:func:`routh_column`) of p(s − σ), whose roots are the
@@ -165,7 +166,7 @@ def routh_column(coefficients: list) -> list:
     return column
 
 
-def damping_conditions(loop):
+def damping_conditions(loop: Loop):
     """level ζ [1] ↦ expressions all positive iff every closed-loop pole of a continuous
     loop has −Re p/|p| > ζ, or None for a sampled loop.
 

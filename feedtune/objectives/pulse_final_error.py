@@ -1,6 +1,7 @@
 """Final position error of a pulse generator (Tian et al. §4; Koren's following error)."""
 
 from feedtune.objectives.pulse_metric import PulseMetric
+from feedtune.protocols import Loop
 
 
 class PulseFinalError(PulseMetric):
@@ -21,7 +22,7 @@ class PulseFinalError(PulseMetric):
     reference = "Tian et al. §4"
     inputs = ("step", "ramp")
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         r = loop.response
         if loop.input_kind == "step":
             return abs(loop.command.amplitude - float(r.position[-1]))

@@ -2,6 +2,7 @@
 
 from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
+from feedtune.protocols import Loop
 
 
 class PulseMaxVelocity(PulseMetric):
@@ -18,5 +19,5 @@ class PulseMaxVelocity(PulseMetric):
     description = "Largest commanded velocity (pulse rate times the pulse equivalent)"
     reference = "Tian et al. §3; Koren 1979 eq 1"
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return float(np.abs(loop.response.commanded_velocity).max(initial=0.0))

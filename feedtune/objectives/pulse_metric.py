@@ -14,11 +14,12 @@ from pydantic import Field
 
 from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Capability, Loop
 
 
-def is_pulse_loop(loop) -> bool:
+def is_pulse_loop(loop: Loop) -> bool:
     """The loop is an exact pulse simulation (``exact_only`` and a ``response``)."""
-    return bool(getattr(loop, "exact_only", False)) and hasattr(type(loop), "response")
+    return loop.offers(Capability.PULSE_SIMULATION)
 
 
 def finite_or_inf(x: float) -> float:
@@ -29,12 +30,14 @@ class PulseMetric(Metric):
     """Base of the pulse-loop metrics; ``inputs`` lists the commands it is defined for."""
 
     inputs: tuple[str, ...] = ("step", "ramp", "sine")
+    #: the unit with ``{x}`` for the axis' position unit, or None: ``unit`` as it is
+    unit_template: str | None = None
 
     def unit_of(self, options, position_unit: str = "m") -> str:
-        template = getattr(self, "unit_template", None)
+        template = self.unit_template
         return template.format(x=position_unit) if template else self.unit
 
-    def supports(self, loop, options=None) -> bool:
+    def supports(self, loop: Loop, options=None) -> bool:
         return is_pulse_loop(loop) and loop.input_kind in self.inputs
 
 

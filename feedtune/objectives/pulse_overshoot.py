@@ -1,6 +1,7 @@
 """Overshoot of a pulse generator's step response, in pulses (Tian et al. §2)."""
 
 from feedtune.objectives.pulse_metric import PulseMetric
+from feedtune.protocols import Loop
 
 
 class PulseOvershoot(PulseMetric):
@@ -18,7 +19,7 @@ class PulseOvershoot(PulseMetric):
     reference = "Tian et al. §2"
     inputs = ("step",)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         r = loop.response
         target = int(r.reference[-1]) if len(r.reference) else 0
         sign = 1 if target >= 0 else -1

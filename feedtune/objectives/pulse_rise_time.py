@@ -2,6 +2,7 @@
 
 from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
+from feedtune.protocols import Loop
 
 
 class PulseRiseTime(PulseMetric):
@@ -18,7 +19,7 @@ class PulseRiseTime(PulseMetric):
     reference = "Tian et al. §4, Fig 4"
     inputs = ("step",)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         r = loop.response
         target = r.reference[-1] if len(r.reference) else 0
         if target == 0:

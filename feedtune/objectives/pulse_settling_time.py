@@ -2,6 +2,7 @@
 
 from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric, StepBandOptions
+from feedtune.protocols import Loop
 
 
 class PulseSettlingTime(PulseMetric):
@@ -21,7 +22,7 @@ class PulseSettlingTime(PulseMetric):
     inputs = ("step",)
     Options = StepBandOptions
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         r = loop.response
         if not r.at_rest:
             return float("inf")

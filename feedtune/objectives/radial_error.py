@@ -2,6 +2,7 @@
 
 from feedtune.objectives.base import Magnitude, Metric
 from feedtune.objectives.circle import CircleOptions, radius_gain_excess
+from feedtune.protocols import Loop
 
 
 class RadialError(Metric):
@@ -20,5 +21,5 @@ class RadialError(Metric):
     Options = CircleOptions
     lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return Magnitude(options.radius * radius_gain_excess(loop, options.feed / options.radius))

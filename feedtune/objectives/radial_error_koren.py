@@ -3,6 +3,7 @@
 from feedtune.lazy import ca
 from feedtune.objectives.base import Magnitude, Metric
 from feedtune.objectives.circle import CircleOptions
+from feedtune.protocols import Loop
 
 
 def koren_l(gain, period, tau):
@@ -24,11 +25,11 @@ class RadialErrorKoren(Metric):
     Options = CircleOptions
     lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         # K/(s(1+sτ)) closed continuously or sampled without delay: order two (not a Padé loop)
         return loop.drive.time_constant is not None and loop.order == 2
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         omega = options.feed / options.radius
         k, tau = loop.velocity_constant, loop.drive.time_constant
         if loop.discrete:

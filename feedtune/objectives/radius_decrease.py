@@ -3,6 +3,7 @@
 from feedtune.objectives.average_radius import polygon_average_radius
 from feedtune.objectives.base import Magnitude, Metric
 from feedtune.objectives.circle import CircleOptions, radius_gain_excess
+from feedtune.protocols import Loop
 
 
 class RadiusDecrease(Metric):
@@ -23,10 +24,10 @@ class RadiusDecrease(Metric):
     Options = CircleOptions
     lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.interpolator is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         omega = options.feed / options.radius
         average = polygon_average_radius(options.radius, omega,
                                          loop.interpolator.reference_interval)

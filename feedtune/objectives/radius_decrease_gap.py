@@ -2,6 +2,7 @@
 
 from feedtune.objectives.formula_gap import FormulaGap
 from feedtune.objectives.radius_decrease import RadiusDecrease
+from feedtune.protocols import Loop
 
 
 class RadiusDecreaseGap(FormulaGap):
@@ -14,5 +15,5 @@ class RadiusDecreaseGap(FormulaGap):
     formula = RadiusDecrease
     quantity = "mean_deviation"
 
-    def exact(self, loop, options):
+    def exact(self, loop: Loop, options):
         return -super().exact(loop, options)

@@ -1,6 +1,7 @@
 """The interpolator's reference interval T as a metric (Sato et al. eq 1)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class ReferenceInterval(Metric):
@@ -15,8 +16,8 @@ class ReferenceInterval(Metric):
     description = "Reference input interval T of the linear interpolator"
     reference = "Sato et al. eq 1"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.interpolator is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.interpolator.reference_interval

@@ -1,6 +1,7 @@
 """Sampling period over drive time constant, T/τ (Koren eqs 22–23)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Loop
 
 
 class SamplingRatio(Metric):
@@ -11,8 +12,8 @@ class SamplingRatio(Metric):
     description = "Sampling period over drive time constant, T/τ"
     reference = "Koren 1979 eqs 22, 23"
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.discrete and loop.drive.time_constant is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.period / loop.drive.time_constant

@@ -1,6 +1,7 @@
 """Bhatia's sensitivity |G K'_v K'_p| (Ch. IV eq 1)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Capability, Loop
 
 
 class Sensitivity(Metric):
@@ -12,8 +13,8 @@ class Sensitivity(Metric):
     description = "Loop-gain product |G(0) K'_v K'_p| (Bhatia's sensitivity; >= 1000 for 0.1 %)"
     reference = "Bhatia 1971 Ch. IV eq 1"
 
-    def supports(self, loop, options=None):
-        return getattr(loop, "loop_gain_product", None) is not None
+    def supports(self, loop: Loop, options=None):
+        return loop.offers(Capability.LOOP_GAIN_PRODUCT)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.loop_gain_product

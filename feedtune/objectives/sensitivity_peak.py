@@ -6,6 +6,7 @@ from feedtune.frequency import log_grid, peak
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency_domain import has_open_loop
+from feedtune.protocols import Loop
 
 
 class SensitivityPeak(Metric):
@@ -27,10 +28,10 @@ class SensitivityPeak(Metric):
                    "Bhatia's 'sensitivity' (a loop-gain product)")
     reference = "Åström & Hägglund, Advanced PID Control (2006) §4.2, M_s; 1/M_s = min |1 + L|"
 
-    def supports(self, loop, options=None):
-        return has_open_loop(loop) and hasattr(loop, "error_response")
+    def supports(self, loop: Loop, options=None):
+        return has_open_loop(loop)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         def gain(omega):
             re, im = loop.sensitivity_response(omega)
             return re**2 + im**2

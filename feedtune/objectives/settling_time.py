@@ -7,6 +7,7 @@ from feedtune.objectives.base import Metric
 from feedtune.objectives.step_error import (InputKind, as_number, has_numeric_response,
                                              numeric_response)
 from feedtune.timeresponse import has_sampled_step, sampled_step_error
+from feedtune.protocols import Loop
 
 
 class SettlingTimeOptions(SpecModel):
@@ -49,15 +50,15 @@ the ramp with e_ss = 0 gets the step's band). 0 when the error
     reference = "Bhatia 1971 Ch. IV B"
     Options = SettlingTimeOptions
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         if has_sampled_step(loop):
             return options is None or options.input == "step"
         return has_numeric_response(loop)
 
-    def optimisable(self, loop, options=None):
+    def optimisable(self, loop: Loop, options=None):
         return False
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         if has_sampled_step(loop):
             error = sampled_step_error(loop)
             return as_number(None if error is None else error.last_exit(options.band))

@@ -4,6 +4,7 @@ import math
 
 from feedtune.lazy import np
 from feedtune.objectives.pulse_metric import PulseMetric
+from feedtune.protocols import Loop
 
 
 class SineTrackingError(PulseMetric):
@@ -22,7 +23,7 @@ class SineTrackingError(PulseMetric):
     reference = "Tian et al. §4, Fig 5"
     inputs = ("sine",)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         r = loop.response
         t = r.time
         start = t[-1] - 2 * math.pi / loop.command.angular_frequency

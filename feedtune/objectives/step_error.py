@@ -19,10 +19,12 @@ from typing import Literal
 from pydantic import Field
 
 from feedtune import timeresponse
+from feedtune.expr import is_symbolic
 from feedtune.lazy import ca
 from feedtune.loop import HorizonError
 from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Capability, Loop
 
 InputKind = Literal["step", "ramp"]
 
@@ -43,18 +45,17 @@ class StepErrorOptions(SpecModel):
     input: InputKind = Field("step", description=INPUT_DESCRIPTION)
 
 
-def has_numeric_response(loop) -> bool:
+def has_numeric_response(loop: Loop) -> bool:
     """The loop gives its transfer functions as numbers (a loop given by polynomials)."""
-    return callable(getattr(loop, "numeric_transfer", None))
+    return loop.offers(Capability.NUMERIC_TRANSFER)
 
 
-def has_exact_step(loop, options) -> bool:
+def has_exact_step(loop: Loop, options: StepErrorOptions) -> bool:
     """Koren's exact symbolic step integrals apply (step input, a loop that has them)."""
-    return getattr(options, "input", "step") == "step" and bool(
-        getattr(loop, "has_exact_step_error", False))
+    return options.input == "step" and loop.offers(Capability.EXACT_STEP_ERROR)
 
 
-def supports_step_error(loop, options: StepErrorOptions) -> bool:
+def supports_step_error(loop: Loop, options: StepErrorOptions) -> bool:
     """Exact symbolic integrals exist (with ω_n when time is natural), or the loop gives
     numeric transfer functions (absolute time only)."""
     if has_exact_step(loop, options):
@@ -62,12 +63,12 @@ def supports_step_error(loop, options: StepErrorOptions) -> bool:
     return has_numeric_response(loop) and options.time == "absolute"
 
 
-def optimisable_step_error(loop, options: StepErrorOptions) -> bool:
+def optimisable_step_error(loop: Loop, options: StepErrorOptions) -> bool:
     """Only the exact symbolic integrals can enter the NLP."""
     return supports_step_error(loop, options) and has_exact_step(loop, options)
 
 
-def time_weight(loop, options: StepErrorOptions, power: int):
+def time_weight(loop: Loop, options: StepErrorOptions, power: int):
     """ω_n^power when time is natural, else 1: ∫t^k|e|dt in units of (ω_n t)."""
     if options.time == "absolute":
         return 1.0
@@ -81,20 +82,12 @@ def step_error_unit(options: StepErrorOptions, absolute: str, natural: str) -> s
 
 # -- numeric responses of loops given by polynomials ---------------------------------------
 
-def _is_symbolic(value) -> bool:
-    if isinstance(value, ca.SX):
-        return not value.is_constant()
-    if isinstance(value, ca.MX):
-        return bool(ca.symvar(value))
-    return False
-
-
-def numeric_transfer(loop, metric_name: str, output: str, input: str):
+def numeric_transfer(loop: Loop, metric_name: str, output: str, input: str):
     """(numerator, denominator) float arrays of ``loop``, or TypeError for a symbolic loop."""
     polynomials = list(loop.open_numerator) + list(loop.open_denominator)
     if input == "load" and loop.load_numerator is not None:
         polynomials += list(loop.load_numerator)
-    if any(_is_symbolic(c) for c in polynomials):
+    if is_symbolic(*polynomials):
         raise TypeError(
             f"metric {metric_name!r} is evaluated numerically from the time response of this "
             "loop and cannot be an objective term or a constraint (it is reported on the "
@@ -102,7 +95,7 @@ def numeric_transfer(loop, metric_name: str, output: str, input: str):
     return loop.numeric_transfer(output, input)
 
 
-def numeric_response(loop, metric_name: str, source: str):
+def numeric_response(loop: Loop, metric_name: str, source: str):
     """The exact response of a loop of numbers; ``source`` is step, ramp or load.
 
     step/ramp: position error after a unit reference step/ramp; load: position after a
@@ -134,7 +127,7 @@ def as_number(value: float):
     return ca.DM(value if value is not None else math.inf)
 
 
-def numeric_error_integral(loop, options: StepErrorOptions, metric_name: str, which: str):
+def numeric_error_integral(loop: Loop, options: StepErrorOptions, metric_name: str, which: str):
     """IAE, ISE or ITAE (``which``) of e(t) − e_ss after a unit step or ramp, as a ca.DM.
 
     e_ss = 0 after a step for a type-1 loop; 1/C_v after a ramp.
@@ -159,13 +152,13 @@ class StepErrorMetric(Metric):
     def unit_of(self, options, position_unit="m"):
         return step_error_unit(options, *self.units).format(x=position_unit)
 
-    def supports(self, loop, options=StepErrorOptions()):
+    def supports(self, loop: Loop, options=StepErrorOptions()):
         return supports_step_error(loop, options)
 
-    def optimisable(self, loop, options=StepErrorOptions()):
+    def optimisable(self, loop: Loop, options=StepErrorOptions()):
         return optimisable_step_error(loop, options)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         if not has_exact_step(loop, options):
             return numeric_error_integral(loop, options, self.name, self.name)
         return time_weight(loop, options, self.time_power) * getattr(loop.step_error_integrals, self.name)

@@ -3,6 +3,7 @@
 from feedtune.lazy import ca
 from feedtune.objectives.base import Metric
 from feedtune.objectives.circle import CircleOptions
+from feedtune.protocols import Loop
 
 #: Sato Table 1: q = T/Δt_p of each row, and the amplitudes l_{q,k} of the k-th harmonic
 #: (k = 1..5) of the chord's radial ripple, normalised to the sagitta r(1 − cos(θ/2)) = 1
@@ -58,10 +59,10 @@ class SurfaceRoughness(Metric):
     Options = CircleOptions
     lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
-    def supports(self, loop, options=None):
+    def supports(self, loop: Loop, options=None):
         return loop.interpolator is not None
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         interval = loop.interpolator.reference_interval
         omega = options.feed / options.radius
         sagitta = options.radius * 2 * ca.sin(omega * interval / 4) ** 2  # r(1 − cos(ωT/2))

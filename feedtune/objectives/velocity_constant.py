@@ -1,6 +1,7 @@
 """Velocity error constant C_v (Bhatia 1971 Ch. IV eq 2; Koren 1979 eq 5)."""
 
 from feedtune.objectives.base import Metric
+from feedtune.protocols import Capability, Loop
 
 
 class VelocityConstant(Metric):
@@ -11,8 +12,8 @@ class VelocityConstant(Metric):
     description = "Velocity error constant C_v = lim s L(s); following error = feed / C_v"
     reference = "Bhatia 1971 Ch. IV eq 2 (C_v ≥ 80); Koren 1979 eq 5"
 
-    def supports(self, loop, options=None):
-        return hasattr(loop, "velocity_constant")
+    def supports(self, loop: Loop, options=None):
+        return loop.offers(Capability.VELOCITY_CONSTANT)
 
-    def evaluate(self, loop, options):
+    def evaluate(self, loop: Loop, options):
         return loop.velocity_constant

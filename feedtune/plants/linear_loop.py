@@ -20,8 +20,10 @@ import math
 from dataclasses import dataclass
 
 from feedtune import linalg
+from feedtune.expr import to_float
 from feedtune.lazy import ca, np
 from feedtune.loop import TransferLoop
+from feedtune.protocols import Capability
 
 #: Order n of the [n/n] Padé approximant of e^{−sθ} in the polynomials. Its gain is exactly
 #: 1 at every ω; its phase error at x = ωθ is 3.8e-8 rad at x = 1 and 1.8e-5 rad (0.001°)
@@ -155,8 +157,15 @@ class LinearLoop(TransferLoop):
         """C_v = lim s·L(s) [1/s] (Bhatia Ch. IV eq 2) of a type-1 loop; a loop of type 2 or
         more has none (C_v = ∞: it follows a ramp without steady error)."""
         if self.loop_type > 1:
-            raise AttributeError("a loop of type 2 or more has no finite velocity constant")
+            raise ValueError("a loop of type 2 or more has no finite velocity constant")
         return super().velocity_constant
+
+    def offers(self, capability: Capability) -> bool:
+        """As every loop (:class:`feedtune.protocols.DeclaredCapabilities`); a loop of type
+        2 or more offers no velocity constant."""
+        if capability is Capability.VELOCITY_CONSTANT and self.loop_type > 1:
+            return False
+        return super().offers(capability)
 
     def open_loop_response(self, omega):
         """Re and Im of L(jω), ω [rad/s]; the dead time exact."""
@@ -192,8 +201,8 @@ class LinearLoop(TransferLoop):
         (and the dead time as its Padé approximant)."""
         if self.error_numerator is None or input != "reference":
             return super().numeric_transfer(output, input)
-        den = np.array([float(ca.evalf(ca.MX(c))) for c in self.closed_denominator])
-        error = np.array([float(ca.evalf(ca.MX(c))) for c in self.error_numerator])
+        den = np.array([to_float(c) for c in self.closed_denominator])
+        error = np.array([to_float(c) for c in self.error_numerator])
         if output == "error":
             return error, den
         return np.polysub(den, error), den

@@ -111,6 +111,7 @@ class SoftwareServo:
     """Plant ``software_servo``: builds the closed loop for given gain and period."""
 
     Params = SoftwareServoParams
+    position_unit = "m"  # a linear axis: table position
 
     def __init__(self, params: SoftwareServoParams):
         self.params = params

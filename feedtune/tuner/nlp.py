@@ -31,6 +31,8 @@ from typing import Callable, Mapping
 import casadi as ca
 import numpy as np
 
+from feedtune.expr import to_array, to_float
+from feedtune.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build
 from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
@@ -245,8 +247,8 @@ class Problem:
         objective = (None if any(v is None for v in terms)
                      else sum(t.weight * v for t, v in zip(self.objective_terms, terms)))
         bounds = [number(b.value(loop)) for b in self.bounds]
-        conditions = np.array([float(ca.evalf(c)) for c in loop.stability_conditions()])
-        matrices = {name: np.array(ca.evalf(m), dtype=float)
+        conditions = np.array([to_float(c) for c in loop.stability_conditions()])
+        matrices = {name: to_array(m)
                     for name, m in loop.stability_matrices().items()}
         reports = {key: number(fn(loop)) for key, fn in self.reports.items()}
         return objective, bounds, conditions, matrices, reports
@@ -280,7 +282,7 @@ class Problem:
                     solutions[index] = (solver, solution)
                     status = STATUS.get(return_status, "error")
                 else:
-                    z_opt, return_status, status = z0, "No_Free_Tunables", "optimal"
+                    z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
                 objective, bounds, conditions, matrices = self._evaluate(z_opt)
                 feasible, _ = self._feasible(bounds, conditions, matrices)
                 if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
@@ -323,13 +325,13 @@ class Problem:
         evaluation_time = time.perf_counter() - started
         success = status in SOLVED and feasible and objective is not None
         if status in SOLVED and feasible and objective is None:
-            status = "error"
+            status = ERROR
             message = ("the objective is not a finite number at the tuned point (an input far "
                        "outside the model's range?)")
         elif success:
             message = f"start {index + 1} of {len(starts)} gave the best feasible optimum"
         elif status in SOLVED:
-            status = "infeasible"
+            status = INFEASIBLE
             broken = [b.label for v, b in zip(bounds, self.bounds) if not within(v, b.lower, b.upper)]
             if not stability["stable"]:
                 inner = [name for name, check in stability.items()

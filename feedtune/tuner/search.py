@@ -27,6 +27,7 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import optimize
 
+from feedtune.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
 from feedtune.tuner.nlp import Problem
 from feedtune.tuner.types import (Bound, Outcome, Settings, StartOutcome, Term, Variable,
                                   within as _within)
@@ -41,7 +42,7 @@ GENERATIONS = 40
 
 def is_exact_only(loop) -> bool:
     """The loop is an exact (discrete) simulation that only this tuner can tune."""
-    return bool(getattr(loop, "exact_only", False))
+    return bool(loop.exact_only)
 
 
 def problem_class(loop) -> type:
@@ -146,10 +147,10 @@ class SearchProblem:
             init="sobol" if len(self.variables) > 1 else "latinhypercube", x0=x0,
             callback=callback, updating="immediate")
         if stopped["time"]:
-            return result.x, "Maximum_WallTime_Exceeded", "time_limit", int(result.nit)
+            return result.x, "Maximum_WallTime_Exceeded", TIME_LIMIT, int(result.nit)
         if result.success:
-            return result.x, "Search_Converged", "optimal", int(result.nit)
-        return result.x, "Maximum_Iterations_Exceeded", "iteration_limit", int(result.nit)
+            return result.x, "Search_Converged", OPTIMAL, int(result.nit)
+        return result.x, "Maximum_Iterations_Exceeded", ITERATION_LIMIT, int(result.nit)
 
     def solve(self, progress: Callable[[StartOutcome, int], None] | None = None) -> Outcome:
         """Run ``multistart`` seeded searches; the best feasible one is the result."""
@@ -163,20 +164,20 @@ class SearchProblem:
             if self.variables:
                 z, return_status, status, iterations = self._start(index, deadline)
             else:
-                z, return_status, status, iterations = np.zeros(0), "No_Free_Tunables", "optimal", 0
+                z, return_status, status, iterations = np.zeros(0), "No_Free_Tunables", OPTIMAL, 0
             objective, bounds, stable = self.evaluate(self._values(z))
             feasible = stable and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
                                        time.perf_counter() - started, feasible))
             if progress is not None:
                 progress(starts[-1], count)
-            solved = status == "optimal" and feasible and objective is not None
+            solved = status == OPTIMAL and feasible and objective is not None
             usable = feasible and objective is not None
             key = ((0, objective, index) if solved else (1, objective, index) if usable
                    else (2, self._violation(bounds, stable), index))
             if best is None or key < best[0]:
                 best = (key, index, z, return_status, status)
-            if status == "time_limit":
+            if status == TIME_LIMIT:
                 break
         key, index, z, return_status, status = best
         started = time.perf_counter()
@@ -186,14 +187,14 @@ class SearchProblem:
         stability = loop.stability()
         feasible = key[0] < 2
         success = feasible
-        if feasible and status != "optimal":
-            status = "acceptable"  # feasible, but the search stopped before converging
+        if feasible and status != OPTIMAL:
+            status = ACCEPTABLE  # feasible, but the search stopped before converging
         if success:
             message = (f"start {index + 1} of {len(starts)} gave the best feasible point "
                        f"(differential evolution on the exact simulation, "
                        f"{self.evaluations} simulations)")
         else:
-            status = "infeasible"
+            status = INFEASIBLE
             broken = [b.label for v, b in zip(bounds, self.bounds) if not _within(v, b.lower, b.upper)]
             if not stable:
                 broken.append("settling (the response did not come to rest or lost track)")

@@ -12,6 +12,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
+from feedtune.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
+from feedtune.status import SOLVED  # noqa: F401  (the tuner's modules read it here)
+
 #: relative tolerance when reporting whether a bound holds
 FEASIBILITY_TOL = 1e-6
 #: options that name a file or library, or choose one to load: refused whatever the caller
@@ -21,16 +24,15 @@ SAFE_LIBRARY_CHOICES = frozenset({"mumps", "none", "slack-based", "gradient-base
 
 #: IPOPT's return status (and feedtune's own, see feedtune.tuner.nlp) → the result's status
 STATUS = {
-    "Solve_Succeeded": "optimal",
-    "Solved_To_Acceptable_Level": "acceptable",
-    "Infeasible_Problem_Detected": "infeasible",
-    "Maximum_Iterations_Exceeded": "iteration_limit",
-    "Maximum_CpuTime_Exceeded": "time_limit",
-    "Maximum_WallTime_Exceeded": "time_limit",
-    "Exchange_Points_Exhausted": "iteration_limit",  # feedtune's: no exchange point left
-    "No_Stable_Start": "infeasible",  # feedtune's: restoration found no stable point
+    "Solve_Succeeded": OPTIMAL,
+    "Solved_To_Acceptable_Level": ACCEPTABLE,
+    "Infeasible_Problem_Detected": INFEASIBLE,
+    "Maximum_Iterations_Exceeded": ITERATION_LIMIT,
+    "Maximum_CpuTime_Exceeded": TIME_LIMIT,
+    "Maximum_WallTime_Exceeded": TIME_LIMIT,
+    "Exchange_Points_Exhausted": ITERATION_LIMIT,  # feedtune's: no exchange point left
+    "No_Stable_Start": INFEASIBLE,  # feedtune's: restoration found no stable point
 }
-SOLVED = ("optimal", "acceptable")
 
 
 @dataclass(frozen=True)

@@ -218,7 +218,7 @@ def is_exact_only(config: PlantConfig) -> bool:
     is tests/contract/test_exact_loop_contract.py; the linear-loop contracts skip it."""
     tunables = config.tunables
     probe = config.plant.loop({n: t.max for n, t in tunables.items()}, config.default_box)
-    return bool(getattr(probe, "exact_only", False))
+    return bool(probe.exact_only)
 
 
 #: linear loops (every contract in test_plant_contract.py / test_metric_contract.py)

@@ -19,6 +19,7 @@ from feedtune.loop import Drive
 from feedtune.model import SpecModel
 from feedtune.plants import PLANTS
 from feedtune.plants.base import Tunable
+from feedtune.protocols import Capability
 from feedtune.validate.stability import check_stability
 
 OMEGAS = [0.3, 3.0, 30.0]  # rad/s: below, near and above typical feed-drive bandwidths
@@ -170,7 +171,7 @@ def _loop_numbers(loop) -> dict[str, np.ndarray]:
         "characteristic_polynomial": ca.vertcat(*loop.characteristic_polynomial),
         "stability_conditions": ca.vertcat(*loop.stability_conditions()),
     }
-    if hasattr(loop, "velocity_constant"):  # a loop of type 2 or more has none (C_v = ∞)
+    if loop.offers(Capability.VELOCITY_CONSTANT):  # a loop of type 2 or more has none (C_v = ∞)
         numbers["velocity_constant"] = loop.velocity_constant
     for name, matrix in loop.stability_matrices().items():
         numbers[f"stability_matrices[{name}]"] = matrix
