@@ -31,8 +31,12 @@ def sleeping(data: bytes, existing):
 
 
 def tuner_loaded(data: bytes, existing):
-    """Say whether the worker had loaded the tuner before this spec's clock started."""
-    return Outcome("error", f"tuner loaded before the spec: {'feedtune.problem' in sys.modules}")
+    """Say whether the worker had loaded the tuner, and tuned its warm-up spec, before this
+    spec's clock started."""
+    from feedtune.batch import job
+
+    return Outcome("error", f"tuner loaded before the spec: {'feedtune.problem' in sys.modules}"
+                            f", warmed up: {job._warmed}")
 
 
 #: set by a test in its own process; a worker forked from it sees the value, a spawned one
