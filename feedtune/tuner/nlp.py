@@ -102,7 +102,6 @@ class Problem:
                          build_structure(variables, {}, {}, lambda values: make_loop(
                              {**values, **{name: ca.MX(v) for name, v in fixed.items()}}),
                              objective, constraints))
-        self.structure_reused = structure.build is not None
         builder = structure.builder(variables, leading_values(
             fixed if self.has_nlp else {}, numbers, objective))
         self.discrete = structure.discrete
