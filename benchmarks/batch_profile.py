@@ -62,6 +62,7 @@ PHASES = [
     ("tune", problem, "_tune_once", 1),
     ("report sets (which metrics)", problem, "_report_sets", 2),
     ("Problem.__init__ (graph, probe, solver)", nlp.Problem, "__init__", 2),
+    ("symbolic loop and metric values (structure miss)", nlp, "build_structure", 3),
     # nlpsol: cache.make_solver since issue 15, nlp._nlpsol before (whichever the tree has)
     ("nlpsol creation (cache miss)", cache, "make_solver", 3),
     ("nlpsol creation (cache miss)", nlp, "_nlpsol", 3),
@@ -139,6 +140,11 @@ def main(argv: list[str] | None = None) -> int:
     print()
     print(f"solver cache over the timed specs: {hits} hits, {misses} misses "
           f"({hits / max(hits + misses, 1):.0%} hits)")
+    if hasattr(cache, "structure_cache_info"):  # since issue 15's structure split
+        info = cache.structure_cache_info()
+        hits, misses = info["hits"], info["misses"]
+        print(f"structure cache (graph not built) over the timed specs: {hits} hits, "
+              f"{misses} misses ({hits / max(hits + misses, 1):.0%} hits)")
     return 0
 
 

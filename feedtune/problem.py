@@ -4,8 +4,9 @@ tuner a loop factory and metric callables, and turns its outcome into a TuneResu
 from __future__ import annotations
 
 import functools
+import json
 import math
-from typing import Callable, Literal, get_args, get_origin
+from typing import Callable, Literal, Mapping, get_args, get_origin
 
 import casadi as ca
 
@@ -104,14 +105,48 @@ class LiftedOptions:
 
         return evaluate
 
-    def make_loop(self, build: Callable, numbers: dict) -> object:
-        """``build(plant_numbers)`` (None when there are none), remembered with ``numbers``
-        (the tuner's parameters by name) when any of them is a lifted option."""
-        own = {name: value for name, value in numbers.items() if name not in self.numbers}
-        loop = build(own or None)
-        if len(own) < len(numbers):
-            self._loops[id(loop)] = (loop, numbers)  # the loop kept: its id stays its own
+    def make_loop(self, build: Callable, values: Mapping) -> object:
+        """``build(plant_values)``, ``values`` (the tuner's, by name) without the lifted
+        options, remembered with ``values`` when any of them is a lifted option."""
+        own = {name: value for name, value in values.items() if name not in self.numbers}
+        loop = build(own)
+        if len(own) < len(values):
+            self._loops[id(loop)] = (loop, values)  # the loop kept: its id stays its own
         return loop
+
+
+def structure_key(spec: Spec, plant, box: Mapping[str, tuple[float, float]],
+                  lifted: Mapping[str, float], horizon_scale: float) -> str:
+    """A key equal for two specs whose NLPs are the same graph (feedtune.tuner.structure),
+    from the spec alone, before anything is built.
+
+    It holds everything of the spec except the numbers the NLP takes as parameters: the
+    plant's :meth:`~feedtune.plants.base.Plant.numbers`, fixed tunables' values, lifted
+    metric options (``lifted``: ``objective0.radius`` → value), the size of each weight and
+    of each constraint's bounds. What those numbers shape besides arithmetic stays in it:
+    the plant's :meth:`~feedtune.plants.base.Plant.structure` (horizon, frequency band) at
+    ``box`` and ``horizon_scale``, each weight's and bound's sign, which bounds are given,
+    which tunables are free, and the solver settings but the number of starts (which
+    only moves the starts).
+    """
+    def term_shape(prefix: str, term, sides: tuple[str, ...]) -> dict:
+        data = term.model_dump(mode="json")
+        for field in list(data):
+            if f"{prefix}.{field}" in lifted:
+                data[field] = "parameter"
+            elif field in sides and data[field] is not None:
+                data[field] = math.copysign(1.0, data[field]) if data[field] != 0 else 0.0
+        return data
+
+    return json.dumps({
+        "plant": plant.structure(box, horizon_scale),
+        "free": sorted(name for name, (lower, upper) in box.items() if lower != upper),
+        "objective": [term_shape(f"objective{i}", t, ("weight",))
+                      for i, t in enumerate(spec.objective)],
+        "constraints": [term_shape(f"constraint{i}", c, ("min", "max"))
+                        for i, c in enumerate(spec.constraints)],
+        "solver": spec.solver.model_dump(mode="json", exclude={"multistart"}),
+    }, sort_keys=True)
 
 
 def _report_fn(metric, options) -> Callable:
@@ -317,7 +352,7 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
     constraints = [Bound(metric_label(c.metric, _options_dict(c)), value_fn(f"constraint{i}", c),
                          c.min, c.max)
                    for i, c in enumerate(spec.constraints)]
-    plant_numbers = plant.numbers() if hasattr(plant, "numbers") else {}
+    plant_numbers = plant.numbers()
     s = spec.solver
     try:
         settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
@@ -326,19 +361,16 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
         for refinement in range(MAX_HORIZON_REFINEMENTS + 1):
             scale = HORIZON_GROWTH**refinement
 
-            def make_loop(values, numbers=None, scale=scale):
-                def build(own):  # plant numbers as NLP parameters (see feedtune.plants.base)
-                    if own:
-                        return plant.loop(values, box, horizon_scale=scale, numbers=own)
-                    return plant.loop(values, box, horizon_scale=scale)
-
-                return lifted.make_loop(build, numbers) if numbers else build(None)
+            def make_loop(values, scale=scale):  # tunables, plant numbers, lifted options
+                return lifted.make_loop(
+                    lambda own: plant.loop(own, box, horizon_scale=scale), values)
 
             # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
             try:
-                problem = problem_class(probe_loop)(variables, fixed, make_loop, objective,
-                                                    constraints, reports, settings,
-                                                    numbers={**plant_numbers, **lifted.numbers})
+                problem = problem_class(probe_loop)(
+                    variables, fixed, make_loop, objective, constraints, reports, settings,
+                    numbers={**plant_numbers, **lifted.numbers},
+                    structure_key=structure_key(spec, plant, box, lifted.numbers, scale))
             except HorizonError as exc:
                 if refinement == 0:
                     raise

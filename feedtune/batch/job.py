@@ -70,6 +70,7 @@ def notes(result) -> list[str]:
 
 def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:
     """Tune the spec in ``data``; skip it when ``existing_sha256`` is its canonical hash."""
+    from feedtune.api import Result
     from feedtune.problem import tune
     from feedtune.spec import SpecError, parse_spec
 
@@ -92,7 +93,7 @@ def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:
                        errors=list(exc.errors), time=time.perf_counter() - started)
     except Exception as exc:  # noqa: BLE001
         return _internal(exc, started, sha)
-    data = (result.model_dump_json(indent=2) + "\n").encode("utf-8")
+    data = Result(result).to_json().encode("utf-8")  # the bytes `feedtune tune` writes
     return Outcome(result.status, result.message, spec_sha256=sha, result=data,
                    row=summary_fields(result), time=time.perf_counter() - started)
 

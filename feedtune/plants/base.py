@@ -1,22 +1,23 @@
-"""What every plant declares: its tunable parameters, with units and default bounds.
+"""What every plant declares: its tunable parameters, with units and default bounds, and
+the numbers the tuner may lift into NLP parameters.
 
-Optionally, a plant lets the tuner reuse one built solver across specs that differ only in
-some of its own numbers (batch tuning). It then offers
-
-* ``numbers() -> dict[str, float]``: the parameters that enter its loop only through
-  arithmetic (e.g. a time constant), by name, as the spec gives them; and
-* ``loop(values, box, horizon_scale=..., numbers=None)``: ``numbers`` maps some of those
-  names to expressions (NLP parameters) that the loop computes with instead.
+A plant's ``loop(values, box, horizon_scale=...)`` takes, by name, a value (a number or an
+expression) for each tunable and, optionally, for each of its :meth:`Plant.numbers`: a
+number given there replaces the spec's own in the loop's arithmetic. The tuner hands the
+plant's numbers over as NLP parameters exactly as it hands over fixed tunables, so one
+built solver serves every spec that differs only in them (batch tuning).
 
 Everything that shapes the loop's graph (a horizon's sample count, a frequency band, a
-choice) keeps reading the spec's own numbers, so the loop built with ``numbers`` equals
-the one built without at ``numbers()``. A plant without ``numbers`` has its numbers
-embedded as constants: correct, just never shared between specs that differ in them.
+choice) keeps reading the spec's own numbers, so a loop built with the numbers in
+``values`` equals the one built without them; :meth:`Plant.structure` names those
+numbers, so that a spec's structure is known before any graph is built.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from typing import Mapping
 
 
 @dataclass(frozen=True)
@@ -40,3 +41,28 @@ class Tunable:
     min: float
     max: float
     required: bool = False
+
+
+class Plant:
+    """What the tuner asks of every plant besides its ``tunables()`` and ``loop``.
+
+    The defaults lift nothing: every number of the plant is a constant of its loop's graph,
+    and the whole box may shape it.
+    """
+
+    params: object
+
+    def numbers(self) -> dict[str, float]:
+        """The parameters that enter the loop only through arithmetic, by name, as the spec
+        gives them [their units]: ``loop`` also takes them in ``values``. None here."""
+        return {}
+
+    def structure(self, box: Mapping[str, tuple[float, float]],
+                  horizon_scale: float = 1.0) -> str:
+        """What the loop's graph embeds as constants besides the plant's choices, from the
+        spec's numbers and the tunables' ``box`` (name → (min, max) [its unit]) at this
+        ``horizon_scale``: two specs of equal structure, choices and metrics build equal
+        graphs. Here every parameter and the whole box, which is always safe."""
+        return json.dumps([self.params.model_dump(mode="json"),
+                           {name: list(bounds) for name, bounds in box.items()},
+                           horizon_scale], sort_keys=True)

@@ -32,7 +32,7 @@ from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 from feedtune import linalg
 from feedtune.loop import TransferLoop
 from feedtune.model import SpecModel
-from feedtune.plants.base import Tunable
+from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import cascade_loop, compensator_corners
 from feedtune.plants.compensator import CompensatorKind, compensator_tunables
 
@@ -120,7 +120,7 @@ def quadratic(natural_frequency, damping) -> list:
     return [1 / w**2, 2 * damping / w, 1]
 
 
-class HydraulicRotary:
+class HydraulicRotary(Plant):
     """Plant ``hydraulic_rotary``: position loop around a velocity loop (Bhatia Fig 33)."""
 
     Params = HydraulicRotaryParams

@@ -48,7 +48,7 @@ from pydantic import Field, NonNegativeFloat, ValidationInfo, field_validator
 from feedtune import linalg
 from feedtune.lazy import np
 from feedtune.model import SpecModel
-from feedtune.plants.base import Tunable
+from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import close_loops, compensator_corners
 from feedtune.plants.compensator import CompensatorKind
 from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
@@ -361,7 +361,7 @@ class LinearParams(SpecModel):
         return self.output_unit in POSITION_UNITS
 
 
-class Linear:
+class Linear(Plant):
     """Plant ``linear``: a user's drive in a P/PI/PID position loop, optionally around a
     velocity loop (module docstring)."""
 

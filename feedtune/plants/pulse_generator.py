@@ -28,7 +28,7 @@ from typing import Annotated, Literal, Mapping
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
 from feedtune.model import SpecModel
-from feedtune.plants.base import Tunable
+from feedtune.plants.base import Plant, Tunable
 from feedtune.pulse_train import MotorCharacteristic, PulseInput, PulseLoop
 
 
@@ -84,7 +84,7 @@ class PulseGeneratorParams(SpecModel):
         return self
 
 
-class PulseGenerator:
+class PulseGenerator(Plant):
     """Tian's reference-pulse generator with error limit and acceleration law."""
 
     Params = PulseGeneratorParams

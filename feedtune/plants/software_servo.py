@@ -38,7 +38,7 @@ from feedtune.lazy import ca, np
 from feedtune.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
                            SampledLoop, TransferLoop)
 from feedtune.model import SpecModel
-from feedtune.plants.base import Tunable
+from feedtune.plants.base import Plant, Tunable
 
 #: sampled step responses are summed sample by sample over this many times (2τ + dead time),
 #: the dead time (computation_delay + 1)·T at the smallest T of the box
@@ -107,7 +107,7 @@ class SoftwareServoParams(SpecModel):
         return self
 
 
-class SoftwareServo:
+class SoftwareServo(Plant):
     """Plant ``software_servo``: builds the closed loop for given gain and period."""
 
     Params = SoftwareServoParams
@@ -131,31 +131,60 @@ class SoftwareServo:
         return tunables
 
     def numbers(self) -> dict[str, float]:
-        """The parameters :meth:`loop` also takes as expressions (``numbers``): they enter
-        the loop only through arithmetic. The horizon, the frequency band and every choice
-        still read the spec's own numbers."""
+        """The parameters :meth:`loop` also takes in ``values`` (as expressions: NLP
+        parameters): they enter the loop only through arithmetic. The horizon, the
+        frequency band and every choice still read the spec's own numbers
+        (:meth:`structure`)."""
         p = self.params
         given = {"time_constant": p.time_constant, "blu": p.blu, "max_velocity": p.max_velocity}
         return {name: value for name, value in given.items() if value is not None}
 
+    def structure(self, box: Mapping[str, tuple[float, float]],
+                  horizon_scale: float = 1.0) -> str:
+        """The choices and the numbers the loop's graph embeds (see
+        :meth:`feedtune.plants.base.Plant.structure`): the reference-pulse loop none; the
+        sampled loop its step-response horizon [s], the smallest period it is summed in
+        [s] and its frequency band [rad/s]; Padé's loop its band [rad/s]."""
+        p = self.params
+        choices = p.model_dump(mode="json", exclude=set(self.numbers()))
+        choices["ideal_drive"] = p.time_constant is None
+        embedded: list = []
+        if p.technique == "sampled_data" and p.model == "pade":
+            embedded = list(self._pade_band(box))
+        elif p.technique == "sampled_data":
+            period_min = box["sampling_period"][0]
+            embedded = [self._horizon(period_min, horizon_scale), period_min,
+                        *self._sampled_band(box)]
+        return json.dumps([choices, embedded], sort_keys=True)
+
+    def _horizon(self, period_min: float, horizon_scale: float) -> float:
+        """The sampled step responses' horizon [s]: SETTLING_TIME_CONSTANTS·(2τ + dead time
+        at T_min)·horizon_scale."""
+        p = self.params
+        settle = 2 * (p.time_constant or 0.0) + (p.computation_delay + 1) * period_min
+        return SETTLING_TIME_CONSTANTS * settle * horizon_scale
+
     def drive(self, numbers: Mapping[str, object] | None = None) -> Drive:
+        """The drive of the spec's numbers, each of ``numbers`` (name → number or expression)
+        in its place."""
         p = self.params
         n = {**self.numbers(), **(numbers or {})}
         return Drive(time_constant=n.get("time_constant"), blu=n.get("blu"),
                      max_velocity=n.get("max_velocity"), counter_bits=p.counter_bits)
 
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
-             horizon_scale: float = 1.0, numbers: Mapping[str, object] | None = None):
-        """The closed loop at ``values`` (expressions or numbers per tunable name).
+             horizon_scale: float = 1.0):
+        """The closed loop at ``values`` (expressions or numbers per tunable name, and for
+        any of :meth:`numbers`, which then replace the spec's own in the arithmetic).
 
         ``box`` gives each tunable's (min, max) [its unit]; with ``horizon_scale`` it sizes
         the step-response horizon of a sampled loop (20·(2τ + dead time at T_min)·
         horizon_scale, summed in steps of T_min: 20·(2τ/T_min + d + 1)·horizon_scale
         samples), which the tuner lengthens when the NLP and the exact evaluation disagree.
-        ``numbers`` replaces some of :meth:`numbers` by expressions (NLP parameters).
         """
+        numbers = {name: values[name] for name in self.numbers() if name in values}
         p = self.params
-        tau = {**self.numbers(), **(numbers or {})}.get("time_constant")  # in arithmetic
+        tau = {**self.numbers(), **numbers}.get("time_constant")  # in arithmetic
         drive = self.drive(numbers)
         gain = values["position_gain"]
         if p.technique == "reference_pulse":
@@ -180,10 +209,9 @@ class SoftwareServo:
         # 20·(2τ + (d + 1)·T), twenty of that loop's own (2τ + dead time). Sizing the time
         # by T_max instead summed T_max/T_min times longer than the fastest loop needs
         # (10 800 samples for T in [1 ms, 0.5 s]: a 40 s tuning)
-        settle = 2 * (p.time_constant or 0.0) + (p.computation_delay + 1) * period_min
         plant = IntegratorLag(tau) if tau is not None else Integrator()
         return SampledLoop(plant, gain, period, delay=p.computation_delay, drive=drive,
-                           horizon=SETTLING_TIME_CONSTANTS * settle * horizon_scale,
+                           horizon=self._horizon(period_min, horizon_scale),
                            period_min=period_min, interpolator=interpolator,
                            frequency_band=self._sampled_band(box))
 
@@ -206,16 +234,21 @@ class SoftwareServo:
         half_dead_time = (p.computation_delay + 0.5) * period / 2  # L/2 [s]
         lag = [tau, 1] if tau is not None else [1]
         denominator = linalg.poly_mul(linalg.poly_mul([half_dead_time, 1], lag), [1, 0])
-        # corners: K, 2/L and 1/τ over the box, two decades either side
+        return TransferLoop(open_numerator=[-gain * half_dead_time, gain],
+                            open_denominator=denominator,
+                            frequency_band=self._pade_band(box), drive=drive,
+                            interpolator=interpolator)
+
+    def _pade_band(self, box) -> tuple[float, float]:
+        """(low, high) [rad/s] of Padé's loop: its corners K, 2/L and 1/τ over the box, two
+        decades either side."""
+        p = self.params
         (k_min, k_max), (t_min, t_max) = box["position_gain"], box["sampling_period"]
         corners = [k_min, k_max, 2 / ((p.computation_delay + 0.5) * t_max),
                    2 / ((p.computation_delay + 0.5) * t_min)]
         if p.time_constant is not None:
             corners.append(1 / p.time_constant)
-        return TransferLoop(open_numerator=[-gain * half_dead_time, gain],
-                            open_denominator=denominator,
-                            frequency_band=(min(corners) / 100, max(corners) * 100),
-                            drive=drive, interpolator=interpolator)
+        return min(corners) / 100, max(corners) * 100
 
 
 def koren_step_response(gain: float, period: float, time_constant: float, samples: int):

@@ -57,7 +57,7 @@ from feedtune import linalg
 from feedtune.lazy import np
 from feedtune.loop import TransferLoop
 from feedtune.model import SpecModel
-from feedtune.plants.base import Tunable
+from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import cascade_loop, compensator_corners
 from feedtune.plants.compensator import CompensatorKind, compensator_tunables
 
@@ -142,7 +142,7 @@ class WardLeonardParams(SpecModel):
         return [la, ra] if la > 0 else [ra]
 
 
-class WardLeonard:
+class WardLeonard(Plant):
     """Plant ``ward_leonard``: position loop around a tachogenerator velocity loop (Fig 13)."""
 
     Params = WardLeonardParams

@@ -22,9 +22,9 @@ class NlpBuilder:
     """Collects the NLP piece by piece; each ``add_*`` returns what the caller needs later
     (a symbol, or a row's index)."""
 
-    def __init__(self, variables: list[Variable]):
+    def __init__(self, variables: list[Variable], z: ca.MX | None = None):
         self.variables = variables
-        self.z = ca.MX.sym("log_tunables", len(variables))
+        self.z = ca.MX.sym("log_tunables", len(variables)) if z is None else z
         self._params: list[ca.MX] = []
         self._param_values: list[float] = []
         self._extra: list[ca.MX] = []
@@ -37,9 +37,10 @@ class NlpBuilder:
         self.slots: list[ca.MX] = []
         self._slot_defaults: list[float] = []
 
-    def parameter(self, name: str, value: float) -> ca.MX:
-        """A new NLP parameter holding ``value`` for this problem; its symbol."""
-        symbol = ca.MX.sym(name)
+    def parameter(self, name: str, value: float, symbol: ca.MX | None = None) -> ca.MX:
+        """A new NLP parameter holding ``value`` for this problem; its symbol (``symbol``
+        when given: a parameter of a structure built before, see feedtune.tuner.structure)."""
+        symbol = ca.MX.sym(name) if symbol is None else symbol
         self._params.append(symbol)
         self._param_values.append(float(value))
         return symbol
@@ -94,6 +95,11 @@ class NlpBuilder:
     def p(self) -> ca.MX:
         """Every parameter but the slots."""
         return ca.vertcat(ca.MX(0, 1), *self._params)
+
+    @property
+    def parameters(self) -> list[ca.MX]:
+        """Every parameter's symbol but the slots, in the order made."""
+        return list(self._params)
 
     @property
     def param_values(self) -> np.ndarray:

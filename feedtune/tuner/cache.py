@@ -22,6 +22,9 @@ import casadi as ca
 
 #: built problems (nlpsol and Functions) kept per process, least recently used dropped first
 SOLVER_CACHE_SIZE = 16
+#: problem structures (symbolic loop, metric values, Functions; feedtune.tuner.structure)
+#: kept per process by a key the caller computes from its spec, least recently used first out
+STRUCTURE_CACHE_SIZE = 64
 
 
 @dataclass
@@ -35,7 +38,9 @@ class Built:
 
 _cache: OrderedDict[str, Built] = OrderedDict()
 _cache_counts = {"hits": 0, "misses": 0}
-_cache_lock = threading.Lock()  # the dict and counters only; a build runs unlocked
+_cache_lock = threading.Lock()  # the dicts and counters only; a build runs unlocked
+_structures: OrderedDict[str, object] = OrderedDict()
+_structure_counts = {"hits": 0, "misses": 0}
 
 
 def solver_cache_info() -> dict[str, int]:
@@ -43,11 +48,41 @@ def solver_cache_info() -> dict[str, int]:
     return {**_cache_counts, "size": len(_cache), "maxsize": SOLVER_CACHE_SIZE}
 
 
+def structure_cache_info() -> dict[str, int]:
+    """Hits, misses, current size and capacity of this process's structure cache."""
+    return {**_structure_counts, "size": len(_structures), "maxsize": STRUCTURE_CACHE_SIZE}
+
+
 def clear_solver_cache() -> None:
-    """Empty this process's solver cache and reset its counters."""
+    """Empty this process's solver and structure caches and reset their counters."""
     with _cache_lock:
         _cache.clear()
         _cache_counts.update(hits=0, misses=0)
+        _structures.clear()
+        _structure_counts.update(hits=0, misses=0)
+
+
+def cached_structure(key: str | None):
+    """The structure (feedtune.tuner.structure.Structure) stored under ``key``, or None
+    (always None without a key)."""
+    if key is None:
+        return None
+    with _cache_lock:
+        found = _structures.get(key)
+        _structure_counts["hits" if found is not None else "misses"] += 1
+        if found is not None:
+            _structures.move_to_end(key)
+        return found
+
+
+def store_structure(key: str | None, structure) -> None:
+    """Keep ``structure`` under ``key`` (nothing without a key)."""
+    if key is None:
+        return
+    with _cache_lock:
+        _structures[key] = structure
+        while len(_structures) > STRUCTURE_CACHE_SIZE:
+            _structures.popitem(last=False)
 
 
 def structure_key(functions: Mapping[str, ca.Function], options: Mapping, expand: bool) -> str:
@@ -75,17 +110,18 @@ def make_solver(nlp: ca.Function, options: Mapping, expand: bool):
 
 
 def cached_build(functions: dict, key_extra: Mapping[str, ca.Function], options: Mapping,
-                 expand: bool, has_nlp: bool) -> Built:
+                 expand: bool, has_nlp: bool, key: str | None = None) -> Built:
     """The Functions and solver of this structure: from the cache when an identical graph
     was built before in this process, else ``functions`` with a new solver (then cached).
 
     ``key_extra`` are Functions that shape the problem without being used after the build
     (they enter the key only). Without free tunables there is no solver to build and
-    nothing is cached.
+    nothing is cached. ``key``: :func:`structure_key` of these, when the caller has it.
     """
     if not has_nlp:
         return Built(functions, None)
-    key = structure_key({**functions, **key_extra}, options, expand)
+    if key is None:
+        key = structure_key({**functions, **key_extra}, options, expand)
     with _cache_lock:
         built = _cache.get(key)
         if built is not None:

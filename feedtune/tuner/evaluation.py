@@ -9,6 +9,7 @@ of numbers instead (Problem._evaluate_numeric); the model gap compares the two.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import casadi as ca
@@ -63,6 +64,13 @@ class Evaluator:
              ca.vertcat(ca.MX(0, 1), *stability), ca.vertcat(ca.MX(0, 1), *settling),
              *matrices.values()],
             ["z", "p"], ["terms", "bounds", "stability", "settling", *self.matrix_names])
+
+    def with_weights(self, weights: list[float]) -> "Evaluator":
+        """This evaluator (its Function and scans shared) summing the terms with ``weights``
+        (another spec of the same structure: its weights are NLP parameters)."""
+        other = copy.copy(self)
+        other.weights = list(weights)
+        return other
 
     def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
         out = self.function(z=z, p=p[:self.n_params])

@@ -34,15 +34,16 @@ import numpy as np
 from feedtune.expr import to_array, to_float
 from feedtune.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
-from feedtune.tuner.cache import cached_build
-from feedtune.tuner.evaluation import Evaluator, smallest_magnitudes
+from feedtune.tuner.cache import cached_build, cached_structure, store_structure
+from feedtune.tuner.evaluation import smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scalar import ScalarSearch
 from feedtune.tuner.scalar import applies as scalar_search_applies
 from feedtune.tuner.stability import (add_stability_rows, feasibility, nan_where_unstable,
                                       poles_stable, restore)
 from feedtune.tuner.starts import starting_points
-from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points, make_scan
+from feedtune.tuner.structure import Structure, build_structure, leading_values
+from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points
 from feedtune.tuner.terms import add_bound, add_term, exact_value
 from feedtune.tuner.types import (SOLVED, STATUS, Bound, Outcome, Settings, StartOutcome, Term,
                                   Variable, finite, within)
@@ -72,37 +73,41 @@ FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
 
 
 class Problem:
-    """The NLP, built once (or taken from the solver cache); :meth:`solve` runs the multistart.
+    """The NLP, built once (or taken from the caches); :meth:`solve` runs the multistart.
 
-    ``make_loop(values)`` builds the loop from tunable values; with free tunables it is
-    called as ``make_loop(values, lifted)`` when ``numbers`` (name → value, e.g. a plant's
-    time constant) is not empty, ``lifted`` mapping each name to its NLP parameter.
+    ``make_loop(values)`` builds the loop from values by name: every tunable's, and any of
+    ``numbers`` (name → value, e.g. a plant's time constant), which the NLP holds as
+    parameters as it holds fixed tunables (the exact evaluation passes the tunables only).
+
+    ``structure_key``: a key the caller computed from its spec, equal for problems whose
+    graphs are equal (feedtune.tuner.structure); the symbolic part of the first problem
+    under a key is kept and every later one only computes its own numbers. None: built
+    here, and shared only through the solver cache.
     """
 
     def __init__(self, variables: list[Variable], fixed: Mapping[str, float],
                  make_loop: Callable, objective: list[Term], constraints: list[Bound],
                  reports: Mapping[str, Callable], settings: Settings,
-                 numbers: Mapping[str, float] | None = None):
+                 numbers: Mapping[str, float] | None = None, structure_key: str | None = None):
         started = time.perf_counter()
         self.variables, self.fixed, self.settings = variables, dict(fixed), settings
         self.objective_terms, self.bounds = objective, constraints
         self.make_loop, self.reports = make_loop, dict(reports)
         self.has_nlp = bool(variables)
         self.n_z = len(variables)
-        builder = NlpBuilder(variables)
-        loop = self._symbolic_loop(builder, numbers or {})
-        self.discrete = loop.discrete
-        weights = [builder.parameter(f"weight{i}", t.weight) for i, t in enumerate(objective)]
-        term_values = [t.value(loop) for t in objective]
-        bound_values = [b.value(loop) for b in constraints]
-        stability = loop.stability_conditions()
-        settling = loop.settling_conditions()  # after the terms: they say what was summed
-        matrices = loop.stability_matrices()
-        z, p = builder.z, builder.p  # the parameters so far: the loop's, and the weights
-        term_scans = [make_scan(f"term{i}", v, z, p) for i, v in enumerate(term_values)]
-        bound_scans = [make_scan(f"bound{i}", v, z, p) for i, v in enumerate(bound_values)]
-        self.evaluator = Evaluator(z, p, term_values, [t.weight for t in objective], term_scans,
-                                   bound_values, bound_scans, stability, settling, matrices)
+        numbers = dict(numbers or {}) if self.has_nlp else {}
+        key = structure_key if self.has_nlp else None
+        structure = cached_structure(key)
+        if structure is None:
+            structure = (build_structure(variables, fixed, numbers, make_loop, objective,
+                                         constraints) if self.has_nlp else
+                         build_structure(variables, {}, {}, lambda values: make_loop(
+                             {**values, **{name: ca.MX(v) for name, v in fixed.items()}}),
+                             objective, constraints))
+        builder = structure.builder(variables, leading_values(
+            fixed if self.has_nlp else {}, numbers, objective))
+        self.discrete = structure.discrete
+        self.evaluator = structure.evaluator.with_weights([t.weight for t in objective])
         self.param_values = builder.param_values
         self.starts = starting_points(variables, settings.multistart)
         scales = smallest_magnitudes([self.evaluator(z0, self.param_values) for z0 in self.starts])
@@ -110,13 +115,14 @@ class Problem:
         groups: list[ExchangeGroup] = []
         f = ca.MX(0)
         for index, (value, scan, weight, term, reference) in enumerate(
-                zip(term_values, term_scans, weights, objective, scales.terms)):
+                zip(structure.term_values, structure.term_scans, structure.weights, objective,
+                    scales.terms)):
             f += add_term(builder, index, value, scan, weight, term.weight, reference, groups)
         for index, (value, scan, bound, reference) in enumerate(
-                zip(bound_values, bound_scans, constraints, scales.bounds)):
+                zip(structure.bound_values, structure.bound_scans, constraints, scales.bounds)):
             add_bound(builder, index, value, scan, bound, reference, groups)
-        scaled_settling = add_stability_rows(builder, stability, settling, scales.stability,
-                                             scales.settling)
+        scaled_settling = add_stability_rows(builder, structure.stability, structure.settling,
+                                             scales.stability, scales.settling)
         self.exchange_groups = groups
         self.param_values = builder.param_values
         self.lbw, self.ubw = builder.lbw, builder.ubw
@@ -127,32 +133,11 @@ class Problem:
         # faster), the exact one for a start it leaves unsolved, infeasible or unstable
         self.hessians = ([given] if given else
                          ["limited-memory", "exact"] if groups else ["exact"])
-        expand = settings.expand
-        if expand is None:  # auto: expansion pays for itself on short horizons only
-            expand = loop.unrolled_steps <= AUTO_EXPAND_STEPS
-        self.matrix_names = list(matrices)
-        z, p = builder.z, builder.p
-        # the objective is divided by its value at each start (a parameter, so one build
-        # serves every start); a start that is not stable is first moved to a stable point
-        # nearby (restoration), where that value means something
-        objective_scale = ca.MX.sym("objective_scale")
-        if groups:  # peaks and crossings over frequency do not see an unstable loop
-            f = nan_where_unstable(f, stability)
-        functions = {
-            "nlp": ca.Function("nlp", [builder.w, ca.vertcat(objective_scale, *builder.slots, p)],
-                               [f / objective_scale, ca.vertcat(*builder.rows)],
-                               ["x", "p"], ["f", "g"]),
-            "settling": ca.Function("settling", [z, p], [ca.vertcat(ca.MX(0, 1), *scaled_settling)]),
-            "extra_start": ca.Function("extra_start", [z, p],
-                                       [ca.vertcat(ca.MX(0, 1), *builder.extra_start)]),
-            # per exchange group: the level its refined peak or dip is checked against
-            "exchange_levels": ca.Function("exchange_levels", [z, *builder.extra, p],
-                                           [ca.vertcat(ca.MX(0, 1), *[g.level for g in groups])]),
-            # conditions and matrices alone: what restoration evaluates hundreds of times
-            "stability_check": ca.Function("stability_check", [z, p],
-                                           [ca.vertcat(*stability), *matrices.values()]),
-        }
-        self._build = (functions, {"check": self.evaluator.function}, expand)
+        self.matrix_names = list(structure.matrices)
+        if structure.build is None:  # the first problem of this structure: its Functions
+            structure.build = self._functions(structure, builder, f, scaled_settling, groups)
+            store_structure(key, structure)
+        self._structure = structure
         self._solvers: dict[tuple[str, bool], object] = {}  # (Hessian, warm) → nlpsol
         self._last_solver = None  # the solver of the last round run
         # one free tunable and nothing else to decide: a line search, no IPOPT solver built
@@ -173,6 +158,38 @@ class Problem:
             self.starts = self.scalar.start_points()
         self.build_time = time.perf_counter() - started
 
+    def _functions(self, structure: Structure, builder: NlpBuilder, f, scaled_settling: list,
+                   groups: list[ExchangeGroup]) -> tuple:
+        """(Functions, key-only Functions, expand) of the NLP ``builder`` holds, whose
+        objective is ``f``: what the solver cache keys on and every later problem of this
+        structure uses."""
+        expand = self.settings.expand
+        if expand is None:  # auto: expansion pays for itself on short horizons only
+            expand = structure.unrolled_steps <= AUTO_EXPAND_STEPS
+        z, p = builder.z, builder.p
+        # the objective is divided by its value at each start (a parameter, so one build
+        # serves every start); a start that is not stable is first moved to a stable point
+        # nearby (restoration), where that value means something
+        objective_scale = ca.MX.sym("objective_scale")
+        if groups:  # peaks and crossings over frequency do not see an unstable loop
+            f = nan_where_unstable(f, structure.stability)
+        functions = {
+            "nlp": ca.Function("nlp", [builder.w, ca.vertcat(objective_scale, *builder.slots, p)],
+                               [f / objective_scale, ca.vertcat(*builder.rows)],
+                               ["x", "p"], ["f", "g"]),
+            "settling": ca.Function("settling", [z, p], [ca.vertcat(ca.MX(0, 1), *scaled_settling)]),
+            "extra_start": ca.Function("extra_start", [z, p],
+                                       [ca.vertcat(ca.MX(0, 1), *builder.extra_start)]),
+            # per exchange group: the level its refined peak or dip is checked against
+            "exchange_levels": ca.Function("exchange_levels", [z, *builder.extra, p],
+                                           [ca.vertcat(ca.MX(0, 1), *[g.level for g in groups])]),
+            # conditions and matrices alone: what restoration evaluates hundreds of times
+            "stability_check": ca.Function("stability_check", [z, p],
+                                           [ca.vertcat(*structure.stability),
+                                            *structure.matrices.values()]),
+        }
+        return functions, {"check": structure.evaluator.function}, expand
+
     def _options(self, hessian: str, warm: bool) -> dict:
         """nlpsol options: IPOPT's with this Hessian approximation, warm-started or not."""
         history = ({"limited_memory_max_history": LBFGS_HISTORY}
@@ -190,9 +207,11 @@ class Problem:
     def _entry(self, hessian: str, with_solver: bool = True):
         """The cached build (Functions and IPOPT solver) with this Hessian approximation;
         a solver is built when a start first needs it (never for the scalar search)."""
-        functions, key_extra, expand = self._build
-        entry = cached_build(functions, key_extra, self._options(hessian, False), expand,
-                             self.has_nlp and with_solver)
+        functions, key_extra, expand = self._structure.build
+        options = self._options(hessian, False)
+        with_solver = self.has_nlp and with_solver
+        entry = cached_build(functions, key_extra, options, expand, with_solver,
+                             self._structure.solver_key(options) if with_solver else None)
         self._solvers[hessian, False] = entry.solver
         return entry
 
@@ -211,19 +230,6 @@ class Problem:
                                {**self._options(hessian, True), "cache": cold.cache()})
             self._solvers[hessian, True] = solver
         return solver
-
-    def _symbolic_loop(self, builder: NlpBuilder, numbers: Mapping[str, float]):
-        """The loop of the NLP's symbols: free tunables exp(z), fixed ones and the plant's
-        ``numbers`` as parameters (a loop of numbers when nothing is free: nothing to solve,
-        nothing to reuse, evaluated exactly)."""
-        values = {v.name: ca.exp(builder.z[i]) for i, v in enumerate(self.variables)}
-        if not self.has_nlp:
-            values.update({name: ca.MX(value) for name, value in self.fixed.items()})
-            return self.make_loop(values)
-        values.update({name: builder.parameter(f"fixed_{name}", value)
-                       for name, value in self.fixed.items()})
-        lifted = {name: builder.parameter(f"number_{name}", value) for name, value in numbers.items()}
-        return self.make_loop(values, lifted) if lifted else self.make_loop(values)
 
     def _evaluate(self, z_value):
         """What the NLP sees at ``z_value``: objective, bound values, conditions, matrices

@@ -66,7 +66,7 @@ class SearchProblem:
     def __init__(self, variables: list[Variable], fixed: Mapping[str, float],
                  make_loop: Callable, objective: list[Term], constraints: list[Bound],
                  reports: Mapping[str, Callable], settings: Settings,
-                 numbers: Mapping[str, float] | None = None):
+                 numbers: Mapping[str, float] | None = None, structure_key: str | None = None):
         self.variables = list(variables)
         self.fixed = dict(fixed)
         self.make_loop = make_loop

@@ -46,10 +46,7 @@ def _plant(raw: dict):
 
 def _symbolic_loop(plant, box: dict):
     """The loop the tuner builds: every tunable and plant number a symbol."""
-    values = {name: ca.MX.sym(name) for name in box}
-    numbers = plant.numbers() if hasattr(plant, "numbers") else {}
-    if numbers:
-        return plant.loop(values, box, numbers={name: ca.MX.sym(name) for name in numbers})
+    values = {name: ca.MX.sym(name) for name in [*box, *plant.numbers()]}
     return plant.loop(values, box)
 
 

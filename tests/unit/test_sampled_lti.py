@@ -134,7 +134,7 @@ def _tuned_gain(make_loop):
 
 
 def test_koren_tuned_gain_equals_dedicated_plant():
-    def general(values, numbers=None):
+    def general(values):
         period = values["sampling_period"]
         return SampledLTILoop(koren_plant(), error_controller([values["position_gain"]], [1],
                                                               period), period,

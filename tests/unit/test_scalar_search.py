@@ -45,8 +45,8 @@ def _problem(data: dict, horizon_scale: float = 1.0) -> Problem:
         metric = METRICS[term.metric]()
         return lambda loop: metric.evaluate(loop, term)
 
-    def make_loop(values, numbers=None):
-        return plant.loop(values, box, horizon_scale=horizon_scale, numbers=numbers)
+    def make_loop(values):
+        return plant.loop(values, box, horizon_scale=horizon_scale)
 
     objective = [Term(t.metric, value(t), t.weight) for t in spec.objective]
     constraints = [Bound(c.metric, value(c), c.min, c.max) for c in spec.constraints]

@@ -191,7 +191,8 @@ def test_cache_is_bounded_least_recently_used_first(monkeypatch):
 
 
 def test_plant_numbers_as_expressions_give_the_same_loop():
-    """``loop(..., numbers=...)`` with the plant's own numbers equals the plain loop."""
+    """``loop(values, ...)`` with the plant's own numbers among ``values`` as expressions
+    equals the plain loop."""
     import casadi as ca
 
     data = _example("koren-1979-min-iae-radius.json")
@@ -203,7 +204,7 @@ def test_plant_numbers_as_expressions_give_the_same_loop():
     gain = ca.MX.sym("gain")
     values = {"position_gain": gain, "sampling_period": 0.01}
     plain = plant.loop(values, box)
-    lifted = plant.loop(values, box, numbers=symbols)
+    lifted = plant.loop({**values, **symbols}, box)
 
     def outputs(loop):
         return [ca.vec(loop.state_matrix), loop.step_error_integrals.iae,

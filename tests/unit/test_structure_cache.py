@@ -1,0 +1,136 @@
+"""A problem's symbolic part (loop, metric values, Functions) is built once per structure,
+found by a key computed from the spec before anything is built (feedtune.tuner.structure,
+feedtune.problem.structure_key): a later spec of the same structure computes only its own
+numbers, and gets the result a fresh build gives."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import pytest
+
+from feedtune.problem import tune
+from feedtune.spec import parse_spec
+from feedtune.tuner import cache, nlp
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+TIMING = ("solve_time", "build_time", "evaluation_time")
+
+
+def _example(name: str) -> dict:
+    data = json.loads((EXAMPLES / name).read_text(encoding="utf-8"))
+    if name == "koren-1979-min-iae-radius.json":
+        # one free gain: the scalar search, which builds no solver (no graph to compare),
+        # unless an IPOPT option is given (this one is IPOPT's default here)
+        data["solver"]["ipopt_options"] = {"hessian_approximation": "exact"}
+    return data
+
+
+def _without_timing(result) -> dict:
+    data = result.model_dump(mode="json")
+    for key in TIMING:
+        data["solver"].pop(key)
+    for start in data["solver"]["starts"]:
+        start.pop("solve_time")
+    return data
+
+
+def _changed(data: dict, plant: dict | None = None, **paths) -> dict:
+    """``data`` with plant fields replaced and ``section__index__field=value`` changes."""
+    data = copy.deepcopy(data)
+    data["name"] += "-changed"
+    data["plant"].update(plant or {})
+    for path, value in paths.items():
+        section, index, field = path.split("__")
+        data[section][int(index) if index.isdigit() else index][field] = value
+    return data
+
+
+#: the same structure: only numbers the NLP takes as parameters differ (blu, V_m, the
+#: circle, the weight, the damping bound; for the reference-pulse loop τ too)
+SAME = [
+    ("koren-1979-sampled-data.json",
+     dict(plant={"blu": 2e-6, "max_velocity": 0.06}, objective__0__radius=0.012,
+          objective__0__feed=0.03, objective__0__weight=3.0, constraints__0__min=0.6)),
+    ("koren-1979-reference-pulse.json",
+     dict(plant={"time_constant": 0.03, "blu": 2e-6}, objective__0__radius=0.01)),
+]
+
+
+@pytest.mark.parametrize("example, changes", SAME)
+def test_a_spec_of_a_known_structure_builds_no_graph_and_gets_the_fresh_result(example, changes):
+    a = _example(example)
+    b = _changed(a, **changes)
+    cache.clear_solver_cache()
+    tune(parse_spec(a))
+    reused = tune(parse_spec(b))
+    info = cache.structure_cache_info()
+    assert (info["hits"], info["misses"]) == (1, 1), info  # b took a's symbolic part
+    cache.clear_solver_cache()
+    fresh = tune(parse_spec(b))
+    assert cache.structure_cache_info()["hits"] == 0
+    assert reused.success and fresh.success
+    assert _without_timing(reused) == _without_timing(fresh)
+
+
+def _keys(data: dict, monkeypatch) -> tuple[list[str], set[str]]:
+    """The structure keys ``tune`` handed the Problem, and the solver-cache keys (hashes of
+    the serialized graphs) of a fresh tuning of ``data``."""
+    seen = []
+    init = nlp.Problem.__init__
+
+    def spy(self, *args, **kwargs):
+        seen.append(kwargs.get("structure_key"))
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(nlp.Problem, "__init__", spy)
+    cache.clear_solver_cache()
+    tune(parse_spec(data))
+    monkeypatch.setattr(nlp.Problem, "__init__", init)
+    return seen, set(cache._cache)
+
+
+#: pairs whose graphs differ or may differ: τ sizes the minimum-IAE loop's step-response
+#: horizon, a fixed period its smallest period, a second side of a bound the rows, a metric option
+#: (the input) the expression
+DIFFERENT = [
+    ("koren-1979-min-iae-radius.json", dict(plant={"time_constant": 0.03})),
+    ("koren-1979-min-iae-radius.json", dict(tunables__sampling_period__value=0.005)),
+    ("koren-1979-min-iae-radius.json", dict(objective__0__time="absolute")),
+    ("koren-1979-sampled-data.json", dict(constraints__0__max=0.9)),
+    ("sato-finish.json", dict(constraints__0__min=1e-7)),
+]
+
+
+@pytest.mark.parametrize("example, changes", SAME + DIFFERENT)
+def test_equal_structure_keys_mean_equal_graphs(example, changes, monkeypatch):
+    """The key is sound: two specs with one structure key have one serialized graph (the
+    solver cache's key, computed from the built Functions), and every pair in DIFFERENT
+    whose graphs differ has two keys."""
+    a = _example(example)
+    b = _changed(a, **changes)
+    keys_a, graphs_a = _keys(a, monkeypatch)
+    keys_b, graphs_b = _keys(b, monkeypatch)
+    assert keys_a and keys_b and None not in keys_a + keys_b
+    assert graphs_a and graphs_b  # IPOPT solvers were built: there are graphs to compare
+    if keys_a == keys_b:
+        assert graphs_a == graphs_b
+    if graphs_a != graphs_b:
+        assert keys_a != keys_b
+    if (example, changes) in SAME:
+        assert keys_a == keys_b  # what the cache is for: these share a structure
+    if (example, changes) == DIFFERENT[0]:
+        assert graphs_a != graphs_b  # τ sizes the horizon: the implication above is tested
+
+
+def test_structure_cache_is_bounded_least_recently_used_first(monkeypatch):
+    monkeypatch.setattr(cache, "STRUCTURE_CACHE_SIZE", 1)
+    a = _example("koren-1979-sampled-data.json")
+    b = _changed(a, constraints__0__max=0.9)
+    cache.clear_solver_cache()
+    for data in (a, b, a):
+        tune(parse_spec(data))
+    info = cache.structure_cache_info()
+    assert (info["hits"], info["misses"], info["size"]) == (0, 3, 1), info
