@@ -29,15 +29,6 @@ from feedtune.protocols import PROTOCOLS, Capability, DeclaredCapabilities, Loop
 
 PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 
-#: probes left to another change, each with the reason; the test fails once one is gone
-#: (then delete its entry)
-EXEMPT_PROBES = {
-    ("problem.py", "hasattr", "plant"): "the plant's numbers() route (issue 16, 'One route "
-                                        "for plant numbers'), lifted into the tuner's "
-                                        "parameters by another change",
-}
-
-
 def protocol_members(protocol: type) -> set[str]:
     """Names a protocol requires: its annotations and methods, its bases' included."""
     names: set[str] = set()
@@ -167,18 +158,13 @@ def _probe_target(call: ast.Call) -> str | None:
 
 def test_no_capability_probes():
     """Loops and plants are read through their declared members, never probed by name."""
-    probes, exempt_seen = [], set()
+    probes = []
     for path, tree in _package_trees():
         for node in ast.walk(tree):
             if isinstance(node, ast.Call) and (target := _probe_target(node)):
-                key = (str(path.relative_to(PACKAGE_ROOT)), node.func.id, target)
-                if key in EXEMPT_PROBES:
-                    exempt_seen.add(key)
-                else:
-                    probes.append(f"{key[0]}:{node.lineno} {node.func.id}({target}, ...)")
+                probes.append(f"{path.relative_to(PACKAGE_ROOT)}:{node.lineno} "
+                              f"{node.func.id}({target}, ...)")
     assert not probes, f"capability probes on loops or plants: {probes}"
-    assert exempt_seen == set(EXEMPT_PROBES), \
-        f"exempt probes no longer present (drop them): {set(EXEMPT_PROBES) - exempt_seen}"
 
 
 @pytest.mark.parametrize("config", ALL_CONFIGS, ids=[c.id for c in ALL_CONFIGS])
