@@ -24,7 +24,7 @@ class DecayRate(Metric):
     direction = "min"
 
     def supports(self, loop, options=None):
-        return super().supports(loop, options) and hasattr(loop, "characteristic_polynomial")
+        return super().supports(loop, options) and hasattr(type(loop), "characteristic_polynomial")
 
     def evaluate(self, loop, options):
         return pole_region(loop, decay_of, decay_conditions(loop), 0.0, math.inf)

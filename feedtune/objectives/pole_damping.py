@@ -24,7 +24,7 @@ class PoleDamping(Metric):
     direction = "min"
 
     def supports(self, loop, options=None):
-        return super().supports(loop, options) and hasattr(loop, "characteristic_polynomial")
+        return super().supports(loop, options) and hasattr(type(loop), "characteristic_polynomial")
 
     def optimisable(self, loop, options=None):
         """Continuous loops only: on a sampled loop the region ζ ≥ ζ0 is bounded by a
