@@ -214,6 +214,12 @@ class SampledLTILoop(_SampledLoopBase):
         return phi, gamma_w
 
     @property
+    def open_loop_matrices(self):
+        """(Φ_o, Γ_w): state(k+1) = Φ_o state(k) + Γ_w w(k), the loop opened at the
+        controller's sampled position input w (:meth:`open_loop_response`)."""
+        return self._open_matrices
+
+    @property
     def state_matrix(self):
         """Φ_cl: state(k+1) = Φ_cl state(k) + Γ_cl r(k)."""
         return self._matrices[0]

@@ -510,12 +510,8 @@ class Linear:
         if velocity is not None:
             tunables.update(controller_tunables("velocity", velocity, velocity_unit))
         model = getattr(p, "model", None)
-        if model is not None and model.discrete:
-            tunables["sampling_period"] = Tunable(
-                "s", "Sampling period T [s]: fixed to the discrete model's own period (a "
-                     "discrete drive runs at the period it was given at)",
-                model.period, model.period)
-        elif getattr(p, "implementation", "continuous") == "sampled":
+        discrete = model is not None and model.discrete  # its period is its own (not_tunable)
+        if getattr(p, "implementation", "continuous") == "sampled" and not discrete:
             # T_min ≥ θ: the dead time stays within one sample over the default box (a
             # whole number of samples that varies over the box is refused)
             low = max(PERIOD_BOUNDS[0], getattr(p, "dead_time", 0.0))
@@ -524,6 +520,16 @@ class Linear:
                      "dead time's whole samples and the step horizon depend on its box)",
                 low, PERIOD_BOUNDS[1], required=True)
         return tunables
+
+    def not_tunable(self) -> dict[str, str]:
+        """Names a spec might expect among the tunables that this configuration fixes, with
+        why (the spec error of a spec that gives one): a discrete model's sampling period."""
+        model = getattr(self.params, "model", None)
+        if model is None or not model.discrete:
+            return {}
+        return {"sampling_period": f"a discrete model runs at its own period (model.period "
+                                   f"= {model.period!r} s): the sampling period is fixed to "
+                                   "it, not tunable; leave sampling_period out"}
 
     def drive_polynomials(self) -> tuple[list, list, list | None, list]:
         """(n_g, d_g, n_x, q): velocity per input n_g/d_g, position per input n_x/(q·d_g)
@@ -681,8 +687,11 @@ class Linear:
         """
         p = self.params
         self.check_sampled(box)
-        period = values["sampling_period"]
-        t_min, t_max = box["sampling_period"]
+        if p.model.discrete:  # its own period, fixed (not a tunable)
+            period = t_min = t_max = p.model.period
+        else:
+            period = values["sampling_period"]
+            t_min, t_max = box["sampling_period"]
         position_structure, velocity_structure = self._structures()
         position = controller("position", position_structure, values)
         if p.model.discrete:
@@ -714,8 +723,8 @@ class Linear:
 
     def check_sampled(self, box: Mapping[str, tuple[float, float]]) -> None:
         """What the sampled loop's engine refuses, checked in pure Python before any matrix
-        is built (``feedtune validate`` builds none, issue 15): a discrete model's period
-        against the sampling period's box; a continuous model's dead-time split over the box
+        is built (``feedtune validate`` builds none, issue 15): a continuous model's
+        dead-time split over the sampling period's box
         (:func:`~feedtune.sampled_plants.split_dead_time`), its position without direct
         feedthrough, and C B = 0 where a velocity loop reads v = C A x.
 
@@ -726,15 +735,9 @@ class Linear:
         """
         p = self.params
         model = p.model
-        t_min, t_max = box["sampling_period"]
         if model.discrete:
-            if max(abs(t_min - model.period), abs(t_max - model.period)) > 1e-12 * model.period:
-                raise SampledModelError(
-                    f"/tunables/sampling_period: a discrete model runs at its own period "
-                    f"{model.period!r} s, so the sampling period is fixed to it, not tunable "
-                    f"(given [{t_min!r}, {t_max!r}] s): leave sampling_period out or give "
-                    f"value {model.period!r}")
-            return
+            return  # its period is its own; what it may be is checked by LinearParams
+        t_min, t_max = box["sampling_period"]
         split_dead_time(p.dead_time, None, t_max, (t_min, t_max))  # refuses varying samples
         if isinstance(model, StateSpace):
             b, c, d = [row[0] for row in model.b], model.c[0], model.d[0][0]
