@@ -299,6 +299,12 @@ Model = Annotated[Union[TransferFunction, ZerosPolesGain, StateSpace], Field(dis
 MODEL_TYPES = ("transfer_function", "zpk", "state_space")
 
 
+def _discrete_model(info: ValidationInfo):
+    """The plant's model, validated so far, when it is discrete (``period``), else None."""
+    model = info.data.get("model")
+    return model if model is not None and model.discrete else None
+
+
 class LinearParams(SpecModel):
     """A linear drive of the user's (transfer function, zeros/poles/gain or state space),
     with dead time and standard controllers."""
@@ -356,8 +362,7 @@ class LinearParams(SpecModel):
     @field_validator("output_unit")
     @classmethod
     def _discrete_position(cls, unit, info: ValidationInfo):
-        model = info.data.get("model")
-        if model is not None and model.discrete and unit not in POSITION_UNITS:
+        if _discrete_model(info) is not None and unit not in POSITION_UNITS:
             raise ValueError(f"a discrete model's output is a position (m or rad), not {unit}: "
                              "between its samples the velocity is unknown, so its integral is "
                              "too; give the position model")
@@ -366,8 +371,8 @@ class LinearParams(SpecModel):
     @field_validator("dead_time")
     @classmethod
     def _whole_samples(cls, dead_time, info: ValidationInfo):
-        model = info.data.get("model")
-        if model is not None and model.discrete and dead_time > 0:
+        model = _discrete_model(info)
+        if model is not None and dead_time > 0:
             samples = dead_time / model.period
             if abs(samples - round(samples)) > WHOLE_SAMPLE_TOL * max(samples, 1.0):
                 raise ValueError(f"{dead_time:g} s is {samples:g} samples of the discrete "
@@ -390,8 +395,8 @@ class LinearParams(SpecModel):
     @field_validator("implementation")
     @classmethod
     def _discrete_is_sampled(cls, implementation, info: ValidationInfo):
-        model = info.data.get("model")
-        if model is not None and model.discrete and implementation != "sampled":
+        model = _discrete_model(info)
+        if model is not None and implementation != "sampled":
             raise ValueError(f"a discrete model (period {model.period:g} s) is closed by a "
                              "sampled controller at its own period: set implementation "
                              "'sampled'")
@@ -400,8 +405,7 @@ class LinearParams(SpecModel):
     @field_validator("velocity_controller")
     @classmethod
     def _discrete_has_no_velocity(cls, law, info: ValidationInfo):
-        model = info.data.get("model")
-        if law != "none" and model is not None and model.discrete:
+        if law != "none" and _discrete_model(info) is not None:
             raise ValueError("a discrete model gives the position at the samples only, no "
                              "velocity for a velocity loop to read: use velocity_controller "
                              "'none' (a P, PI or PID position loop), or a continuous model")

@@ -58,13 +58,15 @@ def write_result(directory, spec: dict):
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
-    """name → (Result read from its file, ControlSystems), built once per module."""
+    """name → (Result read from its file, ControlSystems), built once per module: the
+    bundled examples at TUNED, the sampled user loops as :func:`sampled_user_spec`."""
     directory = tmp_path_factory.mktemp("results")
     cache = {}
 
     def get(name):
         if name not in cache:
-            loaded = feedtune.load_result(write_result(directory, fixed_spec(name)))
+            spec = fixed_spec(name) if name in TUNED else sampled_user_spec(name)
+            loaded = feedtune.load_result(write_result(directory, spec))
             cache[name] = loaded, loaded.to_control()
         return cache[name]
 
@@ -487,27 +489,13 @@ def sampled_user_spec(name: str) -> dict:
 SAMPLED_USER_RTOL = {KOREN_DISCRETE["name"]: 1e-9, "user-defined-sampled-drive": 1e-6}
 
 
-@pytest.fixture(scope="module")
-def sampled_exported(tmp_path_factory):
-    directory = tmp_path_factory.mktemp("sampled-results")
-    cache = {}
-
-    def get(name):
-        if name not in cache:
-            loaded = feedtune.load_result(write_result(directory, sampled_user_spec(name)))
-            cache[name] = loaded, loaded.to_control()
-        return cache[name]
-
-    return get
-
-
 @pytest.mark.parametrize("name", sorted(SAMPLED_USER_RTOL))
-def test_sampled_user_loop_exports_a_named_discrete_system(sampled_exported, name):
+def test_sampled_user_loop_exports_a_named_discrete_system(exported, name):
     """dt = the sampling period; named systems and signals; the closed loop's poles are the
     result's (numpy eigenvalues of the same matrix, 1e-9 relative); S = 1 − T on the
     export; T is feedtune's own frequency response (to the loop's accuracy, see
     SAMPLED_USER_RTOL) and, without a feed-forward, L/(1 + L) closed by name."""
-    loaded, systems = sampled_exported(name)
+    loaded, systems = exported(name)
     period = 0.015625 if name == KOREN_DISCRETE["name"] else 1e-3
     assert systems.discrete and systems.dt == period
     expected = {"closed_loop": (["reference"], ["position"]),
@@ -551,13 +539,13 @@ def sensitivity_peak(open_loop, period) -> float:
 
 
 @pytest.mark.parametrize("name", sorted(SAMPLED_USER_RTOL))
-def test_sampled_user_loop_metrics_are_python_controls(sampled_exported, name):
+def test_sampled_user_loop_metrics_are_python_controls(exported, name):
     """Issue 16: on the export python-control alone finds feedtune's gain and phase margins
     and crossover (``control.stability_margins``), M_peak and bandwidth
     (tests/discrete_checks.py) and M_s (max |1/(1 + L)|), each to the loop's accuracy
     (SAMPLED_USER_RTOL; the phase margin on 180°, M_peak and M_s on their unit scale);
     C_v from the open loop's residue at z = 1 where T = L/(1 + L)."""
-    loaded, systems = sampled_exported(name)
+    loaded, systems = exported(name)
     rtol = SAMPLED_USER_RTOL[name]
     gm, pm, _, _, wc, _ = control.stability_margins(systems.open_loop)
     assert gm == pytest.approx(metric(loaded, "gain_margin"), rel=rtol)
@@ -573,11 +561,11 @@ def test_sampled_user_loop_metrics_are_python_controls(sampled_exported, name):
             metric(loaded, "velocity_constant"), rel=rtol)
 
 
-def test_koren_discrete_model_exports_the_dedicated_loop(sampled_exported, exported):
+def test_koren_discrete_model_exports_the_dedicated_loop(exported):
     """The drive in z (c2d) at the dedicated plant's tuned gain exports Koren's loop: the
     same open loop K·ZOH[1/(s(1 + sτ))] (frequency responses to 1e-9 of |L|, c2d's rounding)
     and the same closed-loop poles."""
-    _, discrete = sampled_exported(KOREN_DISCRETE["name"])
+    _, discrete = exported(KOREN_DISCRETE["name"])
     _, dedicated = exported("koren-1979-sampled-data")
     z = np.exp(1j * np.geomspace(0.1, 0.99 * math.pi / discrete.dt, 40) * discrete.dt)
     np.testing.assert_allclose([complex(discrete.open_loop(x)) for x in z],

@@ -16,6 +16,8 @@ import casadi as ca
 import control
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import feedtune
 from feedtune.plants import plant_for
@@ -128,6 +130,45 @@ def test_bad_discrete_spec_is_refused_at_its_field(model, plant, tunables, point
     messages = refusals(spec)
     assert pointer in messages, messages
     assert words in messages[pointer], messages[pointer]
+
+
+_coefficients = st.lists(st.floats(min_value=-1e3, max_value=1e3, allow_nan=False), min_size=1,
+                         max_size=5)
+
+
+@settings(max_examples=150, deadline=None)
+@given(numerator=_coefficients, denominator=_coefficients,
+       period=st.floats(min_value=-1.0, max_value=1.0, allow_nan=False),
+       controller=st.sampled_from(["p", "pi", "pid"]), samples=st.integers(-2, 3))
+def test_any_discrete_model_parses_or_is_refused_at_its_field(numerator, denominator, period,
+                                                              controller, samples):
+    """Spec parsing over random models in z: a spec, or errors whose pointers name fields of
+    the spec; never another exception. What decides it is known in advance: a zero
+    numerator or one not strictly proper (improper only, when the period itself is
+    refused: the model is then not known to be in z), a zero leading denominator
+    coefficient, a period ≤ 0 and a negative dead time are refused at their own field."""
+    spec = with_plant(model={"numerator": numerator, "denominator": denominator,
+                             "period": period},
+                      position_controller=controller, dead_time_samples=samples)
+    spec["constraints"] = []  # ζ of the pole pair: order-2 loops only
+    trimmed = numerator[next((i for i, c in enumerate(numerator) if c), len(numerator)):]
+    expected = set()
+    if period <= 0:
+        expected.add("/plant/model/period")
+    if denominator[0] == 0:
+        expected.add("/plant/model/denominator")
+    elif not trimmed or len(trimmed) > len(denominator) - (period > 0):  # strictly, in z
+        expected.add("/plant/model/numerator")
+    if samples < 0:
+        expected.add("/plant/dead_time_samples")
+    try:
+        parse_spec(spec)
+    except SpecError as error:
+        pointers = {pointer for pointer, _ in error.errors}
+        assert expected <= pointers, (expected, error.errors)
+        assert all(p.startswith(("/plant/", "/tunables/", "/objective/")) for p in pointers)
+    else:
+        assert not expected
 
 
 def test_non_finite_coefficients_are_refused():
