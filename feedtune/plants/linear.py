@@ -1,5 +1,6 @@
-"""A user-defined linear drive: a transfer function, zeros/poles/gain or a state-space model,
-with an input dead time, closed by standard controllers.
+"""A user-defined linear drive: a transfer function, zeros/poles/gain or a state-space model
+(continuous, or discrete at its own period), with an input dead time, closed by standard
+controllers.
 
 The drive maps its input u (a voltage, a current, a torque: ``input_unit``) to its output
 y, after a dead time θ [s]:
@@ -21,6 +22,15 @@ or PID, a lag or lag-lead compensator and a notch (:mod:`feedtune.plants.control
 the loop is closed from polynomials by :func:`feedtune.plants.cascade.close_loops`, the
 skeleton Bhatia's drives share, into a :class:`~feedtune.plants.linear_loop.LinearLoop`
 (dead time: exact in frequency responses, Padé in polynomials).
+
+A **discrete model** (the model's ``period`` T [s]) is P(z) at T, as a transfer function
+in z, zeros/poles/gain in the z-plane or x(k+1) = A x(k) + B u(k), strictly proper, with a
+position output and a dead time of whole samples (``dead_time_samples``, or ``dead_time``
+a multiple of T). It is closed by a sampled P, PI or PID position controller at T
+(``implementation: sampled``; T is fixed, not a tunable) into a
+:class:`~feedtune.sampled_lti.SampledLTILoop` of a
+:class:`~feedtune.sampled_plants.DiscretePlant`; no velocity loop and no step-error
+integrals (the motion between samples is unknown).
 
 What is refused (exit 2, with the field's pointer): an improper P, empty or non-finite
 coefficients, a zero leading denominator coefficient, A/B/C/D of mismatched shapes, a
@@ -311,7 +321,8 @@ class LinearParams(SpecModel):
 
     type: Literal["linear"]
     model: Model = Field(description="The drive P(s) from input to output, without the dead "
-                                     "time: transfer_function, zpk or state_space")
+                                     "time: transfer_function, zpk or state_space; with a "
+                                     "period [s], a discrete model P(z) at that period")
     output_unit: str = Field(
         pattern=r"^(m|rad|m/s|rad/s)$",
         description="Unit of the drive's output [m, rad, m/s or rad/s]: m or rad make it a "
