@@ -1,10 +1,12 @@
 """Start-up time of the command line: `feedtune --help`, `feedtune validate`, `feedtune tune`.
 
 Each command runs REPEAT times, interleaved with its baseline (a bare interpreter,
-`python -c pass`), in fresh processes from this one, after one unmeasured run that warms the
+`python -c pass`), in fresh processes from this one (wall time and the process's CPU time,
+user + system), after one unmeasured run that warms the
 disk cache and writes feedtune's bytecode (as any first run after an install does; the
 processes run without PYTHONDONTWRITEBYTECODE, which a user does not set); the median wall
-time of each, the command's time over the baseline's, and issue 15's target are printed.
+time of each, the command's time over the baseline's, the median CPU times, and issue 15's
+target are printed.
 The three heaviest imports of `feedtune.spec` (what `validate` loads) are listed from
 `python -X importtime`, so a change shows where the time went.
 
@@ -15,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -23,21 +26,28 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = str(REPO / "examples" / "koren-1979-sampled-data.json")
+#: the sampled user-defined drive: its check builds no loop matrices since issue 16's stop
+SAMPLED_USER = str(REPO / "examples" / "user-defined-sampled-drive.json")
 #: the environment of every measured process: bytecode cached as after a first run
 ENV = {name: value for name, value in os.environ.items() if name != "PYTHONDONTWRITEBYTECODE"}
 CASES = {  # name: (arguments after `python -m feedtune`, issue 15's target [s] or None)
     "--help": (["--help"], 0.3),
     "validate": (["validate", EXAMPLE], 0.3),
+    "validate (sampled user)": (["validate", SAMPLED_USER], 0.3),
     "tune (Koren's example)": (["tune", EXAMPLE, "-q"], None),
 }
 
 
-def wall(command: list[str]) -> float:
-    """Wall time [s] of one run of ``command``, output discarded."""
+def wall(command: list[str]) -> tuple[float, float]:
+    """(wall, CPU) time [s] of one run of ``command``, output discarded; CPU is the child's
+    user + system time, which a loaded machine inflates far less than the wall time."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True,
                    cwd=REPO, env=ENV)
-    return time.perf_counter() - started
+    elapsed = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return elapsed, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def heaviest_imports(module: str, count: int = 3) -> list[tuple[float, str]]:
@@ -59,15 +69,18 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=7, help="runs per case [count]")
     args = parser.parse_args()
     baseline_command = [sys.executable, "-c", "pass"]
-    print(f"{'case':<24} {'median [s]':>10} {'baseline [s]':>12} {'ratio':>6} {'target [s]':>10}")
+    print(f"load average {os.getloadavg()[0]:.1f}")
+    print(f"{'case':<24} {'median [s]':>10} {'baseline [s]':>12} {'ratio':>6} {'CPU [s]':>8} "
+          f"{'base CPU':>8} {'target [s]':>10}")
     for name, (arguments, target) in CASES.items():
         times, base = [], []
         wall([sys.executable, "-m", "feedtune", *arguments])  # warm-up, not measured
         for _ in range(args.repeat):  # interleaved: load from elsewhere hits both alike
             base.append(wall(baseline_command))
             times.append(wall([sys.executable, "-m", "feedtune", *arguments]))
-        t, b = statistics.median(times), statistics.median(base)
-        print(f"{name:<24} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} "
+        t, b = (statistics.median(w for w, _ in runs) for runs in (times, base))
+        cpu, base_cpu = (statistics.median(c for _, c in runs) for runs in (times, base))
+        print(f"{name:<24} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} {cpu:>8.3f} {base_cpu:>8.3f} "
               f"{'—' if target is None else f'{target:.1f}':>10}")
     print("\nslowest imports under feedtune.spec (cumulative, one run):")
     for seconds, module in heaviest_imports("feedtune.spec"):

@@ -11,13 +11,17 @@ result and the tuned values, with numbers, and :func:`loop_to_control` exports i
 Positions are in metres (linear axes, ``software_servo``) or radians (rotary axes,
 ``hydraulic_rotary``, ``ward_leonard``): ``ControlSystems.position_unit`` says which.
 
-Sampled loops (``software_servo`` with ``technique: sampled_data`` and ``model: exact``)
+Sampled loops (``software_servo`` with ``technique: sampled_data`` and ``model: exact``,
+and ``linear`` with ``implementation: sampled``, its drive in s or a discrete model)
 export as discrete-time systems with ``dt`` = the sampling period [s]: they map the
 position reference at the sampling instants to the position at the sampling instants
 (the zero-order hold and the drive discretised exactly; intersample motion is not in a
-discrete system). Their state is [drive states, the commands still in the computation
-delay buffer], so a delay of d samples adds d states. Continuous loops
-(``reference_pulse``, Sato's ``pade`` model, the Bhatia cascades) export with ``dt = 0``.
+discrete system). Their state is [drive states, controller states, the commands still in
+the computation delay buffer and the dead time], so a delay of d samples adds d states.
+The open loop of a sampled ``linear`` loop is the loop opened at the controller's sampled
+position, its inner velocity loop closed (Bhatia Fig 18); with a velocity feed-forward
+the closed loop is not L/(1 + L), as for the continuous cascade. Continuous loops
+(``reference_pulse``, Sato's ``pade`` model, the cascades) export with ``dt = 0``.
 
 A linear interpolator (``interpolation: linear``) sits in front of the servo loop and is
 not part of the export: the systems start at the servo's position reference.
@@ -41,6 +45,7 @@ import numpy as np
 from feedtune.expr import is_symbolic, to_array
 from feedtune.loop import ContinuousLoop, SampledLoop, TransferLoop
 from feedtune.pulse_train import PulseLoop
+from feedtune.sampled_lti import SampledLTILoop
 
 #: the open loop rebuilt from a state-space closed loop must give the loop's own velocity
 #: constant to this relative tolerance, or the loop is not the unity-feedback loop assumed
@@ -66,7 +71,8 @@ class ControlSystems:
         gain 1.
     open_loop : control.StateSpace or control.TransferFunction
         L, named ``open_loop``: ``error`` [m or rad] → ``position`` [m or rad], type 1 (one
-        integrator), with ``closed_loop`` = L/(1 + L). Margins
+        integrator), with ``closed_loop`` = L/(1 + L) (not with a velocity feed-forward,
+        whose reference path differs). Margins
         (``control.stability_margins``) and the velocity constant C_v = lim s·L(s) [1/s]
         are read from it.
     error : control.StateSpace or control.TransferFunction
@@ -100,7 +106,7 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
 
     Parameters
     ----------
-    loop : ContinuousLoop, SampledLoop or TransferLoop
+    loop : ContinuousLoop, SampledLoop, SampledLTILoop or TransferLoop
     position_unit : str
         ``"m"`` or ``"rad"``, recorded in the result.
 
@@ -136,6 +142,23 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
                               open_loop=tf(num, den, "open_loop", input_=ERROR),
                               error=tf(error, closed, "error", output=ERROR), load=load,
                               dt=0.0, position_unit=position_unit)
+    if isinstance(loop, SampledLTILoop):
+        # the loop's own open loop (SampledLTILoop.open_loop_response): cut at the
+        # controller's sampled position input w, L = −C(zI − Φ_o)⁻¹Γ_w; no feedthrough (the
+        # command of sample k moves the position from sample k + 1 on)
+        a, b = _matrix(loop.state_matrix), _matrix(loop.input_matrix).reshape(-1, 1)
+        c = _matrix(loop.position_row).reshape(1, -1)
+        open_a, cut = (_matrix(m) for m in loop.open_loop_matrices)
+        dt, zero = _scalar(loop.period), np.zeros((1, 1))
+
+        def ss(a, b, c, d, name, input_=REFERENCE, output=POSITION):
+            return control.ss(a, b, c, d, dt, name=name, inputs=input_, outputs=output)
+
+        return ControlSystems(closed_loop=ss(a, b, c, zero, "closed_loop"),
+                              open_loop=ss(open_a, -cut.reshape(-1, 1), c, zero, "open_loop",
+                                           input_=ERROR),
+                              error=ss(a, b, -c, np.ones((1, 1)), "error", output=ERROR),
+                              load=None, dt=dt, position_unit=position_unit)
     if isinstance(loop, (ContinuousLoop, SampledLoop)):
         a = _matrix(loop.state_matrix)
         b = _matrix(loop.input_matrix).reshape(-1, 1)

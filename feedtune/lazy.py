@@ -35,3 +35,27 @@ def _numpy():
 
 ca = _Lazy(_casadi)
 np = _Lazy(_numpy)
+
+
+class Deferred:
+    """An object built by ``build()`` when an attribute not given in ``known`` is first
+    read; what ``known`` gives is answered without building.
+
+    A loop of the user's sampled drive (:meth:`feedtune.plants.linear.Linear.sampled_loop`)
+    holds its plant and controller this way: ``feedtune validate`` asks a loop which
+    metrics it supports and never reads its matrices, so it imports neither numpy, scipy
+    nor CasADi. Whatever the build can refuse must be checked before, in pure Python.
+    """
+
+    def __init__(self, build, **known):
+        self._build = build
+        self.__dict__.update(known)
+
+    def __getattr__(self, name: str):  # only for names not found on the proxy itself
+        if name.startswith("__"):
+            raise AttributeError(name)
+        built = self.__dict__.get("_built")
+        if built is None:
+            built = self._build()
+            self.__dict__["_built"] = built
+        return getattr(built, name)

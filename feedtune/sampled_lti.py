@@ -89,7 +89,7 @@ class SampledLTILoop(_SampledLoopBase):
         if not (0 < low <= high):
             raise SampledModelError(f"/tunables/sampling_period: box {self.period_box} s, "
                                     "need 0 < min ≤ max")
-        if isinstance(self.plant, DiscretePlant):
+        if self.plant.discrete:
             if not (low == high and abs(low - self.plant.period) <= 1e-12 * self.plant.period):
                 raise SampledModelError(
                     f"/tunables/sampling_period: a discrete plant runs at its own period "
@@ -104,7 +104,7 @@ class SampledLTILoop(_SampledLoopBase):
     @cached_property
     def _split(self):
         """(whole dead-time samples d, fractional dead time θ_f [s] or 0)."""
-        if isinstance(self.plant, DiscretePlant):
+        if self.plant.discrete:
             return self.plant.dead_time_samples, 0
         return self.plant.split_dead_time(self.period, self.period_box)
 
@@ -130,7 +130,7 @@ class SampledLTILoop(_SampledLoopBase):
     @cached_property
     def plant_transition(self):
         """(Φ, Γ₀, Γ₁): x(k+1) = Φx(k) + Γ₀u(k−c−d) + Γ₁u(k−c−d−1)."""
-        if isinstance(self.plant, DiscretePlant):
+        if self.plant.discrete:
             n = self.plant.order
             return ca.DM(self.plant.a), ca.DM(self.plant.b), ca.DM.zeros(n, 1)
         fraction = self._split[1]
@@ -216,6 +216,12 @@ class SampledLTILoop(_SampledLoopBase):
         """(Φ_o, Γ_w) of the loop opened at the controller's position input."""
         phi, _, gamma_w = self._assemble(cut=True)
         return phi, gamma_w
+
+    @property
+    def open_loop_matrices(self):
+        """(Φ_o, Γ_w): state(k+1) = Φ_o state(k) + Γ_w w(k), the loop opened at the
+        controller's sampled position input w (:meth:`open_loop_response`)."""
+        return self._open_matrices
 
     @property
     def state_matrix(self):
@@ -305,7 +311,7 @@ class SampledLTILoop(_SampledLoopBase):
     @property
     def has_exact_step_error(self) -> bool:
         """A continuous plant: its intersample error is integrated exactly."""
-        return isinstance(self.plant, ContinuousPlant)
+        return not self.plant.discrete
 
     @cached_property
     def step_error_integrals(self) -> StepIntegrals:

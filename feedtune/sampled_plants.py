@@ -103,6 +103,42 @@ def expm_function(matrix, t_max: float) -> ca.Function:
     return ca.Function("expm", [t], [undo])
 
 
+def split_dead_time(dead_time: float, dead_time_samples: float | None, period,
+                    period_box: tuple[float, float]):
+    """(d, θ_f): θ = d·T + θ_f, d whole, 0 ≤ θ_f ≤ T, θ_f an expression of T [s].
+
+    With T a tunable, d must be the same over the whole box [T_min, T_max]:
+    ⌊θ/T_max⌋ = d and θ/T_min ≤ d + 1; θ_f = θ − d·T is then smooth in T. A dead time
+    given in samples (θ = q·T, ``dead_time_samples``) splits as d = ⌊q⌋, θ_f = (q − d)·T
+    for any T. Pure arithmetic: a spec is checked without building the loop.
+
+    Raises
+    ------
+    SampledModelError
+        ``/plant/dead_time``: the whole number of samples changes over the box.
+    """
+    if dead_time_samples is not None:
+        q = dead_time_samples
+        whole = math.floor(q + WHOLE_SAMPLE_TOL)
+        fraction = max(q - whole, 0.0)
+        return whole, (fraction * period if fraction > 0 else 0)
+    theta = dead_time
+    if theta == 0:
+        return 0, 0
+    low, high = period_box
+    whole = math.floor(theta / high * (1 + WHOLE_SAMPLE_TOL))
+    if theta / low > (whole + 1) * (1 + WHOLE_SAMPLE_TOL):
+        raise SampledModelError(
+            f"/plant/dead_time: θ = {theta:g} s spans {theta / high:g} to {theta / low:g} "
+            f"samples over the sampling period's box [{low:g}, {high:g}] s; the whole "
+            "number of samples must not change over the box (narrow the period's bounds, "
+            "or give the dead time in samples)")
+    fraction = theta - whole * period
+    if low == high and abs(theta - whole * low) <= WHOLE_SAMPLE_TOL * theta:
+        return whole, 0
+    return whole, fraction
+
+
 @dataclass(frozen=True, eq=False)
 class ContinuousPlant:
     """ẋ = A x + B u(t − θ), position y = C x + D u; SISO, numbers.
@@ -125,6 +161,8 @@ class ContinuousPlant:
     d: object = 0.0
     dead_time: float = 0.0
     dead_time_samples: float | None = None
+    #: a model in s, sampled by the loop's hold (DiscretePlant: True)
+    discrete = False
 
     def __post_init__(self):
         a, b, c, d = _state_space(self.a, self.b, self.c, self.d)
@@ -154,32 +192,9 @@ class ContinuousPlant:
         return self.c @ self.a
 
     def split_dead_time(self, period, period_box: tuple[float, float]):
-        """(d, θ_f): θ = d·T + θ_f, d whole, 0 ≤ θ_f ≤ T, θ_f an expression of T [s].
-
-        With T a tunable, d must be the same over the whole box [T_min, T_max]:
-        ⌊θ/T_max⌋ = d and θ/T_min ≤ d + 1; θ_f = θ − d·T is then smooth in T. A dead time
-        given in samples (θ = q·T) splits as d = ⌊q⌋, θ_f = (q − d)·T for any T.
-        """
-        if self.dead_time_samples is not None:
-            q = self.dead_time_samples
-            whole = math.floor(q + WHOLE_SAMPLE_TOL)
-            fraction = max(q - whole, 0.0)
-            return whole, (fraction * period if fraction > 0 else 0)
-        theta = self.dead_time
-        if theta == 0:
-            return 0, 0
-        low, high = period_box
-        whole = math.floor(theta / high * (1 + WHOLE_SAMPLE_TOL))
-        if theta / low > (whole + 1) * (1 + WHOLE_SAMPLE_TOL):
-            raise SampledModelError(
-                f"/plant/dead_time: θ = {theta:g} s spans {theta / high:g} to {theta / low:g} "
-                f"samples over the sampling period's box [{low:g}, {high:g}] s; the whole "
-                "number of samples must not change over the box (narrow the period's bounds, "
-                "or give the dead time in samples)")
-        fraction = theta - whole * period
-        if low == high and abs(theta - whole * low) <= WHOLE_SAMPLE_TOL * theta:
-            return whole, 0
-        return whole, fraction
+        """(d, θ_f): θ = d·T + θ_f, d whole, 0 ≤ θ_f ≤ T, θ_f an expression of T [s]
+        (:func:`split_dead_time`)."""
+        return split_dead_time(self.dead_time, self.dead_time_samples, period, period_box)
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,6 +210,7 @@ class DiscretePlant:
     d: object = 0.0
     period: float = 1e-3
     dead_time_samples: int = 0
+    discrete = True
 
     def __post_init__(self):
         a, b, c, d = _state_space(self.a, self.b, self.c, self.d)

@@ -608,8 +608,11 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
     plant = plant_for(plant_params)
     tunables = plant.tunables()
     raw_tunables = raw.get("tunables")
+    fixed = plant.not_tunable() if hasattr(type(plant), "not_tunable") else {}
     for name in raw_tunables if isinstance(raw_tunables, dict) else ():
-        if name not in tunables:
+        if name in fixed:
+            errors.append((f"/tunables/{_escape(name)}", fixed[name]))
+        elif name not in tunables:
             errors.append((f"/tunables/{_escape(name)}",
                            f"unknown tunable for this plant; known: {', '.join(tunables)}"))
     given = raw_tunables if isinstance(raw_tunables, dict) else {}

@@ -1,5 +1,6 @@
-"""A user-defined linear drive: a transfer function, zeros/poles/gain or a state-space model,
-with an input dead time, closed by standard controllers.
+"""A user-defined linear drive: a transfer function, zeros/poles/gain or a state-space model
+(continuous, or discrete at its own period), with an input dead time, closed by standard
+controllers.
 
 The drive maps its input u (a voltage, a current, a torque: ``input_unit``) to its output
 y, after a dead time θ [s]:
@@ -22,6 +23,15 @@ the loop is closed from polynomials by :func:`feedtune.plants.cascade.close_loop
 skeleton Bhatia's drives share, into a :class:`~feedtune.plants.linear_loop.LinearLoop`
 (dead time: exact in frequency responses, Padé in polynomials).
 
+A **discrete model** (the model's ``period`` T [s]) is P(z) at T, as a transfer function
+in z, zeros/poles/gain in the z-plane or x(k+1) = A x(k) + B u(k), strictly proper, with a
+position output and a dead time of whole samples (``dead_time_samples``, or ``dead_time``
+a multiple of T). It is closed by a sampled P, PI or PID position controller at T
+(``implementation: sampled``; T is fixed, not a tunable) into a
+:class:`~feedtune.sampled_lti.SampledLTILoop` of a
+:class:`~feedtune.sampled_plants.DiscretePlant`; no velocity loop and no step-error
+integrals (the motion between samples is unknown).
+
 What is refused (exit 2, with the field's pointer): an improper P, empty or non-finite
 coefficients, a zero leading denominator coefficient, A/B/C/D of mismatched shapes, a
 negative dead time, a compensator, notch or feed-forward in a velocity loop that does not
@@ -40,13 +50,14 @@ space to transfer function), §11.3 (the cascade with feed-forward).
 
 from __future__ import annotations
 
+import cmath
 import math
 from typing import Annotated, Literal, Mapping, Union
 
 from pydantic import Field, NonNegativeFloat, ValidationInfo, field_validator
 
 from feedtune import linalg
-from feedtune.lazy import np
+from feedtune.lazy import Deferred, np
 from feedtune.model import SpecModel
 from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import close_loops, compensator_corners
@@ -56,7 +67,8 @@ from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
 from feedtune.plants.software_servo import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS
 from feedtune.sampled_controllers import cascade_controller, error_controller
 from feedtune.sampled_lti import SampledLTILoop
-from feedtune.sampled_plants import ContinuousPlant, SampledModelError
+from feedtune.sampled_plants import (WHOLE_SAMPLE_TOL, ContinuousPlant, DiscretePlant,
+                                     SampledModelError, split_dead_time)
 
 #: default box of the sampling period T [s]: 10 µs (a fast drive's current loop) to 0.5 s
 PERIOD_BOUNDS = (1e-5, 0.5)
@@ -75,28 +87,62 @@ def _trim(p: list[float]) -> list[float]:
     return list(p[i:])
 
 
-def _degree_check(numerator: list[float], denominator: list[float] | None) -> list[float]:
+def _degree_check(numerator: list[float], denominator: list[float] | None,
+                  discrete: bool = False) -> list[float]:
     if not any(numerator):
         raise ValueError("the numerator is zero: the drive does not respond to its input")
-    if denominator is not None and len(_trim(numerator)) > len(denominator):
+    if denominator is None:
+        return numerator
+    if len(_trim(numerator)) > len(denominator):
         raise ValueError(f"improper transfer function: numerator degree "
                          f"{len(_trim(numerator)) - 1} above the denominator's "
                          f"{len(denominator) - 1} (a drive cannot differentiate its input)")
+    if discrete and len(_trim(numerator)) == len(denominator):
+        raise ValueError(_NOT_STRICTLY_PROPER)
     return numerator
 
 
-class TransferFunction(SpecModel):
-    """P(s) = numerator/denominator, highest power of s first."""
+#: a discrete model whose position answers its input within the same sample
+_NOT_STRICTLY_PROPER = (
+    "a discrete model must be strictly proper (numerator degree below the denominator's, "
+    "no direct feedthrough D): the command of sample k moves the position from sample "
+    "k + 1 on, and a position read at the instant its command is computed would close an "
+    "algebraic loop")
+
+
+def _period_field():
+    """The ``period`` every model form takes: a sampling period makes it a model in z."""
+    return Field(
+        None, gt=0,
+        description="Sampling period T of a discrete model [s]; omitted: a continuous model "
+                    "in s. With it the model is in z (x(k+1) = A x(k) + B u(k)), strictly "
+                    "proper, its output a position (m or rad), and it is closed by a sampled "
+                    "controller at this same period (implementation 'sampled'; the sampling "
+                    "period is then fixed, not tunable)")
+
+
+class _ModelBase(SpecModel):
+    """What the three model forms share: continuous in s, or discrete in z with ``period``."""
+
+    @property
+    def discrete(self) -> bool:
+        return self.period is not None
+
+
+class TransferFunction(_ModelBase):
+    """P(s) = numerator/denominator, highest power of s first (of z for a discrete model)."""
 
     type: Literal["transfer_function"]
+    period: float | None = _period_field()
     denominator: list[float] = Field(
         min_length=1, max_length=30,
         description="Coefficients of the denominator in s, highest power first [1/s^k "
-                    "scaled as the numerator]; its first coefficient is not zero")
+                    "scaled as the numerator]; in z for a discrete model [1]; its first "
+                    "coefficient is not zero")
     numerator: list[float] = Field(
         min_length=1, max_length=30,
-        description="Coefficients of the numerator in s, highest power first [output unit "
-                    "per input unit, times the denominator's scale]")
+        description="Coefficients of the numerator in s (z for a discrete model), highest "
+                    "power first [output unit per input unit, times the denominator's scale]")
 
     @field_validator("denominator")
     @classmethod
@@ -108,7 +154,8 @@ class TransferFunction(SpecModel):
     @field_validator("numerator")
     @classmethod
     def _proper(cls, numerator, info: ValidationInfo):
-        return _degree_check(numerator, info.data.get("denominator"))
+        return _degree_check(numerator, info.data.get("denominator"),
+                             info.data.get("period") is not None)
 
     def polynomials(self) -> tuple[list[float], list[float]]:
         return _trim(self.numerator), list(self.denominator)
@@ -130,18 +177,23 @@ def _count(roots: list) -> int:
     return sum(2 if isinstance(r, list) else 1 for r in roots)
 
 
-class ZerosPolesGain(SpecModel):
-    """P(s) = gain·Π(s − z)/Π(s − p); a root [re, im] stands for the pair re ± j·im."""
+class ZerosPolesGain(_ModelBase):
+    """P(s) = gain·Π(s − z)/Π(s − p); a root [re, im] stands for the pair re ± j·im (in z
+    for a discrete model)."""
 
     type: Literal["zpk"]
+    period: float | None = _period_field()
     poles: list[Root] = Field(
-        max_length=30, description="Poles p [rad/s]: a number (a real pole) or [re, im] "
-                                   "(the pair re ± j·im, im > 0)")
+        max_length=30, description="Poles p [rad/s; z-plane numbers [1] for a discrete "
+                                   "model]: a number (a real pole) or [re, im] (the pair "
+                                   "re ± j·im, im > 0)")
     zeros: list[Root] = Field(
         default_factory=list, max_length=30,
-        description="Zeros z [rad/s], as the poles; no more than there are poles")
+        description="Zeros [rad/s; z-plane [1] for a discrete model], as the poles; no more "
+                    "than there are poles (fewer for a discrete model)")
     gain: float = Field(description="Gain k [output unit per input unit · (rad/s)^(poles − "
-                                    "zeros)]: the coefficient of the highest powers")
+                                    "zeros); output per input unit for a discrete model]: "
+                                    "the coefficient of the highest powers")
 
     @field_validator("poles", "zeros")
     @classmethod
@@ -158,6 +210,9 @@ class ZerosPolesGain(SpecModel):
         if poles is not None and _count(zeros) > _count(poles):
             raise ValueError(f"improper: {_count(zeros)} zeros and only {_count(poles)} poles "
                              "(a drive cannot differentiate its input)")
+        if (poles is not None and info.data.get("period") is not None
+                and _count(zeros) == _count(poles)):
+            raise ValueError(_NOT_STRICTLY_PROPER)
         return zeros
 
     @field_validator("gain")
@@ -182,15 +237,19 @@ def _matrix(rows: list[list[float]], shape: tuple[int | None, int | None], what:
     return rows
 
 
-class StateSpace(SpecModel):
-    """ẋ = A x + B u, y = C x + D u (one input, one output)."""
+class StateSpace(_ModelBase):
+    """ẋ = A x + B u, y = C x + D u (one input, one output); x(k+1) = A x(k) + B u(k) for a
+    discrete model."""
 
     type: Literal["state_space"]
+    period: float | None = _period_field()
     a: list[list[float]] = Field(min_length=1, max_length=30,
-                                 description="State matrix A, n×n, by rows [1/s]")
+                                 description="State matrix A, n×n, by rows [1/s; 1 for a "
+                                             "discrete model]")
     b: list[list[float]] = Field(min_length=1, max_length=30,
                                  description="Input matrix B, n×1, by rows [state unit per "
-                                             "input unit · 1/s]")
+                                             "input unit · 1/s; per input unit for a discrete "
+                                             "model]")
     c: list[list[float]] = Field(min_length=1, max_length=1,
                                  description="Output matrix C, 1×n [output unit per state unit]")
     d: list[list[float]] = Field([[0.0]], min_length=1, max_length=1,
@@ -218,6 +277,8 @@ class StateSpace(SpecModel):
     @classmethod
     def _scalar(cls, d, info: ValidationInfo):
         _matrix(d, (1, 1), "D (1×1)")
+        if info.data.get("period") is not None and d[0][0] != 0:
+            raise ValueError(_NOT_STRICTLY_PROPER)
         if all(k in info.data for k in ("a", "b", "c")):
             num, _ = StateSpace.model_construct(a=info.data["a"], b=info.data["b"],
                                                 c=info.data["c"], d=d).polynomials()
@@ -248,13 +309,20 @@ Model = Annotated[Union[TransferFunction, ZerosPolesGain, StateSpace], Field(dis
 MODEL_TYPES = ("transfer_function", "zpk", "state_space")
 
 
+def _discrete_model(info: ValidationInfo):
+    """The plant's model, validated so far, when it is discrete (``period``), else None."""
+    model = info.data.get("model")
+    return model if model is not None and model.discrete else None
+
+
 class LinearParams(SpecModel):
     """A linear drive of the user's (transfer function, zeros/poles/gain or state space),
     with dead time and standard controllers."""
 
     type: Literal["linear"]
     model: Model = Field(description="The drive P(s) from input to output, without the dead "
-                                     "time: transfer_function, zpk or state_space")
+                                     "time: transfer_function, zpk or state_space; with a "
+                                     "period [s], a discrete model P(z) at that period")
     output_unit: str = Field(
         pattern=r"^(m|rad|m/s|rad/s)$",
         description="Unit of the drive's output [m, rad, m/s or rad/s]: m or rad make it a "
@@ -264,11 +332,17 @@ class LinearParams(SpecModel):
         description="Unit of the drive's input (V, A, N·m…) [text]: names the gains' units")
     dead_time: NonNegativeFloat = Field(
         0.0, description="Input dead time θ [s] ≥ 0: exact e^{−jωθ} in frequency responses, "
-                         "its 4th-order Padé approximant in time responses and stability")
+                         "its 4th-order Padé approximant in time responses and stability; "
+                         "for a discrete model a whole multiple of its period")
+    dead_time_samples: int = Field(
+        0, ge=0, le=1000,
+        description="Input dead time of a discrete model in whole samples of its period "
+                    "[samples] ≥ 0 (instead of dead_time [s]; discrete models only)")
     implementation: Literal["continuous", "sampled"] = Field(
-        "continuous", description="continuous: analogue controllers; sampled: a digital "
-                                  "controller sampling every T (tunable sampling_period [s]), "
-                                  "its command held by a zero-order hold")
+        "continuous", validate_default=True,
+        description="continuous: analogue controllers; sampled: a digital controller "
+                    "sampling every T (tunable sampling_period [s]), its command held by a "
+                    "zero-order hold; a discrete model is closed by a sampled controller only")
     computation_delay: int = Field(
         0, ge=0, le=8, description="Delay between sampling and output, in whole sampling "
                                    "periods [samples] (sampled only)")
@@ -295,6 +369,58 @@ class LinearParams(SpecModel):
         True, description="Require the velocity loop to be stable on its own (Bhatia Ch. IV; "
                           "continuous implementation only: a sampled loop's velocity loop is "
                           "not constrained on its own)")
+
+    @field_validator("output_unit")
+    @classmethod
+    def _discrete_position(cls, unit, info: ValidationInfo):
+        if _discrete_model(info) is not None and unit not in POSITION_UNITS:
+            raise ValueError(f"a discrete model's output is a position (m or rad), not {unit}: "
+                             "between its samples the velocity is unknown, so its integral is "
+                             "too; give the position model")
+        return unit
+
+    @field_validator("dead_time")
+    @classmethod
+    def _whole_samples(cls, dead_time, info: ValidationInfo):
+        model = _discrete_model(info)
+        if model is not None and dead_time > 0:
+            samples = dead_time / model.period
+            if abs(samples - round(samples)) > WHOLE_SAMPLE_TOL * max(samples, 1.0):
+                raise ValueError(f"{dead_time:g} s is {samples:g} samples of the discrete "
+                                 f"model's period {model.period:g} s: a discrete model's "
+                                 "dead time is a whole number of samples (or give "
+                                 "dead_time_samples)")
+        return dead_time
+
+    @field_validator("dead_time_samples")
+    @classmethod
+    def _samples_of_discrete(cls, samples, info: ValidationInfo):
+        model = info.data.get("model")
+        if samples and model is not None and not model.discrete:
+            raise ValueError("dead_time_samples applies to a discrete model (model.period) "
+                             "only; give a continuous model's dead time in dead_time [s]")
+        if samples and info.data.get("dead_time", 0.0) > 0:
+            raise ValueError("give the dead time once: dead_time [s] or dead_time_samples")
+        return samples
+
+    @field_validator("implementation")
+    @classmethod
+    def _discrete_is_sampled(cls, implementation, info: ValidationInfo):
+        model = _discrete_model(info)
+        if model is not None and implementation != "sampled":
+            raise ValueError(f"a discrete model (period {model.period:g} s) is closed by a "
+                             "sampled controller at its own period: set implementation "
+                             "'sampled'")
+        return implementation
+
+    @field_validator("velocity_controller")
+    @classmethod
+    def _discrete_has_no_velocity(cls, law, info: ValidationInfo):
+        if law != "none" and _discrete_model(info) is not None:
+            raise ValueError("a discrete model gives the position at the samples only, no "
+                             "velocity for a velocity loop to read: use velocity_controller "
+                             "'none' (a P, PI or PID position loop), or a continuous model")
+        return law
 
     @field_validator("velocity_controller")
     @classmethod
@@ -398,7 +524,9 @@ class Linear(Plant):
         tunables = controller_tunables("position", position, position_unit)
         if velocity is not None:
             tunables.update(controller_tunables("velocity", velocity, velocity_unit))
-        if getattr(p, "implementation", "continuous") == "sampled":
+        model = getattr(p, "model", None)
+        discrete = model is not None and model.discrete  # its period is its own (not_tunable)
+        if getattr(p, "implementation", "continuous") == "sampled" and not discrete:
             # T_min ≥ θ: the dead time stays within one sample over the default box (a
             # whole number of samples that varies over the box is refused)
             low = max(PERIOD_BOUNDS[0], getattr(p, "dead_time", 0.0))
@@ -407,6 +535,16 @@ class Linear(Plant):
                      "dead time's whole samples and the step horizon depend on its box)",
                 low, PERIOD_BOUNDS[1], required=True)
         return tunables
+
+    def not_tunable(self) -> dict[str, str]:
+        """Names a spec might expect among the tunables that this configuration fixes, with
+        why (the spec error of a spec that gives one): a discrete model's sampling period."""
+        model = getattr(self.params, "model", None)
+        if model is None or not model.discrete:
+            return {}
+        return {"sampling_period": f"a discrete model runs at its own period (model.period "
+                                   f"= {model.period!r} s): the sampling period is fixed to "
+                                   "it, not tunable; leave sampling_period out"}
 
     def drive_polynomials(self) -> tuple[list, list, list | None, list]:
         """(n_g, d_g, n_x, q): velocity per input n_g/d_g, position per input n_x/(q·d_g)
@@ -425,11 +563,12 @@ class Linear(Plant):
         """(A, B, C, D) as float arrays of the drive from input to output (its declared
         unit), without the dead time: the spec's own matrices, or the controllable canonical
         form of its transfer function; and the dead time θ [s]. For engines that build their
-        own loop (a sampled-data controller)."""
+        own loop (a sampled-data controller). A discrete model's matrices are those of
+        x(k+1) = A x(k) + B u(k) and its dead time is its whole samples times its period."""
         model = self.params.model
         if isinstance(model, StateSpace):
             a, b, c, d = (np.array(m, dtype=float) for m in (model.a, model.b, model.c, model.d))
-            return a, b, c, d, self.params.dead_time
+            return a, b, c, d, self.dead_time
         num, den = model.polynomials()
         num, den = np.array(num) / den[0], np.array(den) / den[0]
         n = len(den) - 1
@@ -439,14 +578,34 @@ class Linear(Plant):
         b = np.zeros((n, 1))
         b[0, 0] = 1.0
         c = (num[1:] - num[0] * den[1:]).reshape(1, n)
-        return a, b, c, np.array([[num[0]]]), self.params.dead_time
+        return a, b, c, np.array([[num[0]]]), self.dead_time
+
+    @property
+    def dead_time(self) -> float:
+        """θ [s]: ``dead_time``, or a discrete model's ``dead_time_samples`` times its period."""
+        p = self.params
+        if p.model.discrete and p.dead_time_samples:
+            return p.dead_time_samples * p.model.period
+        return p.dead_time
+
+    @property
+    def dead_time_samples(self) -> int:
+        """A discrete model's dead time in whole samples of its period."""
+        p = self.params
+        return p.dead_time_samples or round(p.dead_time / p.model.period)
 
     def loop_type(self) -> int:
         """Integrators in the open position loop: its poles at s = 0 net of zeros there,
         counted on the drive's polynomials with a controller of each law's shape (k_p = 1,
-        T_i = 1 s: an integrator for PI and PID)."""
-        n_g, d_g, n_x, q = self.drive_polynomials()
+        T_i = 1 s: an integrator for PI and PID). A discrete model's integrators are its
+        poles at z = 1 (:func:`_roots_at_one`) net of zeros there."""
         position, velocity = self._structures()
+        model = self.params.model
+        if model.discrete:  # no velocity loop (LinearParams): the position controller's own
+            num, den = model.polynomials()
+            return (_roots_at_one(den) - _roots_at_one(num)
+                    + (0 if position.law == "p" else 1))
+        n_g, d_g, n_x, q = self.drive_polynomials()
 
         def shape(structure):
             return (1.0, [1.0], [1.0]) if structure.law == "p" else (1.0, [1.0, 1.0], [1.0, 0.0])
@@ -542,22 +701,33 @@ class Linear(Plant):
             ``/tunables/sampling_period``).
         """
         p = self.params
-        period = values["sampling_period"]
+        self.check_sampled(box)
+        if p.model.discrete:  # its own period, fixed (not a tunable)
+            period = t_min = t_max = p.model.period
+        else:
+            period = values["sampling_period"]
+            t_min, t_max = box["sampling_period"]
         position_structure, velocity_structure = self._structures()
         position = controller("position", position_structure, values)
+        if p.model.discrete:
+            samples = self.dead_time_samples
+            plant = Deferred(_engine(lambda: DiscretePlant(
+                *self.sampled_state_space(), period=p.model.period, dead_time_samples=samples)),
+                discrete=True, period=p.model.period, dead_time_samples=samples)
+        else:
+            plant = Deferred(_engine(lambda: ContinuousPlant(*self.sampled_state_space(),
+                                                             dead_time=p.dead_time)),
+                             discrete=False)
+        if velocity_structure is None:
+            law = Deferred(_engine(lambda: error_controller(
+                linalg.poly_scale(position.numerator, position.gain), position.denominator,
+                period, p.discretisation)))
+        else:
+            velocity = controller("velocity", velocity_structure, values)
+            law = Deferred(_engine(lambda: cascade_controller(
+                position.gain, linalg.poly_scale(velocity.numerator, velocity.gain),
+                velocity.denominator, period, p.discretisation, p.velocity_feedforward)))
         try:
-            plant = ContinuousPlant(*self.sampled_state_space(), dead_time=p.dead_time)
-            if velocity_structure is None:
-                law = error_controller(linalg.poly_scale(position.numerator, position.gain),
-                                       position.denominator, period, p.discretisation)
-            else:
-                velocity = controller("velocity", velocity_structure, values)
-                _ = plant.velocity_row  # raises unless C B = 0: v = C A x, read from the states
-                law = cascade_controller(
-                    position.gain, linalg.poly_scale(velocity.numerator, velocity.gain),
-                    velocity.denominator, period, p.discretisation, p.velocity_feedforward)
-            t_min, t_max = box["sampling_period"]
-            plant.split_dead_time(t_max, (t_min, t_max))  # refuses whole samples that vary
             return SampledLTILoop(
                 plant, law, period, (t_min, t_max), delay=p.computation_delay,
                 horizon=SETTLING_TIME_CONSTANTS * self._settle_time(t_min) * horizon_scale,
@@ -566,28 +736,109 @@ class Linear(Plant):
         except SampledModelError as exc:
             raise SampledModelError(_spec_pointer(str(exc))) from None
 
+    def check_sampled(self, box: Mapping[str, tuple[float, float]]) -> None:
+        """What the sampled loop's engine refuses, checked in pure Python before any matrix
+        is built (``feedtune validate`` builds none, issue 15): a continuous model's
+        dead-time split over the sampling period's box
+        (:func:`~feedtune.sampled_plants.split_dead_time`), its position without direct
+        feedthrough, and C B = 0 where a velocity loop reads v = C A x.
+
+        Raises
+        ------
+        SampledModelError
+            Its message starts with the spec's pointer.
+        """
+        p = self.params
+        model = p.model
+        if model.discrete:
+            return  # its period is its own; what it may be is checked by LinearParams
+        t_min, t_max = box["sampling_period"]
+        split_dead_time(p.dead_time, None, t_max, (t_min, t_max))  # refuses varying samples
+        if isinstance(model, StateSpace):
+            b, c, d = [row[0] for row in model.b], model.c[0], model.d[0][0]
+        else:  # C B and D of the canonical form: the numerator's first coefficients
+            num, den = model.polynomials()
+            num = [0.0] * (len(den) - len(num)) + num
+            b, c, d = [1.0], [num[1] / den[0] if len(num) > 1 else 0.0], num[0] / den[0]
+        if p.position_output and d != 0:
+            raise SampledModelError("/plant/model: the position responds to the input "
+                                    "without lag (D ≠ 0): a sampled loop reads the position "
+                                    "at the instant it computes the command; give a strictly "
+                                    "proper model")
+        if p.velocity_controller != "none":
+            # the velocity is read as C A x of the position's states (ContinuousPlant
+            # .velocity_row: |C B| within 1e-12 of Σ|c_i b_i|, products the balancing keeps);
+            # of a velocity output's states (its integral added) C B is the drive's D
+            c_b, scale = d, 0.0
+            if p.position_output:
+                c_b = sum(ci * bi for ci, bi in zip(c, b))
+                scale = sum(abs(ci * bi) for ci, bi in zip(c, b))
+            if abs(c_b) > 1e-12 * scale:
+                raise SampledModelError("/plant/model: the velocity ẏ is measured as C A x, "
+                                        "which needs C B = 0 (relative degree ≥ 2)")
+
     def _settle_time(self, period_min: float) -> float:
         """2·(the drive's slowest time constant 1/|Re p| over its stable nonzero poles) + θ +
         (computation delay + 1)·T_min [s]: the time scale of a step's transient, as
-        :meth:`feedtune.plants.software_servo.SoftwareServo.loop`'s 2τ + dead time."""
-        _, den = self.params.model.polynomials()
-        decays = [-r.real for r in np.roots(den) if r.real < 0]
+        :meth:`feedtune.plants.software_servo.SoftwareServo.loop`'s 2τ + dead time. A
+        discrete model's poles z map to p = ln(z)/T, |Re p| = −ln|z|/T. Roots in pure Python
+        (:func:`feedtune.linalg.roots`): a scale, computed without numpy."""
+        model = self.params.model
+        _, den = model.polynomials()
+        if model.discrete:
+            decays = [-math.log(abs(z)) / model.period for z in linalg.roots(den)
+                      if 0 < abs(z) < 1]
+        else:
+            decays = [-r.real for r in linalg.roots(den) if r.real < 0]
         slowest = 1 / min(decays) if decays else 0.0
-        return (2 * slowest + self.params.dead_time
+        return (2 * slowest + self.dead_time
                 + (self.params.computation_delay + 1) * period_min)
 
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         """(low, high) [rad/s]: two decades beyond every corner the loop can have: the
-        drive's roots (bounded from its coefficients, Fujiwara's bound), the controllers'
-        and compensators' corners, the position gain's box, 1/θ."""
-        num, den = self.params.model.polynomials()
-        found = [bound for p in (num, den) for bound in _root_bounds(p)]
+        drive's roots (bounded from its coefficients, Fujiwara's bound; a discrete model's
+        roots z as |ln z|/T, its Nyquist frequency π/T), the controllers' and compensators'
+        corners, the position gain's box, 1/θ."""
+        model = self.params.model
+        num, den = model.polynomials()
+        if model.discrete:
+            found = [abs(cmath.log(z)) / model.period for p in (num, den)
+                     for z in linalg.roots(p) if z != 0]
+            found.append(math.pi / model.period)
+        else:
+            found = [bound for p in (num, den) for bound in _root_bounds(p)]
         found += corners(box) + compensator_corners(box)
         found += list(box.get("position_controller.kp", ()))
-        if self.params.dead_time > 0:
-            found.append(1 / self.params.dead_time)
+        if self.dead_time > 0:
+            found.append(1 / self.dead_time)
         found = [f for f in found if f > 0 and math.isfinite(f)] or [1.0]
         return min(found) / 100, max(found) * 100
+
+
+def _engine(build):
+    """``build`` with the engine's :class:`SampledModelError` given the spec's pointer."""
+    def built():
+        try:
+            return build()
+        except SampledModelError as exc:
+            raise SampledModelError(_spec_pointer(str(exc))) from None
+    return built
+
+
+def _roots_at_one(p: list[float]) -> int:
+    """How often z = 1 is a root of ``p`` (highest power first): divisions by (z − 1) whose
+    remainder p(1) is within 1e-9 of Σ|p_k| (c2d's (z − 1)(z − e^{−T/τ}) leaves a
+    remainder of a few ulps; a pole further from 1 than 1e-9 is a lag, not an integrator)."""
+    count = 0
+    while len(p) > 1:
+        quotient, remainder = [], 0.0
+        for c in p:  # synthetic division by (z − 1)
+            remainder = remainder + c
+            quotient.append(remainder)
+        if abs(quotient.pop()) > 1e-9 * sum(abs(c) for c in p):
+            break
+        p, count = quotient, count + 1
+    return count
 
 
 #: the engine's field paths (:mod:`feedtune.sampled_plants`) as the spec's pointers

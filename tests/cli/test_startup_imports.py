@@ -48,15 +48,9 @@ def test_help_loads_no_spec_model_or_numerical_package():
     assert heavy == []
 
 
-#: examples whose check builds a sampled user loop (CasADi, numpy, scipy's matrix balancing)
-#: to find its dead-time split and which metrics it supports: 0.54 s, over the 0.3 s target;
-#: a pure-Python check of the split would spare it (open, issue 15/16)
-SAMPLED_USER_EXAMPLES = {"user-defined-sampled-drive"}
-
-
 def test_validate_loads_neither_scipy_nor_matplotlib_nor_the_tuner():
     """Every bundled example, one after the other: the first to load one is named."""
-    paths = [path for path in EXAMPLES if path.stem not in SAMPLED_USER_EXAMPLES]
+    paths = EXAMPLES
     reports = loaded([["validate", str(path)] for path in paths],
                      ("scipy", "matplotlib", "feedtune.tuner"))
     assert {path.stem: report for path, report in zip(paths, reports)} == {
@@ -73,7 +67,7 @@ def test_validate_loads_no_casadi():
 #: examples whose checks still compute: the reference-pulse loop is built from CasADi
 #: matrices (casadi, numpy), the Ward-Leonard frequency band from numpy's roots (numpy)
 COMPUTING_EXAMPLES = {"koren-1979-iae-natural", "koren-1979-reference-pulse",
-                      "ward-leonard-feed-drive", *SAMPLED_USER_EXAMPLES}
+                      "ward-leonard-feed-drive"}
 
 
 def test_validate_loads_neither_casadi_nor_numpy_on_the_other_examples():

@@ -60,6 +60,23 @@ _RESONANT_ZPK = {"type": "zpk", "zeros": [], "gain": 1885.0**2 / 0.01,
                  "poles": [0.0, -100.0, [-94.25, 1882.6]]}
 _VELOCITY_SS = {"type": "state_space", "a": [[-100.0]], "b": [[1.0]], "c": [[100.0]]}
 
+#: the drive of PLANT_EXAMPLES["linear"] as a discrete model: its zero-order-hold equivalent
+#: at T = 2 ms (Franklin, Powell & Workman ch. 4), ((T − τ + τa) z + τ − τa − aT) /
+#: ((z − 1)(z − a)), a = e^{−T/τ}, as a transfer function in z and as the state space of
+#: [position, velocity]
+_T, _TAU = 0.002, 0.01
+_A = math.exp(-_T / _TAU)
+_B1, _B0 = _T - _TAU * (1 - _A), _TAU * (1 - _A) - _A * _T
+_DISCRETE_TF = {"type": "transfer_function", "period": _T, "numerator": [_B1, _B0],
+                "denominator": [1.0, -(1 + _A), _A]}
+#: and a drive without an integrator for a PI position loop (type 1; with Koren's drive a
+#: PI makes the loop type 2, C_v infinite): a lag and a resonant pair, DC gain 1
+_DISCRETE_ZPK = {"type": "zpk", "period": _T, "zeros": [], "poles": [0.9, [0.5, 0.3]],
+                 "gain": 0.034}
+_DISCRETE_SS = {"type": "state_space", "period": _T,
+                "a": [[1.0, _TAU * (1 - _A)], [0.0, _A]], "b": [[_B1], [1 - _A]],
+                "c": [[1.0, 0.0]]}
+
 #: configurations beyond one per Literal value (options that change the loop's shape)
 EXTRA_VARIANTS: dict[str, list[dict]] = {
     "software_servo": [{"technique": "sampled_data", "computation_delay": 1},
@@ -101,6 +118,13 @@ EXTRA_VARIANTS: dict[str, list[dict]] = {
         # the sampled implementation's other discretisation of the velocity PI
         {"implementation": "sampled", "discretisation": "backward_euler",
          "velocity_controller": "pi"},
+        # a discrete model at its own period: P; PI on a drive without integrator, with a
+        # dead time of one sample; a computation delay and a dead time in seconds (2 samples)
+        {"implementation": "sampled", "model": _DISCRETE_TF},
+        {"implementation": "sampled", "model": _DISCRETE_ZPK, "position_controller": "pi",
+         "dead_time_samples": 1},
+        {"implementation": "sampled", "model": _DISCRETE_SS, "computation_delay": 1,
+         "dead_time": 2 * _T},
     ],
 }
 
@@ -179,6 +203,12 @@ def _builds(key: str, overrides: dict) -> bool:
     return True
 
 
+def _model_label(model: _Json) -> str:
+    """A model's type, ``(z)`` appended for a discrete one (its ``period``)."""
+    model = json.loads(model)
+    return model["type"] + ("(z)" if "period" in model else "")
+
+
 def plant_configs() -> list[PlantConfig]:
     """One configuration per Literal value, plus EXTRA_VARIANTS, plus the defaults.
 
@@ -204,7 +234,7 @@ def plant_configs() -> list[PlantConfig]:
             if frozen in seen or not _builds(key, overrides):
                 continue
             seen.add(frozen)
-            label = ",".join(f"{k}={v}" if not isinstance(v, _Json) else f"{k}={json.loads(v)['type']}"
+            label = ",".join(f"{k}={v}" if not isinstance(v, _Json) else f"{k}={_model_label(v)}"
                              for k, v in frozen) or "defaults"
             configs.append(PlantConfig(f"{key}[{label}]", key, frozen))
     return configs
