@@ -61,11 +61,8 @@ EXEMPT: dict[tuple[str, str], str] = {
 #: plant configurations (contract ids, prefix) the validator has no model of yet: their
 #: results say ``covered: false``. Listed, not hidden: each case is an expected failure
 #: (xfail) that fails outright once a model exists, so the entry must then be dropped.
-UNCOVERED: dict[tuple[str, str], str] = {
-    ("linear[", "implementation=sampled"): "the sampled implementation of plant 'linear' has "
-                                           "no validator model yet (issue 16 item 6 is open "
-                                           "for it)",
-}
+#: Empty: every configuration has a model.
+UNCOVERED: dict[tuple[str, str], str] = {}
 
 
 def _exempt(model, name: str) -> str | None:
