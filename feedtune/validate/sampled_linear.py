@@ -332,9 +332,9 @@ class SampledLinearModel:
         fastest = float(np.max(np.abs(np.linalg.eigvals(self.drive.a)), initial=0.0))
         return int(min(MAX_SUBSTEPS, max(SUBSTEPS, math.ceil(100 * self.period * fastest))))
 
-    def step_error(self) -> tuple[np.ndarray, np.ndarray]:
-        """(t [s], e = 1 − y(t)) after a unit step, exact at every point of a grid with
-        ``_substeps()`` points per sample (and the fraction's switch θ_f)."""
+    def step_samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(states s(k), commands u(k), the state after the last) at the samples k = 0 …
+        after a unit step, until the free response has decayed to SETTLED."""
         f, g, command = self._closed
         radius = float(np.max(np.abs(np.linalg.eigvals(f))))
         if radius >= 1:
@@ -347,10 +347,15 @@ class SampledLinearModel:
         for k in range(samples):
             states[k] = state
             state = f @ state + g[:, 0]
-        # the commands the drive sees in each period: u(k − lag − 1) then u(k − lag)
+        inputs = np.column_stack([states, np.ones(samples), np.zeros(samples)])
+        return states, inputs @ command, state
+
+    def step_error(self) -> tuple[np.ndarray, np.ndarray]:
+        """(t [s], e = 1 − y(t)) after a unit step, exact at every point of a grid with
+        ``_substeps()`` points per sample (and the fraction's switch θ_f)."""
+        states, now, state = self.step_samples()
+        samples = states.shape[0]
         sl = self.slices
-        full = np.column_stack([states, np.ones(samples), np.zeros(samples)])
-        now = full @ command
 
         def past(lag: int) -> np.ndarray:
             return now if lag == 0 else states[:, sl["held"].start + lag - 1]
@@ -376,8 +381,6 @@ class SampledLinearModel:
         pieces.append((times + offset, values))
         t = np.concatenate([p[0] for p in pieces])
         y = np.concatenate([p[1] for p in pieces], axis=1)  # (samples, points per sample)
-        order = np.argsort(t, kind="stable")
-        t, y = t[order], y[:, order]
         grid = (np.arange(samples)[:, None] * self.period + t[None, :]).ravel()
         grid = np.append(grid, samples * self.period)
         position = np.append(y.ravel(), self.position_row() @ state)
