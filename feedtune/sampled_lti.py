@@ -341,7 +341,7 @@ class SampledLTILoop(_SampledLoopBase):
 
     def _settled(self, rhs):
         """(I − Φ)⁻¹·rhs: the steady state per constant input."""
-        return _solve(-self._state_difference, rhs)
+        return linalg.pivoted_solve(-self._state_difference, rhs)
 
     def _resolvent(self, omega, rhs, difference=None):
         """C(zI − Φ)⁻¹·rhs at z = e^{jωT}, from ``difference`` = Φ − I (the closed loop's by
@@ -353,7 +353,7 @@ class SampledLTILoop(_SampledLoopBase):
         imag = ca.sin(wt) * ca.DM.eye(n)
         # (R + jI)x = b as the real block system [[R, −I], [I, R]]
         block = ca.vertcat(ca.horzcat(real, -imag), ca.horzcat(imag, real))
-        solution = _solve(block, ca.vertcat(rhs, ca.DM.zeros(n, 1)))
+        solution = linalg.pivoted_solve(block, ca.vertcat(rhs, ca.DM.zeros(n, 1)))
         c = self.position_row
         return ca.mtimes(c, solution[:n]), ca.mtimes(c, solution[n:])
 
@@ -441,47 +441,6 @@ class SampledLTILoop(_SampledLoopBase):
             return [(self.period, *late)]
         fraction = self._split[1]
         return [(fraction, *self.command(lag + 1)), (self.period - fraction, *late)]
-
-
-def _solve(matrix, rhs):
-    """matrix⁻¹·rhs by Gaussian elimination with partial pivoting, in whole-matrix CasADi
-    operations (a row exchange is a permutation matrix built from comparisons, so
-    derivatives are those of the chosen elimination): backward stable, where the QR of
-    :func:`feedtune.linalg.solve` loses digits as the square of the condition number.
-
-    Measured: on the README's sampled drive H(1) − 1 was −4.2e-7 (C_v 8.8e-7 off) and is
-    now at rounding; on a contract loop with cond(I − Φ) = 5e5 (backward-Euler PI,
-    T/T_i = 734) C_v was 5e-5 off the exact K_p, with symbolic and numeric evaluation
-    disagreeing by 8e-6.
-    """
-    matrix, rhs = ca.MX(matrix), ca.MX(rhs)
-    n = matrix.shape[0]
-    work = ca.horzcat(matrix, rhs)
-    lower = ca.DM(np.tril(np.ones((n, n))))
-    for k in range(n):
-        size = ca.fabs(work[k:, k])
-        flags = size >= ca.mmax(size)
-        first = flags * (ca.mtimes(lower[:n - k, :n - k], flags) == 1)  # the first largest
-        # exchange row k with the pivot's row: P = I − e_k e_kᵀ − f fᵀ + e_k fᵀ + f e_kᵀ
-        # on rows k… (f one-hot; P = I when f = e_k)
-        unit = ca.DM.zeros(n - k, 1)
-        unit[0] = 1
-        swap = (ca.DM.eye(n - k) - ca.mtimes(unit, unit.T) - ca.mtimes(first, first.T)
-                + ca.mtimes(unit, first.T) + ca.mtimes(first, unit.T))
-        lower_rows = ca.mtimes(swap, work[k:, :])
-        pivot = lower_rows[0, k]
-        safe = ca.if_else(pivot == 0, 1, pivot)
-        factors = lower_rows[1:, k] / safe
-        below = lower_rows[1:, :] - ca.mtimes(factors, lower_rows[0, :])
-        work = ca.vertcat(work[:k, :], lower_rows[0, :], below)
-    upper, y = work[:, :n], work[:, n:]
-    solution = [None] * n
-    for k in reversed(range(n)):
-        row = y[k, :]
-        if k + 1 < n:
-            row = row - ca.mtimes(upper[k, k + 1:], ca.vertcat(*solution[k + 1:]))
-        solution[k] = row / upper[k, k]
-    return ca.vertcat(*solution)
 
 
 def _taylor_shift(poly: list, shift) -> list:
