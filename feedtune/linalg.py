@@ -60,6 +60,17 @@ def bilinear_to_continuous(coefficients: list) -> list:
     return result
 
 
+def taylor_shift(poly: list, shift) -> list:
+    """Coefficients of p(x + ``shift``), highest power first (Taylor shift by Horner's
+    scheme, n(n+1)/2 multiply-adds)."""
+    c = list(poly)
+    n = len(c) - 1
+    for i in range(n):
+        for j in range(1, n - i + 1):
+            c[j] = c[j] + shift * c[j - 1]
+    return c
+
+
 def poly_add(p: list, q: list) -> list:
     """Sum of two polynomials, highest power first."""
     n = max(len(p), len(q))

@@ -292,7 +292,7 @@ class SampledLTILoop(_SampledLoopBase):
     def characteristic_polynomial(self) -> list:
         """Monic det(zI − Φ) [1], highest power first: :attr:`shifted_polynomial` at
         x = z − 1 (a Taylor shift)."""
-        return _taylor_shift(self.shifted_polynomial, -1.0)
+        return linalg.taylor_shift(self.shifted_polynomial, -1.0)
 
     def stability_conditions(self) -> list:
         """Expressions all positive iff every pole has |z| < 1: the Hurwitz (Liénard–Chipart)
@@ -307,7 +307,7 @@ class SampledLTILoop(_SampledLoopBase):
         if "step_error_integrals" not in self.__dict__:
             return []
         shrink = -math.expm1(math.log(SETTLE_FRACTION) / self.horizon_samples)  # 1 − r
-        moved = _taylor_shift(self.shifted_polynomial, -shrink)
+        moved = linalg.taylor_shift(self.shifted_polynomial, -shrink)
         radius = 1 - shrink
         scaled = [c * radius ** (-j) for j, c in enumerate(moved)]  # monic, roots ÷ r
         return linalg.hurwitz_conditions(_half_plane(scaled))
@@ -441,16 +441,6 @@ class SampledLTILoop(_SampledLoopBase):
             return [(self.period, *late)]
         fraction = self._split[1]
         return [(fraction, *self.command(lag + 1)), (self.period - fraction, *late)]
-
-
-def _taylor_shift(poly: list, shift) -> list:
-    """Coefficients of p(x + ``shift``), highest power first (Horner's scheme)."""
-    c = list(poly)
-    n = len(c) - 1
-    for i in range(n):
-        for j in range(1, n - i + 1):
-            c[j] = c[j] + shift * c[j - 1]
-    return c
 
 
 def _half_plane(shifted: list) -> list:

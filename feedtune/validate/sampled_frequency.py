@@ -133,11 +133,20 @@ def phase_margin(model) -> float:
     return math.degrees(math.atan2(-lo.imag, -lo.real))
 
 
-def gain_margin(model) -> float:
+def gain_margin(model, integrators: int = 0) -> float:
     """1/|L| [1] where the unwrapped phase of L first reaches −180° below π/T, else at π/T
-    when L(−1) < 0."""
+    when L(−1) < 0.
+
+    ``integrators`` n > 0: the phase is unwrapped from that of L·(z − 1)^n, which starts
+    near 0°, minus n·arg(z − 1) = n(90° + ωT/2): a type-2 loop's phase starts on the ±180°
+    branch cut, where np.angle's side is rounding."""
     grid, lo, _, _ = _scan(model)
-    phase = np.unwrap(np.angle(lo)) + math.pi
+    if integrators:
+        z = np.exp(1j * grid * model.period)
+        phase = (np.unwrap(np.angle(lo * (z - 1) ** integrators))
+                 - integrators * (math.pi / 2 + grid * model.period / 2) + math.pi)
+    else:
+        phase = np.unwrap(np.angle(lo)) + math.pi
     inner = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))  # π/T itself apart
     if inner.size:
         i = int(inner[0])

@@ -41,7 +41,6 @@ import math
 
 import numpy as np
 from scipy.linalg import expm, matrix_balance
-from scipy.optimize import brentq
 from scipy.signal import cont2discrete
 
 from feedtune.validate import sampled_frequency
@@ -284,31 +283,6 @@ class SampledLinearModel:
         """Open-loop poles at z = 1 (integrators of drive and controller in the loop)."""
         return int(np.sum(np.abs(np.linalg.eigvals(self._open[0]) - 1) < INTEGRATOR))
 
-    def gain_margin(self) -> float:
-        """1/|L| [1] where arg L first reaches −180° below π/T, else at π/T when L(−1) < 0.
-
-        The phase is unwrapped from that of L·(z − 1)^n (n the loop type), which starts
-        near 0°, minus n·arg(z − 1) = n(90° + ωT/2): a type-2 loop's phase starts on the
-        ±180° branch cut, where np.angle's side is rounding."""
-        grid, lo, _, _ = sampled_frequency._scan(self)
-        n = self.loop_type()
-        z = np.exp(1j * grid * self.period)
-        phase = (np.unwrap(np.angle(lo * (z - 1) ** n)) - n * (math.pi / 2 + grid * self.period / 2)
-                 + math.pi)
-        inner = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))
-        if inner.size:
-            i = int(inner[0])
-
-            def imag(u):
-                value = self.open_loop(math.exp(u))[0]
-                return value.imag / abs(value)
-
-            omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-14))
-            return float(1.0 / abs(self.open_loop(omega)[0]))
-        if lo[-1].real < 0:
-            return float(1.0 / abs(lo[-1]))
-        raise NotCovered("the open-loop phase never reaches −180° up to the Nyquist frequency")
-
     def ramp_following_error(self) -> float:
         """Steady error kT − y(kT) at the samples after a unit ramp r(k) = kT [m]: the
         solution s(k) = p0 + k·p1 of the recursion (p1 = (I − F)⁻¹G T, p0 = −(I − F)⁻¹p1)
@@ -424,7 +398,8 @@ class SampledLinearModel:
 
 #: the sampled ``linear`` loop: metric → measurement (the step integrals, ζ/ω_n, C_v and
 #: the radial error as the software servo measures them; the frequency metrics of
-#: :mod:`feedtune.validate.sampled_frequency` with this model's gain margin)
+#: :mod:`feedtune.validate.sampled_frequency`, the gain margin on the phase net of the loop's
+#: integrators)
 SAMPLED_LINEAR_MEASUREMENTS: dict[str, Measurement] = {
     **{name: SERVO_MEASUREMENTS[name]
        for name in ("iae", "ise", "itae", "damping_ratio", "natural_frequency",
@@ -432,5 +407,5 @@ SAMPLED_LINEAR_MEASUREMENTS: dict[str, Measurement] = {
     **{name: sampled_frequency.MEASUREMENTS[name]
        for name in ("m_peak", "sensitivity_peak", "bandwidth", "crossover_frequency",
                     "phase_margin")},
-    "gain_margin": Measurement(lambda m, o, r, c: m.gain_margin()),
+    "gain_margin": Measurement(lambda m, o, r, c: sampled_frequency.gain_margin(m, m.loop_type())),
 }

@@ -25,6 +25,7 @@ import pytest
 
 from feedtune.plants import plant_for
 from feedtune.spec import parse_spec
+from test_sampled_linear import loop_of
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 SAMPLED_DRIVE = json.loads((EXAMPLES / "user-defined-sampled-drive.json").read_text())
@@ -43,13 +44,6 @@ CONTRACT = {"name": "contract", "plant": {
                  "velocity_controller.ti": {"min": 1e-4, "max": 10.0},
                  "sampling_period": {"min": 1e-5, "max": 0.5}},
     "objective": [{"metric": "iae"}]}
-
-
-def loop_of(spec: dict, values: dict):
-    plant = plant_for(parse_spec(spec).plant)
-    box = {name: (t.get("min", t.get("value")), t.get("max", t.get("value")))
-           for name, t in spec["tunables"].items()}
-    return plant.loop(values, box)
 
 
 def number(x) -> float:
