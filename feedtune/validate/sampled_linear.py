@@ -63,6 +63,8 @@ MAX_SAMPLES = 200_000
 #: sub-steps per sample: at least SUBSTEPS, and 100 per fastest drive time constant (at most
 #: MAX_SUBSTEPS); the step integrals' trapezoid then errs by ~(hω)²/12 ≤ 1e-5
 SUBSTEPS, MAX_SUBSTEPS = 256, 4096
+#: at most this many points of the dense step response (160 MB per array of floats)
+MAX_POINTS = 20_000_000
 #: an open-loop pole within this of z = 1 is an integrator of the loop (its type)
 INTEGRATOR = 1e-9
 
@@ -341,6 +343,9 @@ class SampledLinearModel:
         big = np.zeros((m + 1, m + 1))
         big[:m, :m], big[:m, m:] = a, b
         count = self._substeps()
+        if samples * count > MAX_POINTS:
+            raise NotCovered(f"the step response needs {samples} samples × {count} points "
+                             f"(limit {MAX_POINTS} points)")
         pieces, offset = [], 0.0
         if self.fraction:  # the first θ_f of each period: the previous command
             early = max(1, math.ceil(count * self.fraction / self.period))

@@ -230,3 +230,15 @@ def test_the_model_is_registered_for_the_sampled_implementation():
         SampledLinearModel({**plant_of({}), "model": {"type": "state_space", "a": [[-1.0]],
                                                       "b": [[1.0]], "c": [[1.0]], "d": [[1.0]]}},
                            {**tuned, "sampling_period": PERIOD})
+
+
+def test_a_step_response_beyond_the_point_budget_is_left_out(monkeypatch):
+    """A loop that needs more dense points than MAX_POINTS (a slow loop at a short T) has
+    no step integrals (NotCovered: its entries are left out), not an allocation of GBs."""
+    import feedtune.validate.sampled_linear as sampled_linear
+
+    model = model_of("p")
+    samples = model.step_samples()[0].shape[0]
+    monkeypatch.setattr(sampled_linear, "MAX_POINTS", samples * model._substeps() - 1)
+    with pytest.raises(NotCovered, match="points"):
+        model.error_integrals()
