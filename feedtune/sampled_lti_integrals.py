@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+from feedtune import linalg
 from feedtune.lazy import ca, np
 
 #: Taylor degree of the intersample error polynomial (see the module docstring)
@@ -198,7 +199,7 @@ def _functions(key, name: str):
     c1 = ca.substitute(c1, delta, ca.DM.zeros(N))
     c2 = ca.substitute(c2, delta, ca.DM.zeros(N))
     z_end, t_end = ca.SX.sym("z_end", N), ca.SX.sym("t_end")
-    deviation = z_end - ca.solve(ca.DM.eye(N) - phi, gamma)
+    deviation = z_end - linalg.pivoted_solve(ca.DM.eye(N) - phi, gamma)  # QR lost cond² digits
     power = phi  # Φ^(2^j)
     geometric = ca.SX.eye(N)  # Σ_{k<2^j} Φ^k
     weighted = ca.SX.zeros(N, N)  # Σ_{k<2^j} k Φ^k

@@ -67,8 +67,10 @@ def balance(matrix) -> tuple:
     return balanced, scaling
 
 
-def expm_function(matrix, t_max: float) -> ca.Function:
-    """``t ↦ e^{M t}`` for 0 ≤ t ≤ ``t_max`` [s] as a CasADi Function (SX, differentiable).
+def expm_function(matrix, t_max: float, minus_identity: bool = False) -> ca.Function:
+    """``t ↦ e^{M t}`` for 0 ≤ t ≤ ``t_max`` [s] as a CasADi Function (SX, differentiable);
+    with ``minus_identity``, ``t ↦ e^{M t} − I`` without adding and removing I (the digits
+    of a transition close to I that a sampled loop's Schur test of Φ − I lives in).
 
     Scaling and squaring with a Taylor core on the balanced M̃ = D⁻¹MD (:func:`balance`):
     s = ⌈log₂(‖M̃‖₁ t_max)⌉ squarings (fixed at build time from the largest t), so
@@ -92,13 +94,14 @@ def expm_function(matrix, t_max: float) -> ca.Function:
     t = ca.SX.sym("t")
     x = t / t_max
     # F = e^{M̃t/2^s} − I: Horner in the scalar x, entry by entry, without the identity
-    minus_identity = ca.SX(ca.DM(coefficients[-1]))
+    f = ca.SX(ca.DM(coefficients[-1]))
     for c in reversed(coefficients[1:-1]):
-        minus_identity = minus_identity * x + ca.DM(c)
-    minus_identity = minus_identity * x
+        f = f * x + ca.DM(c)
+    f = f * x
     for _ in range(squarings):  # (I + F)² − I = 2F + F²: small t keeps its digits
-        minus_identity = 2 * minus_identity + ca.mtimes(minus_identity, minus_identity)
-    result = ca.DM.eye(n) + minus_identity
+        f = 2 * f + ca.mtimes(f, f)
+    result = f if minus_identity else ca.DM.eye(n) + f
+    # the balancing scalings are powers of two: undoing them is exact
     undo = ca.mtimes([ca.DM(np.diag(scaling)), result, ca.DM(np.diag(1 / scaling))])
     return ca.Function("expm", [t], [undo])
 

@@ -80,17 +80,6 @@ def _balanced(poly: list) -> tuple[list, object]:
     return [c * omega0 ** (-i) for i, c in enumerate(poly)], omega0
 
 
-def shifted(poly: list, shift) -> list:
-    """Coefficients of p(x + ``shift``), highest power first (Taylor shift by Horner's
-    scheme, n(n+1)/2 multiply-adds)."""
-    c = list(poly)
-    n = len(c) - 1
-    for i in range(n):
-        for j in range(1, n - i + 1):
-            c[j] = c[j] + shift * c[j - 1]
-    return c
-
-
 def rotated_product(poly: list, angle) -> list:
     """Coefficients of p(e^{jα}x)·p(e^{−jα}x), α = ``angle`` [rad], highest power first.
 
@@ -135,7 +124,7 @@ def decay_conditions(loop: Loop):
     balanced, omega0 = _balanced(poly)
 
     def conditions(level):
-        return routh_column(shifted(balanced, -level / omega0))
+        return routh_column(linalg.taylor_shift(balanced, -level / omega0))
 
     return conditions
 

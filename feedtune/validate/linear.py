@@ -131,8 +131,8 @@ class LinearModel(ContinuousModel):
                              "validator yet")
         if plant.get("implementation", "continuous") != "continuous":
             # the continuous loop's measures would be compared with a discrete loop's numbers
-            raise NotCovered("the sampled implementation of plant 'linear' is not modelled "
-                             "by the validator yet")
+            raise NotCovered("the sampled implementation of plant 'linear' is "
+                             "SampledLinearModel's (LinearModel.from_result)")
         self.plant = plant
         self.position_output = plant["output_unit"] in ("m", "rad")
         self.position_unit = plant["output_unit"].removesuffix("/s")
@@ -157,7 +157,14 @@ class LinearModel(ContinuousModel):
         self.b = np.column_stack([b[:, 0], np.zeros(len(b)), b[:, 1]])  # [r, T_L (none), ṙ]
 
     @classmethod
-    def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None) -> "LinearModel":
+    def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None):
+        """The model of a result's plant spec and tuned values (floats): this continuous
+        loop, or :class:`feedtune.validate.sampled_linear.SampledLinearModel` for
+        ``implementation: sampled``."""
+        if plant.get("implementation", "continuous") == "sampled":
+            from feedtune.validate.sampled_linear import SampledLinearModel
+
+            return SampledLinearModel(plant, tuned)
         return cls(plant, tuned)
 
     # -- the interconnection -----------------------------------------------------------

@@ -42,9 +42,10 @@ SUBSTEPS = 64
 
 
 @functools.lru_cache(maxsize=8)
-def _scan(model) -> tuple[np.ndarray, np.ndarray, float]:
-    """(grid, L on it, H(1)) of a model: ω [rad/s] from the slowest pole / GRID_SPAN to
-    π/T, π/T itself the last point; H(z = 1) = C(I − F)⁻¹G of the closed loop (1 for a
+def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """(grid, L on it, H on it, H(1)) of a model: ω [rad/s] from the slowest pole /
+    GRID_SPAN to π/T, π/T itself the last point; H the model's ``complementary``
+    (position/reference, a feed-forward included) and H(z = 1) its ``dc_gain()`` (1 for a
     type-1 loop). Computed once per model (the metrics share it)."""
     z = model.poles().astype(complex)
     speeds = np.abs(np.log(z[np.abs(z) > 1e-12]) / model.period)
@@ -54,20 +55,18 @@ def _scan(model) -> tuple[np.ndarray, np.ndarray, float]:
     count = int(POINTS_PER_DECADE * math.log10(nyquist / low)) + 2
     grid = np.geomspace(low, nyquist, count)
     grid[-1] = nyquist
-    f, g = model.closed_loop()
-    dc = float(np.linalg.solve(np.eye(f.shape[0]) - f, g[:, 0])[0])
-    return grid, model.open_loop(grid), dc
+    return grid, model.open_loop(grid), model.complementary(grid), model.dc_gain()
 
 
 def _gain_squared(model, omega) -> np.ndarray:
     """|H(e^{jωT})/H(1)|²."""
-    return np.abs(model.complementary(omega) / _scan(model)[2]) ** 2
+    return np.abs(model.complementary(omega) / _scan(model)[3]) ** 2
 
 
 def m_peak(model) -> float:
     """sup over 0 ≤ ω ≤ π/T of |H/H(1)| [1]."""
-    grid, open_loop, dc = _scan(model)
-    g = np.abs(open_loop / (1 + open_loop) / dc) ** 2
+    grid, _, closed, dc = _scan(model)
+    g = np.abs(closed / dc) ** 2
     best = max(1.0, float(np.sqrt(np.max(g))))
     padded = np.concatenate([[-np.inf], g, [-np.inf]])
     for i in np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:])):
@@ -82,7 +81,7 @@ def sensitivity_peak(model) -> float:
     """M_s = sup over 0 ≤ ω ≤ π/T of |1/(1 + L(e^{jωT}))| [1]; every local maximum of the
     grid above 1 + 1e-9 refined by bounded Brent (|S| sits at 1 to rounding where |L| ≪ 1,
     and no such point can beat the floor 1 by more than the tolerance, 1e-6)."""
-    grid, open_loop, _ = _scan(model)
+    grid, open_loop, _, _ = _scan(model)
     s = np.abs(1.0 / (1.0 + open_loop))
     best = max(1.0, float(np.max(s)))
     padded = np.concatenate([[-np.inf], s, [-np.inf]])
@@ -111,8 +110,8 @@ def _first_crossing(fn, grid: np.ndarray, values: np.ndarray) -> float | None:
 
 def bandwidth(model) -> float:
     """Lowest ω [rad/s] with |H/H(1)|² = ½; π/T when there is none below Nyquist."""
-    grid, open_loop, dc = _scan(model)
-    values = np.abs(open_loop / (1 + open_loop) / dc) ** 2 - 0.5
+    grid, _, closed, dc = _scan(model)
+    values = np.abs(closed / dc) ** 2 - 0.5
     found = _first_crossing(lambda w: _gain_squared(model, w) - 0.5, grid, values)
     return grid[-1] if found is None else found
 
@@ -120,7 +119,7 @@ def bandwidth(model) -> float:
 @functools.lru_cache(maxsize=8)
 def crossover(model) -> float:
     """Lowest ω [rad/s] with |L| = 1, below π/T."""
-    grid, open_loop, _ = _scan(model)
+    grid, open_loop, _, _ = _scan(model)
     found = _first_crossing(lambda w: np.log(np.abs(model.open_loop(w))), grid,
                             np.log(np.abs(open_loop)))
     if found is None:
@@ -134,11 +133,20 @@ def phase_margin(model) -> float:
     return math.degrees(math.atan2(-lo.imag, -lo.real))
 
 
-def gain_margin(model) -> float:
+def gain_margin(model, integrators: int = 0) -> float:
     """1/|L| [1] where the unwrapped phase of L first reaches −180° below π/T, else at π/T
-    when L(−1) < 0."""
-    grid, lo, _ = _scan(model)
-    phase = np.unwrap(np.angle(lo)) + math.pi
+    when L(−1) < 0.
+
+    ``integrators`` n > 0: the phase is unwrapped from that of L·(z − 1)^n, which starts
+    near 0°, minus n·arg(z − 1) = n(90° + ωT/2): a type-2 loop's phase starts on the ±180°
+    branch cut, where np.angle's side is rounding."""
+    grid, lo, _, _ = _scan(model)
+    if integrators:
+        z = np.exp(1j * grid * model.period)
+        phase = (np.unwrap(np.angle(lo * (z - 1) ** integrators))
+                 - integrators * (math.pi / 2 + grid * model.period / 2) + math.pi)
+    else:
+        phase = np.unwrap(np.angle(lo)) + math.pi
     inner = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))  # π/T itself apart
     if inner.size:
         i = int(inner[0])

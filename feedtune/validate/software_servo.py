@@ -178,19 +178,11 @@ class ServoModel:
         sampled, Koren eqs 17–19), ω_n = √(s1 s2), ζ = −(s1 + s2)/(2ω_n). A negative real
         z-pole rings at the Nyquist frequency: s = ln|z| ± jπ/T of the most negative one."""
         p = self.poles()
+        if self.sampled:
+            return sampled_pole_pair(p, self.period)
         if p.size != 2:
             raise NotCovered(f"ζ and ω_n need a second-order loop (order {p.size})")
-        if self.sampled:
-            if np.all(np.abs(p.imag) < 1e-14 * np.abs(p)) and np.min(p.real) < 0:
-                z = float(np.min(p.real))
-                s = np.array([complex(math.log(abs(z)), math.pi),
-                              complex(math.log(abs(z)), -math.pi)]) / self.period
-            else:
-                s = np.log(p.astype(complex)) / self.period
-        else:
-            s = p.astype(complex)
-        wn = math.sqrt(abs((s[0] * s[1]).real))
-        return float(-(s[0] + s[1]).real / (2 * wn)), wn
+        return _pair(p.astype(complex))
 
     # -- time responses ----------------------------------------------------------------
 
@@ -310,6 +302,11 @@ class ServoModel:
         """H = L/(1 + L) = position/reference (at the samples when sampled)."""
         lo = self.open_loop(omega)
         return lo / (1.0 + lo)
+
+    def dc_gain(self) -> float:
+        """H(z = 1) = C(I − F)⁻¹G [1] of the sampled closed loop (position first)."""
+        f, g = self.closed_loop()
+        return float(np.linalg.solve(np.eye(f.shape[0]) - f, g[:, 0])[0])
 
     def radial_error(self, radius: float, feed: float) -> float:
         """r·| |H(jω)| − 1 |, ω = feed/r: |H| − 1 = (|L|² − |1+L|²)/(|1+L|(|L| + |1+L|)),
@@ -553,6 +550,28 @@ class PadeServoModel(ContinuousModel):
         average radius and decrease in radius with this loop's |H|
         (:data:`PADE_MEASUREMENTS`)."""
         return super().measurement_tables() + (Phase(PADE_MEASUREMENTS),)
+
+
+def _pair(s: np.ndarray) -> tuple[float, float]:
+    """(ζ, ω_n [rad/s]) of s-plane poles s1, s2: ω_n = √(s1 s2), ζ = −(s1 + s2)/(2ω_n)."""
+    wn = math.sqrt(abs((s[0] * s[1]).real))
+    return float(-(s[0] + s[1]).real / (2 * wn)), wn
+
+
+def sampled_pole_pair(poles: np.ndarray, period: float) -> tuple[float, float]:
+    """(ζ, ω_n [rad/s]) of a second-order sampled loop's z-poles through s = ln(z)/T
+    (Koren eqs 17–19), T = ``period`` [s]. A negative real z-pole rings at the Nyquist
+    frequency: s = ln|z| ± jπ/T of the most negative one."""
+    p = np.asarray(poles)
+    if p.size != 2:
+        raise NotCovered(f"ζ and ω_n need a second-order loop (order {p.size})")
+    if np.all(np.abs(p.imag) < 1e-14 * np.abs(p)) and np.min(p.real) < 0:
+        z = float(np.min(p.real))
+        s = np.array([complex(math.log(abs(z)), math.pi),
+                      complex(math.log(abs(z)), -math.pi)]) / period
+    else:
+        s = np.log(p.astype(complex)) / period
+    return _pair(s)
 
 
 def average_polygon_radius(radius: float, omega: float, reference_interval: float) -> float:

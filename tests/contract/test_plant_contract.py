@@ -24,13 +24,9 @@ from feedtune.validate.stability import check_stability
 
 OMEGAS = [0.3, 3.0, 30.0]  # rad/s: below, near and above typical feed-drive bandwidths
 
-#: a known defect, kept visible: strict expected failures that fail once it is fixed
-KNOWN_DEFECTS = {
-    "discretisation=backward_euler": (
-        "open defect (found 2026-11-25): the sampled linear loop with a backward-Euler PI has "
-        "a Schur condition exactly 0 at stable grid points (|z| <= 0.9999998), and its "
-        "symbolic and numeric loops differ; Tustin, the default, passes"),
-}
+#: known defects, kept visible: strict expected failures that fail once fixed (none open;
+#: the backward-Euler PI of the sampled linear loop was one until 2026-11-27)
+KNOWN_DEFECTS: dict[str, str] = {}
 
 
 def _known_defect(request, config) -> None:

@@ -12,11 +12,14 @@ spec as JSON, the tuned values as floats).
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from feedtune.validate.model import NotCovered
 
-from contract_cases import exact_metric_cases, exact_nominal, metric_cases, nominal
+from contract_cases import (CONFIGS, OPTION_SAMPLES, exact_metric_cases, exact_nominal,
+                            metric_cases, nominal)
 from feedtune.validate.block import is_measured
 from feedtune.validate.models import model_for
 
@@ -64,9 +67,6 @@ EXEMPT: dict[tuple[str, str], str] = {
 UNCOVERED: dict[tuple[str, str], str] = {
     ("linear[", "(z)"): "a discrete drive model (model.period) has no validator model yet: "
                         "the sampled implementation's model should take it (issue 16 item 6)",
-    ("linear[", "implementation=sampled"): "the sampled implementation of plant 'linear' has "
-                                           "no validator model yet (issue 16 item 6 is open "
-                                           "for it)",
 }
 
 
@@ -105,3 +105,30 @@ def test_every_reported_metric_has_a_validator_measurement(config, name, options
         f"{name}({opts}) is reported on {config.id} but {type(model).__name__} declares no "
         f"measurement of it: add one to its table (feedtune/validate) or an exemption "
         f"with the reason to EXEMPT")
+
+
+#: configurations whose nominal result is tuned (all tunables fixed) and validated in
+#: full: the sampled user loop, whose validator model is the newest (issue 16 item 6)
+VALIDATED_IN_FULL = [c for c in CONFIGS if c.key == "linear" and "implementation=sampled" in c.id]
+
+
+@pytest.mark.parametrize("config", VALIDATED_IN_FULL, ids=[c.id for c in VALIDATED_IN_FULL])
+def test_a_nominal_sampled_linear_result_is_validated_in_full(config):
+    """``feedtune.tune`` at the nominal point (every tunable fixed, so the result holds the
+    loop's own metrics and nothing an optimiser chose) is covered, every reported metric
+    has its entry, and every entry is within its tolerance."""
+    import feedtune
+
+    plant = config.plant.params.model_dump(mode="json")
+    circle = {"radius": OPTION_SAMPLES["radius"], "feed": OPTION_SAMPLES["feed"]}
+    spec = {"name": "contract", "plant": plant,
+            "tunables": {k: {"value": v} for k, v in nominal(config).items()},
+            "objective": [{"metric": "iae"}],
+            "constraints": [{"metric": "radial_error", **circle, "max": 1.0}]}
+    result = json.loads(feedtune.tune(spec).to_json())
+    block = result["validation"]
+    assert block["covered"] and block["ok"], block
+    measured = {(e["metric"], json.dumps(e["options"], sort_keys=True)) for e in block["entries"]}
+    reported = {(m["metric"], json.dumps(m["options"], sort_keys=True))
+                for m in result["metrics"].values() if m["value"] is not None}
+    assert reported <= measured, reported - measured
