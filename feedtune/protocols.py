@@ -328,3 +328,14 @@ class Plant(Protocol):
              horizon_scale: float = 1.0) -> Loop:
         """The closed loop at ``values`` (expressions or numbers per tunable), for the box
         of the tunables [their units]; ``horizon_scale`` lengthens summed step responses."""
+
+    def numbers(self) -> dict[str, float]:
+        """Plant numbers the NLP takes as parameters, as fixed tunables are (defaults in
+        :class:`feedtune.plants.base.Plant`)."""
+
+    def structure(self, box: Mapping[str, tuple[float, float]],
+                  horizon_scale: float = 1.0) -> str:
+        """What the loop's graph embeds as constants: equal structures build equal graphs."""
+
+    def not_tunable(self) -> dict[str, str]:
+        """Tunables this configuration fixes, each with the reason a spec may not free it."""

@@ -133,7 +133,7 @@ class SampledLTILoop(_SampledLoopBase):
     def _plant_difference(self):
         """(Φ − I, Γ₀, Γ₁): x(k+1) − x(k) = (Φ − I)x(k) + Γ₀u(k−c−d) + Γ₁u(k−c−d−1), Φ − I
         without the cancellation of forming Φ (its entries are 1 − O(|λ|T) for a short T)."""
-        if isinstance(self.plant, DiscretePlant):  # given as Φ: nothing to recover
+        if self.plant.discrete:  # given as Φ: nothing to recover
             n = self.plant.order
             return ca.DM(self.plant.a) - ca.DM.eye(n), ca.DM(self.plant.b), ca.DM.zeros(n, 1)
         fraction = self._split[1]

@@ -608,7 +608,7 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
     plant = plant_for(plant_params)
     tunables = plant.tunables()
     raw_tunables = raw.get("tunables")
-    fixed = plant.not_tunable() if hasattr(type(plant), "not_tunable") else {}
+    fixed = plant.not_tunable()
     for name in raw_tunables if isinstance(raw_tunables, dict) else ():
         if name in fixed:
             errors.append((f"/tunables/{_escape(name)}", fixed[name]))

@@ -57,6 +57,11 @@ class Plant:
         gives them [their units]: ``loop`` also takes them in ``values``. None here."""
         return {}
 
+    def not_tunable(self) -> dict[str, str]:
+        """Tunables of the plant type that this configuration fixes, each with the reason a
+        spec may not free it. None here."""
+        return {}
+
     def structure(self, box: Mapping[str, tuple[float, float]],
                   horizon_scale: float = 1.0) -> str:
         """What the loop's graph embeds as constants besides the plant's choices, from the

@@ -125,10 +125,6 @@ class LinearModel(ContinuousModel):
     """Validator model of ``linear``: a position loop, optionally around a velocity loop."""
 
     def __init__(self, plant: dict, tuned: dict):
-        if plant["model"].get("period") is not None:
-            # its coefficients are in z: read as a model in s they would be another drive
-            raise NotCovered("a discrete drive model (model.period) is not modelled by the "
-                             "validator yet")
         if plant.get("implementation", "continuous") != "continuous":
             # the continuous loop's measures would be compared with a discrete loop's numbers
             raise NotCovered("the sampled implementation of plant 'linear' is "
@@ -161,6 +157,10 @@ class LinearModel(ContinuousModel):
         """The model of a result's plant spec and tuned values (floats): this continuous
         loop, or :class:`feedtune.validate.sampled_linear.SampledLinearModel` for
         ``implementation: sampled``."""
+        if plant["model"].get("period") is not None:
+            # its coefficients are in z: read as a model in s they would be another drive
+            raise NotCovered("a discrete drive model (model.period) is not modelled by the "
+                             "validator yet")
         if plant.get("implementation", "continuous") == "sampled":
             from feedtune.validate.sampled_linear import SampledLinearModel
 
