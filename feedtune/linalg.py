@@ -267,7 +267,8 @@ def roots(p: list, iterations: int = 200) -> list[complex]:
                 continue  # on a root, or on a critical point: the others move it
             ratio = value / slope
             repulsion = sum(1 / (z[i] - z[j]) for j in range(n) if j != i and z[i] != z[j])
-            step = ratio / (1 - ratio * repulsion)
+            correction = 1 - ratio * repulsion
+            step = ratio / correction if correction != 0 else ratio  # plain Newton there
             z[i] -= step
             largest = max(largest, abs(step) / max(abs(z[i]), 1e-300))
         if largest <= 4 * 2.0 ** -52:
