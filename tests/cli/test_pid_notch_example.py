@@ -126,3 +126,26 @@ def test_type_three_gain_margin_is_at_the_lower_phase_crossover():
     ours = float(metric.evaluate(plant.loop(DESIGN, box), metric.Options()))
     assert ours == pytest.approx(gm[lowest], rel=1e-9)
     assert LinearModel(SPEC["plant"], DESIGN).gain_margin() == pytest.approx(gm[lowest], rel=1e-9)
+
+
+#: a design with T_i = 0.94 s whose slow pole (≈ 0.02 rad/s) lives beside a mode at 1720
+#: rad/s: resolving its step response would take more than the time grid's 2 000 000
+#: points (the first version of this example, T_i free, ended here)
+LONG_LIVED = {"position_controller.kp": 1.13090766e5, "position_controller.ti": 0.93769363,
+              "position_controller.td": 6.41815256e-3, "position_controller.n": 10.0,
+              "notch.frequency": 1677.00924, "notch.width": 0.155870208,
+              "notch.depth": 0.213148571}
+
+
+def test_a_response_too_long_to_resolve_is_reported_null_not_an_error():
+    """Its IAE, ITAE, overshoot and settling time are null and the others reported, the
+    status decided by its constraints (M_peak 331 > 1.3: infeasible). It was status error
+    with no metric at all: the time grid is built when a crossing is first read, after
+    the check that turns a too-long response into a null."""
+    import feedtune
+
+    spec = dict(SPEC, tunables={name: {"value": v} for name, v in LONG_LIVED.items()})
+    result = feedtune.tune(spec)
+    assert result.status == "infeasible", result.message
+    assert result.metrics["iae"].value is None and result.metrics["overshoot"].value is None
+    assert result.metrics["m_peak"].value > 300 and result.metrics["ise"].value > 0
