@@ -41,6 +41,7 @@ J. Global Optim. 11, 1997; J. Lampinen, CEC 2002 (scipy's constraint handling).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -180,18 +181,17 @@ class Functions:
     """DE's objective and constraints in z = ln x, one cached model evaluation per z."""
 
     def __init__(self, model: Model, scale: float):
-        self.model, self.scale, self.evaluations = model, scale, 0
-        self._cache: dict[bytes, dict] = {}
+        self.model, self.scale = model, scale
+        self._at = functools.lru_cache(maxsize=4096)(
+            lambda key: evaluate(model, np.exp(np.frombuffer(key)), MODEL_GRID))
+
+    @property
+    def evaluations(self) -> int:
+        """Distinct points evaluated (objective and constraints share one evaluation)."""
+        return self._at.cache_info().misses
 
     def metrics(self, z) -> dict:
-        key = np.asarray(z, dtype=float).tobytes()
-        hit = self._cache.get(key)
-        if hit is None:
-            if len(self._cache) > 4096:
-                self._cache.clear()
-            self.evaluations += 1
-            hit = self._cache[key] = evaluate(self.model, np.exp(z), MODEL_GRID)
-        return hit
+        return self._at(np.asarray(z, dtype=float).tobytes())
 
     def objective(self, z) -> float:
         return -self.metrics(z)["bandwidth"] / self.scale
