@@ -357,6 +357,12 @@ class ContinuousLoop(_LoopBase):
     velocity_constant
         C_v = lim s·G_open(s) [1/s], the open-loop gain of a type-1 loop (Koren eq 5).
     drive : Drive
+    open_loop : tuple or None
+        (numerator, denominator) of the open loop L, highest power first, when the loop is
+        L closed by unity feedback (Koren's K/(s(1 + sτ)), eq 5): the frequency metrics'
+        L(jω) (margins, crossover); None: no open loop is known.
+    frequency_band : tuple or None
+        (low, high) [rad/s] the frequency metrics search; None: none is supported.
     """
 
     state_matrix: object
@@ -364,10 +370,21 @@ class ContinuousLoop(_LoopBase):
     position_row: object
     velocity_constant: object
     drive: Drive = field(default_factory=Drive)
+    open_loop: tuple | None = None
+    frequency_band: tuple | None = None
     discrete = False
     period = None
     capabilities = frozenset({Capability.LINEAR, Capability.VELOCITY_CONSTANT,
                               Capability.EXACT_STEP_ERROR})
+
+    def open_loop_response(self, omega):
+        """Re and Im of L(jω), ω [rad/s], from :attr:`open_loop`."""
+        numerator, denominator = self.open_loop
+        return TransferLoop._ratio(numerator, denominator, omega)
+
+    def dc_gain(self):
+        """T(0) = −C A⁻¹ B [1] (1 for a loop that follows a constant reference)."""
+        return -ca.mtimes(self.position_row, linalg.solve(self.state_matrix, self.input_matrix))
 
     def frequency_response(self, omega):
         """Re and Im of position/reference at s = jω, ω [rad/s]."""

@@ -58,11 +58,25 @@ def normalised_gain_squared(loop: Loop):
 
 
 def phase_crossover_indicator(loop: Loop):
-    """ω ↦ −Im L/|L| [1]: +1 at low ω for a type-1 loop, 0 where the phase reaches −180°
-    (on a sampled loop also at π/T when L(−1) < 0: L is real there)."""
-    def indicator(omega):
+    """ω ↦ ±Im L/|L| [1], signed to be positive at the band's low end, 0 where the phase
+    first crosses −180° (on a sampled loop also at π/T when L(−1) < 0: L is real there).
+
+    −Im L/|L| is +1 at low ω for a type-1 loop (phase −90°) but −1 for a type-3 loop (a
+    PID on a double integrator: phase −270°, rising through −180° at the lower phase
+    crossover of a conditionally stable loop), so it is multiplied by the sign it has at
+    the band's low end; the sign is the loop's structure, the same at every tunable value
+    (the validator locates the same crossing on the unwrapped phase,
+    feedtune.validate.continuous)."""
+    low = loop.frequency_band[0]
+
+    def raw(omega):
         re, im = loop.open_loop_response(omega)
         return -im / ca.sqrt(re**2 + im**2)
+
+    sign = ca.if_else(raw(low) >= 0, 1, -1)
+
+    def indicator(omega):
+        return sign * raw(omega)
 
     return below_nyquist(loop, indicator)
 

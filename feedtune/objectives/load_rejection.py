@@ -6,7 +6,8 @@ from pydantic import Field
 
 from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import as_number, has_numeric_response, numeric_response
+from feedtune.objectives.step_error import (as_number, has_numeric_response, numeric_response,
+                                             resolving)
 from feedtune.protocols import Capability, Loop
 
 
@@ -55,7 +56,8 @@ class LoadRejection(Metric):
         response = numeric_response(loop, self.name, "load")
         if response is None:
             return as_number(None)
-        if options.measure == "iae":
-            return as_number(response.transient.iae)
-        low, high = response.extremes()
+        with resolving(self.name):
+            if options.measure == "iae":
+                return as_number(response.transient.iae)
+            low, high = response.extremes()
         return as_number(max(abs(low), abs(high)))

@@ -1,7 +1,8 @@
 """Overshoot of the step response (Bhatia 1971 Ch. IV B, "percentage overshoot")."""
 
 from feedtune.objectives.base import Metric
-from feedtune.objectives.step_error import as_number, has_numeric_response, numeric_response
+from feedtune.objectives.step_error import (as_number, has_numeric_response, numeric_response,
+                                             resolving)
 from feedtune.timeresponse import has_sampled_step, sampled_step_error
 from feedtune.protocols import Loop
 
@@ -41,5 +42,6 @@ class Overshoot(Metric):
         if response is None:
             return as_number(None)
         final = 1.0 - response.steady  # position y = r − e with r = 1; e_ss = 0 for type 1
-        lowest_error, _ = response.extremes()
+        with resolving(self.name):
+            lowest_error, _ = response.extremes()
         return as_number(max(0.0, (response.steady - lowest_error) / final))  # max y − y_ss

@@ -5,7 +5,7 @@ from pydantic import Field
 from feedtune.model import SpecModel
 from feedtune.objectives.base import Metric
 from feedtune.objectives.step_error import (InputKind, as_number, has_numeric_response,
-                                             numeric_response)
+                                             numeric_response, resolving)
 from feedtune.timeresponse import has_sampled_step, sampled_step_error
 from feedtune.protocols import Loop
 
@@ -68,4 +68,5 @@ the ramp with e_ss = 0 gets the step's band). 0 when the error
         # a ramp followed without steady error (a loop of type 2, or full velocity
         # feed-forward) has no e_ss to scale the band: it is then on 1 m (1 rad), as a step's
         size = 1.0 if options.input == "step" or response.steady == 0 else abs(response.steady)
-        return as_number(response.transient.last_exit(options.band * size))
+        with resolving(self.name):
+            return as_number(response.transient.last_exit(options.band * size))

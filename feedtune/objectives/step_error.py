@@ -13,6 +13,7 @@ Two ways to a step-error integral exist:
 
 from __future__ import annotations
 
+import contextlib
 import math
 from typing import Literal
 
@@ -122,6 +123,18 @@ def numeric_response(loop: Loop, metric_name: str, source: str):
         raise HorizonError(f"{metric_name}: {exc}") from None
 
 
+@contextlib.contextmanager
+def resolving(metric_name: str):
+    """Reading a response's crossings or extrema inside this block raises
+    :class:`~feedtune.loop.HorizonError` (reported null) for a response too long to resolve
+    (a lightly damped mode beside a slow one): a response computes them when first read,
+    after :func:`numeric_response` has returned it."""
+    try:
+        yield
+    except timeresponse.ResponseTooLongError as exc:
+        raise HorizonError(f"{metric_name}: {exc}") from None
+
+
 def as_number(value: float):
     """A metric value for a loop of numbers, as CasADi takes it (+∞ for an unstable loop)."""
     return ca.DM(value if value is not None else math.inf)
@@ -135,7 +148,8 @@ def numeric_error_integral(loop: Loop, options: StepErrorOptions, metric_name: s
     response = numeric_response(loop, metric_name, options.input)
     if response is None:
         return as_number(None)
-    return as_number(getattr(response.transient, which))
+    with resolving(metric_name):
+        return as_number(getattr(response.transient, which))
 
 
 class StepErrorMetric(Metric):

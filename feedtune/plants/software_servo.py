@@ -194,7 +194,11 @@ class SoftwareServo(Plant):
             a[1, 1] = -1 / tau
             b = ca.MX.zeros(2, 1)
             b[1, 0] = gain / tau
-            return ContinuousLoop(a, b, ca.DM([[1, 0]]), gain, drive)
+            # corners K and 1/τ over the box, two decades either side
+            corners = [*box["position_gain"], 1 / p.time_constant]
+            return ContinuousLoop(a, b, ca.DM([[1, 0]]), gain, drive,
+                                  open_loop=([gain], [tau, 1, 0]),
+                                  frequency_band=(min(corners) / 100, max(corners) * 100))
         period = values["sampling_period"]
         interpolator = None
         if p.interpolation == "linear":

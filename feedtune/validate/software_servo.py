@@ -405,13 +405,41 @@ class ServoModel:
         vertex = radius * np.exp(1j * theta * side)
         return vertex + fraction * vertex * (np.exp(1j * theta) - 1)
 
+    def frequency_metrics(self) -> dict[str, float]:
+        """M_peak, bandwidth [rad/s], crossover [rad/s], phase margin [deg] and M_s of the
+        continuous loop L = K/(s(1 + sτ)) in closed form, from the second-order closed
+        loop T = ω_n²/(s² + 2ζω_n s + ω_n²), ω_n = √(K/τ), ζ = 1/(2√(Kτ)) (Koren eqs 9–10;
+        Ogata, Modern Control Engineering, 5th ed., §8-6 for M_r and ω_b):
+
+        * M_peak = 1/(2ζ√(1 − ζ²)) for ζ < 1/√2, else 1 (|T| falls from ω = 0);
+        * ω_b = ω_n √(1 − 2ζ² + √(4ζ⁴ − 4ζ² + 2));
+        * ω_c from |L| = 1: ω_c² = (√(1 + 4K²τ²) − 1)/(2τ²); PM = 90° − atan(ω_c τ);
+        * M_s: |S|² = x(1 + τ²x)/((K − τx)² + x) with x = ω² is largest where
+          2τ³x² − 2Kτ²x − K = 0, x = (Kτ + √(K²τ² + 2Kτ))/(2τ²).
+
+        The phase −90° − atan(ωτ) never reaches −180°: there is no gain margin to measure.
+        """
+        if self.sampled:
+            raise NotCovered("closed forms of the continuous loop only")
+        k, tau = self.gain, self.time_constant
+        omega_n, zeta = math.sqrt(k / tau), 1 / (2 * math.sqrt(k * tau))
+        m_peak = 1 / (2 * zeta * math.sqrt(1 - zeta**2)) if zeta < math.sqrt(0.5) else 1.0
+        bandwidth = omega_n * math.sqrt(1 - 2 * zeta**2 + math.sqrt(4 * zeta**4 - 4 * zeta**2 + 2))
+        crossover = math.sqrt((math.sqrt(1 + 4 * (k * tau) ** 2) - 1) / (2 * tau**2))
+        x = (k * tau + math.sqrt((k * tau) ** 2 + 2 * k * tau)) / (2 * tau**2)
+        m_s = math.sqrt(x * (1 + tau**2 * x) / ((k - tau * x) ** 2 + x))
+        return {"m_peak": m_peak, "bandwidth": bandwidth, "crossover_frequency": crossover,
+                "phase_margin": 90.0 - math.degrees(math.atan(crossover * tau)),
+                "sensitivity_peak": m_s}
+
     def measurement_tables(self) -> tuple[Phase, ...]:
-        """The metrics this loop re-measures (:data:`SERVO_MEASUREMENTS`), and on a
-        sampled loop the frequency and step-shape ones
-        (:data:`feedtune.validate.sampled_frequency.MEASUREMENTS`)."""
+        """The metrics this loop re-measures (:data:`SERVO_MEASUREMENTS`); on a sampled
+        loop the frequency and step-shape ones
+        (:data:`feedtune.validate.sampled_frequency.MEASUREMENTS`), on the continuous one
+        its closed-form frequency metrics (:data:`REFERENCE_PULSE_FREQUENCY`)."""
         if self.sampled:
             return (Phase({**SERVO_MEASUREMENTS, **sampled_frequency.MEASUREMENTS}),)
-        return (Phase(SERVO_MEASUREMENTS),)
+        return (Phase({**SERVO_MEASUREMENTS, **REFERENCE_PULSE_FREQUENCY}),)
 
     def measure(self, result: dict) -> list[dict]:
         """Entries for the step integrals (plain and natural time), ζ, ω_n, C_v, the radial
@@ -688,6 +716,20 @@ SERVO_MEASUREMENTS: dict[str, Measurement] = {
     **{name: Measurement(lambda m, o, r, c, name=name: _circle_statistic(m, o, c, name),
                          _has_interpolator)
        for name in ("circle_mean_deviation", "circularity", "circle_roughness")},
+}
+
+
+def _no_phase_crossover(model: ServoModel, options: dict, reported, cache: dict) -> float:
+    raise NotCovered("the phase of K/(s(1 + sτ)) never reaches −180°: no gain margin")
+
+
+#: the continuous (reference-pulse) ServoModel's frequency metrics, in closed form
+#: (:meth:`ServoModel.frequency_metrics`): metric → measurement
+REFERENCE_PULSE_FREQUENCY: dict[str, Measurement] = {
+    **{name: Measurement(lambda m, o, r, c, name=name: m.frequency_metrics()[name])
+       for name in ("m_peak", "bandwidth", "crossover_frequency", "phase_margin",
+                    "sensitivity_peak")},
+    "gain_margin": Measurement(_no_phase_crossover),
 }
 
 

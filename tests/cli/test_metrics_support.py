@@ -49,13 +49,14 @@ def test_every_metric_lists_where_it_is_supported(table):
 
 def test_support_follows_the_metric_definitions(table):
     """M_s on the loops with an open loop (the continuous cascades, Sato's Padé loop, the
-    sampled-data loop's L(e^{jωT})), not on Koren's reference-pulse loop; ζ_min everywhere but reported only on the sampled loops; σ_min
+    sampled-data loop's L(e^{jωT}), Koren's reference-pulse loop K/(s(1 + sτ)), issue 16);
+    ζ_min everywhere but reported only on the sampled loops; σ_min
     everywhere and optimisable everywhere; pulse metrics on the pulse generator alone."""
     m_s = table["sensitivity_peak"]["supported"]
     assert any(c.startswith("hydraulic_rotary") for c in m_s)
     assert any(c.startswith("ward_leonard") for c in m_s)
     assert "software_servo(technique=sampled_data)" in m_s
-    assert "software_servo(technique=reference_pulse)" not in m_s
+    assert "software_servo(technique=reference_pulse)" in m_s
     assert "software_servo(technique=sampled_data, model=pade)" in m_s
     assert table["sensitivity_peak"]["supported"] == table["m_peak"]["supported"]
     damping = table["pole_damping"]

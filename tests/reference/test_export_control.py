@@ -145,13 +145,17 @@ PULSE_EXAMPLES = ["tian-vf-pulse"]
 FEEDFORWARD_EXAMPLES = ["user-defined-drive"]
 #: sampled user-defined drives (SampledLTILoop): tests at the end of this module
 SAMPLED_USER_EXAMPLES = ["user-defined-sampled-drive"]
+#: type-3 loops (a PID on a drive that integrates twice: C_v infinite), checked against
+#: python-control by their own test (tests/cli/test_pid_notch_example.py)
+TYPE_THREE_EXAMPLES = ["user-defined-pid-notch"]
 
 
 def test_every_bundled_example_is_covered():
     from conftest import EXAMPLES as DIRECTORY
 
     assert sorted(p.stem for p in DIRECTORY.glob("*.json")) == sorted(
-        EXAMPLES + PULSE_EXAMPLES + FEEDFORWARD_EXAMPLES + SAMPLED_USER_EXAMPLES)
+        EXAMPLES + PULSE_EXAMPLES + FEEDFORWARD_EXAMPLES + SAMPLED_USER_EXAMPLES
+        + TYPE_THREE_EXAMPLES)
 
 
 @pytest.mark.parametrize("name", FEEDFORWARD_EXAMPLES)

@@ -270,9 +270,13 @@ SERVO = {"name": "t", "plant": {"type": "software_servo", "technique": "sampled_
      "can only be bounded from below"),
     ({"constraints": [{"metric": "pole_damping", "min": 0.5}]}, "/constraints/0/metric",
      "reported only"),
-    ({"plant": {**SERVO["plant"], "technique": "reference_pulse"},
+    # a loop without an open loop (Koren's reference-pulse loop has one since issue 16)
+    ({"plant": {"type": "pulse_generator", "pulse_equivalent": 0.003, "position_unit": "rad",
+                "motor_characteristic": [[0, 140000], [140000, 140000]]},
+      "tunables": {"error_limit": {"min": 0.05, "max": 5}},
+      "objective": [{"metric": "pulse_settling_time"}],
       "constraints": [{"metric": "sensitivity_peak", "max": 2}]}, "/constraints/0/metric",
-     "not defined for this plant configuration, software_servo(technique=reference_pulse)"),
+     "not defined for this plant configuration, pulse_generator"),
 ])
 def test_the_spec_refuses_what_the_tuner_cannot_hold(change, pointer, words):
     from feedtune.spec import SpecError, parse_spec

@@ -106,7 +106,9 @@ def test_is_measured_reads_the_table(monkeypatch):
     """The contract test asks :func:`is_measured`; it answers from the declared tables."""
     model = ServoModel(20.0, 0.02, 0.01, 1)
     assert is_measured(model, "sensitivity_peak", {})
-    assert not is_measured(ServoModel(20.0, 0.02), "sensitivity_peak", {})  # continuous
+    continuous = ServoModel(20.0, 0.02)  # its own, closed-form table of frequency metrics
+    assert is_measured(continuous, "sensitivity_peak", {})
+    assert not is_measured(continuous, "overshoot", {})  # a sampled loop's table only
     assert not is_measured(model, "settling_time", {"input": "ramp", "band": 0.02})
     monkeypatch.delitem(sampled_frequency.MEASUREMENTS, "sensitivity_peak")
     assert not is_measured(model, "sensitivity_peak", {})
