@@ -375,7 +375,8 @@ class ContinuousLoop(_LoopBase):
     discrete = False
     period = None
     capabilities = frozenset({Capability.LINEAR, Capability.VELOCITY_CONSTANT,
-                              Capability.EXACT_STEP_ERROR})
+                              Capability.EXACT_STEP_ERROR, Capability.FREQUENCY_RESPONSE,
+                              Capability.OPEN_LOOP})
 
     def open_loop_response(self, omega):
         """Re and Im of L(jω), ω [rad/s], from :attr:`open_loop`."""
