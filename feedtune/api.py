@@ -353,7 +353,7 @@ class Result:
             ``directory`` holds a file of a name the report writes that an earlier report
             did not write; nothing is written then.
         """
-        from feedtune.cli import describe_plants
+        from feedtune.cli.plants import describe_plants
         from feedtune.report import build_figures, write_report
 
         result = self.data.model_dump(mode="json")

@@ -181,10 +181,10 @@ def test_solver_output_cannot_reach_stdout(capfd):
     can no longer raise IPOPT's print_level, so C's printf stands in for IPOPT)."""
     import ctypes
 
-    from feedtune.cli import _stdout_to_stderr
+    from feedtune.cli.common import stdout_to_stderr
 
     libc = ctypes.CDLL(None)
-    with _stdout_to_stderr():
+    with stdout_to_stderr():
         libc.printf(b"Ipopt would print this\n")
         print("and Python this")
     out, err = capfd.readouterr()

@@ -8,19 +8,20 @@ load gave exit 143 (−15) and a Ctrl-C click's "Aborted!".
 
 import signal
 
-from feedtune import cli, interrupts
+from feedtune import interrupts
+from feedtune.cli import batch, common
 from feedtune.__main__ import run
 
 
 def test_batch_takes_over_from_the_starting_handlers(monkeypatch, tmp_path):
     seen = {}
-    original = cli._Stop.__init__
+    original = batch._Stop.__init__
 
     def spy(self):
         seen["sigint"], seen["sigterm"] = (signal.getsignal(s) for s in interrupts.SIGNALS)
         original(self)
 
-    monkeypatch.setattr(cli._Stop, "__init__", spy)
+    monkeypatch.setattr(batch._Stop, "__init__", spy)
     before = [signal.getsignal(s) for s in interrupts.SIGNALS]
     code = run(["batch", str(tmp_path / "missing"), "--out", str(tmp_path / "out")])
     assert code == 2  # no such input: a usage error, after _Stop was made
@@ -31,13 +32,13 @@ def test_batch_takes_over_from_the_starting_handlers(monkeypatch, tmp_path):
 
 def test_other_commands_run_with_the_process_handlers(monkeypatch, tmp_path):
     seen = {}
-    original = cli._read_spec
+    original = common.read_spec
 
     def spy(spec):
         seen["handlers"] = [signal.getsignal(s) for s in interrupts.SIGNALS]
         return original(spec)
 
-    monkeypatch.setattr(cli, "_read_spec", spy)
+    monkeypatch.setattr(common, "read_spec", spy)
     before = [signal.getsignal(s) for s in interrupts.SIGNALS]
     run(["validate", str(tmp_path / "missing.json")])
     assert seen["handlers"] == before

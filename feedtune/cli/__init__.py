@@ -1,0 +1,52 @@
+"""The ``feedtune`` command line: the group and its commands, one module each.
+
+``feedtune tune SPEC`` writes the result JSON, and only that, to stdout (or ``-o``);
+everything meant for people (the summary, errors, anything IPOPT or CasADi print)
+goes to stderr. Exit status: 0 a successful tuning, 1 a result with ``success`` false
+(still written), 2 a spec or file that cannot be used, 3 an internal error, 130
+interrupted.
+
+Each command's module imports only click and the standard library at load time; what a
+command needs beyond that (pydantic, numpy, CasADi, the tuner) it imports when it runs, so
+``feedtune --help`` and ``feedtune validate`` start quickly (tests/cli/test_startup_imports.py).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+
+import click
+
+from feedtune import __version__, interrupts
+from feedtune.cli import (batch, chart, examples, metrics, plants, report, schema, select,
+                          tune, validate)
+from feedtune.cli.common import EPILOG
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG)
+@click.version_option(__version__, "-V", "--version", prog_name="feedtune")
+def main() -> None:
+    """Tune CNC feed drives (gains [1/s], sampling periods [s], compensators) by
+    optimisation with CasADi and IPOPT.
+
+    A JSON spec names the plant, which tunables are free, what to minimise and what
+    must hold; all values are SI. Start with `feedtune examples`, `feedtune plants`
+    and `feedtune metrics`.
+    """
+    with contextlib.suppress(AttributeError, ValueError):
+        sys.stderr.reconfigure(errors="backslashreplace")
+    if click.get_current_context().invoked_subcommand != "batch":  # batch: its _Stop does
+        interrupts.release()
+
+
+main.add_command(batch.batch)
+main.add_command(chart.chart)
+main.add_command(examples.examples)
+main.add_command(metrics.metrics)
+main.add_command(plants.plants)
+main.add_command(report.report)
+main.add_command(schema.schema)
+main.add_command(select.select_command)
+main.add_command(tune.tune)
+main.add_command(validate.validate)
