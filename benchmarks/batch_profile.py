@@ -39,9 +39,9 @@ from batch_throughput import _structure, generate  # noqa: E402
 
 import feedtune.batch.job as job  # noqa: E402
 import feedtune.problem as problem  # noqa: E402
-import feedtune.spec as spec_module  # noqa: E402
+import feedtune.schema.spec as spec_module  # noqa: E402
 import feedtune.tuner.nlp as nlp  # noqa: E402
-from feedtune.result import TuneResult  # noqa: E402
+from feedtune.schema.result import TuneResult  # noqa: E402
 
 try:  # the solver cache and the scalar search have their own modules since issue 15
     import feedtune.tuner.cache as cache  # noqa: E402

@@ -77,7 +77,7 @@ sys.path.insert(0, str(TREE))
 from feedtune.batch.local import LocalExecutor, default_workers  # noqa: E402
 from feedtune.batch.runner import run_batch  # noqa: E402
 from feedtune.problem import tune  # noqa: E402
-from feedtune.spec import parse_spec  # noqa: E402
+from feedtune.schema.spec import parse_spec  # noqa: E402
 
 SAMPLED = json.loads((REPO / "examples" / "koren-1979-sampled-data.json").read_text())
 PULSE = json.loads((REPO / "examples" / "koren-1979-reference-pulse.json").read_text())

@@ -151,7 +151,7 @@ def all_specs() -> list[dict]:
 def tune_one(spec: dict, solver: dict | None = None) -> dict:
     """Tune ``spec`` (optionally with other solver settings) with the feedtune on sys.path."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     spec = copy.deepcopy(spec)
     if solver is not None:

@@ -369,7 +369,7 @@ def best_of(fn, repeats: int):
 
 def run_feedtune(spec: dict, repeats: int, label: str = "feedtune") -> Run:
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     def once():
         result = tune(parse_spec(spec))
@@ -441,7 +441,7 @@ def source_state() -> str:
 
 def feedtune_box(spec: dict) -> dict:
     from feedtune.problem import build_plant, resolve_tunables
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     parsed = parse_spec(spec)
     _, _, box = resolve_tunables(parsed, build_plant(parsed))
@@ -451,7 +451,7 @@ def feedtune_box(spec: dict) -> dict:
 def feedtune_at(spec: dict, x) -> dict:
     """feedtune's reported metrics with every tunable fixed at x (no optimisation)."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     fixed = dict(spec, tunables={name: {"value": float(v)} for name, v in zip(NAMES, x)})
     return {k: m.value for k, m in tune(parse_spec(fixed)).metrics.items()}

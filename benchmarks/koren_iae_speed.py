@@ -166,7 +166,7 @@ def _restore(wrapped) -> None:
 
 def _tune_once(spec: dict, nlpsol_time: dict) -> dict:
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     clear_solver_cache()
     nlpsol_time.clear()
@@ -205,7 +205,7 @@ def profile(spec: dict, mode: str) -> dict:
     """Where one tuning's time goes [s], the solver cache cleared (module docstring)."""
     import feedtune.problem as problem_module
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
     from feedtune.tuner import nlp
 
     parts: dict[str, float] = {}
@@ -265,7 +265,7 @@ def brent_case3(repeats: int) -> dict:
 def worker(repeats: int, profiles: bool = False, free_period: bool = False) -> dict:
     """Every case and mode in this process (see module docstring); a JSON-able dict."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     search = scalar_search()
     modes = ["ipopt"] + (["scalar"] if search == "tuner" else [])

@@ -301,7 +301,7 @@ def best_of(fn, repeats: int, slow: float = 2.0):
 
 def run_feedtune(case: Case, repeats: int) -> Run:
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     def once():
         spec = parse_spec(case.spec)
@@ -385,7 +385,7 @@ def feedtune_iae_differences(case: Case, gains) -> list[tuple[float, float]]:
 
     from feedtune.objectives import METRICS
     from feedtune.problem import build_plant, resolve_tunables
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     spec = parse_spec(case.spec)
     plant = build_plant(spec)
@@ -437,7 +437,7 @@ def main(argv=None) -> int:
     import scipy
 
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     t_begin = time.perf_counter()
     load_start = os.getloadavg()[0]

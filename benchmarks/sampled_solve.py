@@ -19,9 +19,9 @@ from pathlib import Path
 
 import casadi as ca
 
-from feedtune import linalg
+from feedtune.loops import linalg
 from feedtune.plants import plant_for
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 
 SPEC = json.loads((Path(__file__).resolve().parents[1] / "examples"
                    / "user-defined-sampled-drive.json").read_text())

@@ -7,7 +7,7 @@ disk cache and writes feedtune's bytecode (as any first run after an install doe
 processes run without PYTHONDONTWRITEBYTECODE, which a user does not set); the median wall
 time of each, the command's time over the baseline's, the median CPU times, and issue 15's
 target are printed.
-The three heaviest imports of `feedtune.spec` (what `validate` loads) are listed from
+The three heaviest imports of `feedtune.schema.spec` (what `validate` loads) are listed from
 `python -X importtime`, so a change shows where the time went.
 
 Run: ``.venv/bin/python benchmarks/startup.py [--repeat N]``
@@ -82,8 +82,8 @@ def main() -> None:
         cpu, base_cpu = (statistics.median(c for _, c in runs) for runs in (times, base))
         print(f"{name:<24} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} {cpu:>8.3f} {base_cpu:>8.3f} "
               f"{'—' if target is None else f'{target:.1f}':>10}")
-    print("\nslowest imports under feedtune.spec (cumulative, one run):")
-    for seconds, module in heaviest_imports("feedtune.spec"):
+    print("\nslowest imports under feedtune.schema.spec (cumulative, one run):")
+    for seconds, module in heaviest_imports("feedtune.schema.spec"):
         print(f"  {seconds:6.3f} s  {module.strip()}")
 
 

@@ -22,13 +22,13 @@ from typing import Any, Callable, Iterator, Mapping
 
 from pydantic import ValidationError
 
-from feedtune.export import ControlSystems, ResultError, loop_to_control
-from feedtune.files import write_atomic
-from feedtune.labels import metric_label
+from feedtune.loops.export import ControlSystems, ResultError, loop_to_control
 from feedtune.plants import plant_for
-from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, TunedValue,
-                             TuneResult)
-from feedtune.spec import MAX_SPEC_BYTES, Spec, SpecError, load_json, parse_spec
+from feedtune.schema.files import write_atomic
+from feedtune.schema.labels import metric_label
+from feedtune.schema.result import (ConstraintResult, MetricValue, OptimumCheck, TunedValue,
+                                    TuneResult)
+from feedtune.schema.spec import MAX_SPEC_BYTES, Spec, SpecError, load_json, parse_spec
 
 __all__ = ["ControlSystems", "ReportFiles", "Result", "ResultError", "Spec", "SpecError",
            "load_result", "tune"]
@@ -392,7 +392,7 @@ class Result:
 
     def to_control(self) -> ControlSystems:
         """The tuned loop as python-control systems with named signals (see
-        :class:`~feedtune.export.ControlSystems`).
+        :class:`~feedtune.loops.export.ControlSystems`).
 
         Works for any result with tuned values, an unstable or infeasible one included
         (python-control will show why).

@@ -11,15 +11,15 @@ from typing import Callable, Literal, Mapping, get_args, get_origin
 import casadi as ca
 
 from feedtune.expr import is_symbolic
-from feedtune.labels import metric_label
-from feedtune.loop import HorizonError
+from feedtune.loops.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
 from feedtune.plausibility import plausibility_warnings
-from feedtune.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult, SpreadValue,
-                             StartResult, TunedValue, TuneResult, provenance)
-from feedtune.spec import Spec, SpecError, parse_spec, tunable_box
-from feedtune.status import ERROR
+from feedtune.schema.labels import metric_label
+from feedtune.schema.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult,
+                                    SpreadValue, StartResult, TunedValue, TuneResult, provenance)
+from feedtune.schema.spec import Spec, SpecError, parse_spec, tunable_box
+from feedtune.schema.status import ERROR
 from feedtune.tuner import Bound, Settings, Term, Variable
 from feedtune.tuner.search import problem_class
 from feedtune.tuner.terms import exact_value
@@ -42,7 +42,7 @@ def build_plant(spec: Spec):
 
 def resolve_tunables(spec: Spec, plant) -> tuple[list[Variable], dict[str, float], dict]:
     """Free variables, fixed values and the (min, max) box of every tunable
-    (:func:`feedtune.spec.tunable_box`)."""
+    (:func:`feedtune.schema.spec.tunable_box`)."""
     box, errors, _ = tunable_box(spec.tunables, plant.tunables())
     if errors:  # only for a Spec built without parse_spec, which refuses these
         raise SpecError(errors)

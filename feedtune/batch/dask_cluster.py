@@ -24,7 +24,7 @@ from typing import Callable
 
 from feedtune.batch.job import WORKER_DIED, Outcome, solve
 from feedtune.batch.runner import ExecutorError
-from feedtune.status import ERROR
+from feedtune.schema.status import ERROR
 
 WINDOW = 64
 #: default wait for the scheduler's connection and its first worker [s]

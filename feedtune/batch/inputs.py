@@ -16,7 +16,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from feedtune.spec import MAX_SPEC_BYTES
+from feedtune.schema.spec import MAX_SPEC_BYTES
 
 SPEC_SUFFIXES = (".json", ".jsonl")
 #: result files are named after the spec: these characters are kept, runs of others → "_"

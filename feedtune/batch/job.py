@@ -11,7 +11,7 @@ import time
 import traceback
 from dataclasses import dataclass, field
 
-from feedtune.status import ERROR, INVALID, RESUMED, TIMEOUT, WORKER_DIED  # noqa: F401
+from feedtune.schema.status import ERROR, INVALID, RESUMED, TIMEOUT, WORKER_DIED  # noqa: F401
 
 
 @dataclass
@@ -72,7 +72,7 @@ def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:
     """Tune the spec in ``data``; skip it when ``existing_sha256`` is its canonical hash."""
     from feedtune.api import Result
     from feedtune.problem import tune
-    from feedtune.spec import SpecError, parse_spec
+    from feedtune.schema.spec import SpecError, parse_spec
 
     started = time.perf_counter()
     try:
@@ -138,7 +138,7 @@ def warm_up() -> None:
 def _errors_text(errors: list[tuple[str, str]]) -> str:
     """The errors on one line (control characters in a spec's keys escaped): the batch
     prints it in its table, where a newline could forge a CI log line."""
-    from feedtune.spec import printable
+    from feedtune.schema.spec import printable
 
     return printable("; ".join(f"{pointer}: {message}" if pointer else message
                                for pointer, message in errors))

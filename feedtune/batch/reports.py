@@ -15,7 +15,7 @@ import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from feedtune.status import SOLVED
+from feedtune.schema.status import SOLVED
 
 #: objective worse than the baseline's by more than this, relative, fails the spec
 BASELINE_RTOL = 1e-6

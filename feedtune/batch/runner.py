@@ -1,7 +1,7 @@
 """A batch from start to end: read the inputs, lock the output directory, hand the specs
 to an executor, write each result as it arrives, and the summary at the end.
 
-Files in the output directory, each written atomically (``feedtune.files``):
+Files in the output directory, each written atomically (``feedtune.schema.files``):
 ``NAME.json`` per spec with a result (named after the spec, see
 :mod:`feedtune.batch.inputs`), and ``summary.json`` (one row per spec, input order),
 rewritten every ``SUMMARY_SECONDS`` while the batch runs, so even a killed batch leaves a
@@ -27,8 +27,8 @@ from feedtune import __version__
 from feedtune.batch.inputs import InputError, Item, check_output_apart, load_items
 from feedtune.batch.job import INVALID, RESUMED, Outcome, summary_fields
 from feedtune.batch.reports import BASELINE_RTOL, compare, judge, summary_document
-from feedtune.files import remove_stale_temporaries, write_atomic
-from feedtune.status import ERROR, NOT_RUN
+from feedtune.schema.files import remove_stale_temporaries, write_atomic
+from feedtune.schema.status import ERROR, NOT_RUN
 
 SUMMARY_SECONDS = 10.0
 LOCK_NAME = ".feedtune-batch.lock"
@@ -178,7 +178,7 @@ def run_batch(inputs: list[str], out: Path, executor, *, baseline: dict | None =
                    spec_sha256=outcome.spec_sha256,
                    errors=[{"pointer": p, "message": m} for p, m in outcome.errors])
         if outcome.status == RESUMED:
-            from feedtune.result import TuneResult
+            from feedtune.schema.result import TuneResult
 
             try:
                 result = TuneResult.model_validate_json(path.read_bytes())

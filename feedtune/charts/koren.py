@@ -33,7 +33,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from feedtune.charts import selection as sel
-from feedtune.status import SKIPPED
+from feedtune.schema.status import SKIPPED
 
 KINDS = ("min_iae", "min_radial_error", "damping_0707")
 LABELS = {
@@ -152,7 +152,7 @@ def tune_point(kind: str, time_constant: float, ratio: float, **options) -> dict
     metrics the charts use (``min_radius`` [m], ``min_radius_koren`` [m], ``damping_ratio``).
     A gain on its bound or a failed solve gives ``k_tau`` None (not an optimum)."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     spec = point_spec(kind, time_constant, ratio, **options)
     started = time.perf_counter()

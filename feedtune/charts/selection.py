@@ -136,7 +136,7 @@ def _exact(technique: str, gain: float, period: float | None, time_constant: flo
            blu: float, max_velocity: float) -> dict:
     """Every metric at a fixed design, by feedtune itself (a spec with nothing free)."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     tunables = {"position_gain": {"value": gain}}
     if period is not None:

@@ -47,7 +47,7 @@ def _write_chart(kind: str, data: dict, path: Path, data_path: Path | None, quie
     import io
 
     from feedtune.charts.koren import PLOTS, write_data
-    from feedtune.status import SKIPPED
+    from feedtune.schema.status import SKIPPED
 
     buffer = io.BytesIO()  # drawn in memory, then written atomically
     PLOTS[kind](data, buffer, path.suffix.lstrip(".").lower())

@@ -16,7 +16,7 @@ from typing import Iterator
 
 import click
 
-from feedtune.files import write_atomic
+from feedtune.schema.files import write_atomic
 
 
 #: exit statuses, also listed in ``feedtune --help``
@@ -39,7 +39,7 @@ def fail(message: str, code: int = EXIT_BAD_INPUT) -> typing.NoReturn:
 
 def spec_errors(label: str, errors: list[tuple[str, str]]) -> typing.NoReturn:
     """One ``error: LABEL: POINTER: message`` line per problem, then exit 2."""
-    from feedtune.spec import printable
+    from feedtune.schema.spec import printable
 
     for pointer, message in errors:
         where = f"{label}: {printable(pointer)}" if pointer else label
@@ -53,7 +53,7 @@ def spec_label(spec: str) -> str:
 
 def read_spec(spec: str) -> bytes:
     """The bytes of SPEC (a path or ``-``), or exit 2 with the reason it cannot be read."""
-    from feedtune.spec import MAX_SPEC_BYTES
+    from feedtune.schema.spec import MAX_SPEC_BYTES
 
     try:
         if spec == STDIN:
@@ -76,7 +76,7 @@ def read_spec(spec: str) -> bytes:
 
 def parse(spec: str):
     """Read and parse SPEC, or print its errors and exit 2."""
-    from feedtune.spec import SpecError, parse_spec
+    from feedtune.schema.spec import SpecError, parse_spec
 
     data = read_spec(spec)
     try:

@@ -15,14 +15,14 @@ from feedtune.cli.examples import bundled_examples
 
 
 def _plant_configurations() -> dict[str, list]:
-    """Plant configuration (:func:`feedtune.spec.plant_configuration`) → plant objects to
+    """Plant configuration (:func:`feedtune.schema.spec.plant_configuration`) → plant objects to
     probe: the plant of every bundled example and of every registered plant's defaults,
     each also with every other value of each of its choice fields (``technique``,
     ``model``, ...), those that validate."""
     from pydantic import ValidationError
 
     from feedtune.plants import PLANTS, plant_for
-    from feedtune.spec import plant_configuration
+    from feedtune.schema.spec import plant_configuration
 
     bases = [{"type": name} for name in PLANTS]
     for path in bundled_examples().values():
@@ -59,7 +59,7 @@ def metric_support() -> dict[str, dict[str, list[str]]]:
     ``blu``, or a loop order).
     """
     from feedtune.objectives import METRICS
-    from feedtune.spec import _default_options, tunable_box
+    from feedtune.schema.spec import _default_options, tunable_box
 
     support = {name: {"supported": [], "reported_only": []} for name in METRICS}
     for label, plants in _plant_configurations().items():

@@ -47,7 +47,7 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> 
     IPOPT's status, provenance) is written as JSON, and nothing else, to stdout or
     RESULT. A summary for people, and anything the solver prints, goes to stderr.
     """
-    from feedtune.spec import SpecError
+    from feedtune.schema.spec import SpecError
 
     target = check_output(output)
     report_path = check_report_dir(report_dir)

@@ -11,8 +11,8 @@ from __future__ import annotations
 from typing import ClassVar
 
 from feedtune.expr import Magnitude  # noqa: F401  (re-exported for metric modules)
-from feedtune.model import SpecModel
-from feedtune.protocols import Loop
+from feedtune.loops.protocols import Loop
+from feedtune.schema.model import SpecModel
 
 
 class NoOptions(SpecModel):
@@ -47,7 +47,7 @@ class Metric:
 
     def supports(self, loop: Loop, options=None) -> bool:
         """Whether this metric is defined on ``loop``; by default on every linear loop, never
-        on an exact-only loop (a pulse simulation, :class:`feedtune.pulse_train.PulseLoop`),
+        on an exact-only loop (a pulse simulation, :class:`feedtune.loops.pulse_train.PulseLoop`),
         whose metrics say so themselves."""
         return not loop.exact_only
 

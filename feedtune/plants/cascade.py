@@ -16,8 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping
 
-from feedtune import linalg
-from feedtune.loop import Drive, TransferLoop
+from feedtune.loops import linalg
+from feedtune.loops.loop import Drive, TransferLoop
 from feedtune.plants.compensator import CompensatorKind, compensator_polynomials
 
 

@@ -38,7 +38,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal, Mapping
 
-from feedtune import linalg
+from feedtune.loops import linalg
 from feedtune.plants.base import Tunable
 from feedtune.plants.compensator import (CompensatorKind, compensator_polynomials,
                                          compensator_tunables)

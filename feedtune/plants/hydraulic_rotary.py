@@ -29,12 +29,12 @@ from typing import Literal, Mapping
 
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
-from feedtune import linalg
-from feedtune.loop import TransferLoop
-from feedtune.model import SpecModel
+from feedtune.loops import linalg
+from feedtune.loops.loop import TransferLoop
 from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import cascade_loop, compensator_corners
 from feedtune.plants.compensator import CompensatorKind, compensator_tunables
+from feedtune.schema.model import SpecModel
 
 
 class HydraulicRotaryParams(SpecModel):

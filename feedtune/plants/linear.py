@@ -28,8 +28,8 @@ in z, zeros/poles/gain in the z-plane or x(k+1) = A x(k) + B u(k), strictly prop
 position output and a dead time of whole samples (``dead_time_samples``, or ``dead_time``
 a multiple of T). It is closed by a sampled P, PI or PID position controller at T
 (``implementation: sampled``; T is fixed, not a tunable) into a
-:class:`~feedtune.sampled_lti.SampledLTILoop` of a
-:class:`~feedtune.sampled_plants.DiscretePlant`; no velocity loop and no step-error
+:class:`~feedtune.loops.sampled_lti.SampledLTILoop` of a
+:class:`~feedtune.loops.sampled_plants.DiscretePlant`; no velocity loop and no step-error
 integrals (the motion between samples is unknown).
 
 What is refused (exit 2, with the field's pointer): an improper P, empty or non-finite
@@ -56,19 +56,19 @@ from typing import Annotated, Literal, Mapping, Union
 
 from pydantic import Field, NonNegativeFloat, ValidationInfo, field_validator
 
-from feedtune import linalg
 from feedtune.lazy import Deferred, np
-from feedtune.model import SpecModel
+from feedtune.loops import linalg
+from feedtune.loops.sampled_controllers import cascade_controller, error_controller
+from feedtune.loops.sampled_lti import SampledLTILoop
+from feedtune.loops.sampled_plants import (WHOLE_SAMPLE_TOL, ContinuousPlant, DiscretePlant,
+                                           SampledModelError, split_dead_time)
 from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import close_loops, compensator_corners
 from feedtune.plants.compensator import CompensatorKind
 from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
 from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
 from feedtune.plants.software_servo import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS
-from feedtune.sampled_controllers import cascade_controller, error_controller
-from feedtune.sampled_lti import SampledLTILoop
-from feedtune.sampled_plants import (WHOLE_SAMPLE_TOL, ContinuousPlant, DiscretePlant,
-                                     SampledModelError, split_dead_time)
+from feedtune.schema.model import SpecModel
 
 #: default box of the sampling period T [s]: 10 µs (a fast drive's current loop) to 0.5 s
 PERIOD_BOUNDS = (1e-5, 0.5)
@@ -459,7 +459,7 @@ class LinearParams(SpecModel):
     @field_validator("position_controller", "position_compensator", "notch")
     @classmethod
     def _sampled_cascade(cls, value, info: ValidationInfo):
-        """The sampled cascade's position loop is a gain (:func:`feedtune.sampled_controllers
+        """The sampled cascade's position loop is a gain (:func:`feedtune.loops.sampled_controllers
         .cascade_controller`): its dynamics go in the velocity loop."""
         if (info.data.get("implementation") == "sampled"
                 and info.data.get("velocity_controller", "none") != "none"
@@ -622,7 +622,7 @@ class Linear(Plant):
              horizon_scale: float = 1.0) -> LinearLoop | SampledLTILoop:
         """The closed loop at ``values`` (expressions or numbers per tunable name): a
         :class:`LinearLoop`, or for ``implementation: sampled`` a
-        :class:`~feedtune.sampled_lti.SampledLTILoop` (:meth:`sampled_loop`)."""
+        :class:`~feedtune.loops.sampled_lti.SampledLTILoop` (:meth:`sampled_loop`)."""
         p = self.params
         if p.implementation == "sampled":
             return self.sampled_loop(values, box, horizon_scale)
@@ -690,9 +690,9 @@ class Linear(Plant):
         """The digital loop: the drive behind a ZOH, sampled every T = ``sampling_period``,
         controllers discretised (``discretisation``), commands held ``computation_delay``
         samples late. Without a velocity loop u = C_p(z)(r − y)
-        (:func:`~feedtune.sampled_controllers.error_controller`); with one, the P position
+        (:func:`~feedtune.loops.sampled_controllers.error_controller`); with one, the P position
         gain around C_v(z) reading the sampled velocity C A x, k_ff feed-forward
-        (:func:`~feedtune.sampled_controllers.cascade_controller`).
+        (:func:`~feedtune.loops.sampled_controllers.cascade_controller`).
 
         Raises
         ------
@@ -740,7 +740,7 @@ class Linear(Plant):
         """What the sampled loop's engine refuses, checked in pure Python before any matrix
         is built (``feedtune validate`` builds none, issue 15): a continuous model's
         dead-time split over the sampling period's box
-        (:func:`~feedtune.sampled_plants.split_dead_time`), its position without direct
+        (:func:`~feedtune.loops.sampled_plants.split_dead_time`), its position without direct
         feedthrough, and C B = 0 where a velocity loop reads v = C A x.
 
         Raises
@@ -782,7 +782,7 @@ class Linear(Plant):
         (computation delay + 1)·T_min [s]: the time scale of a step's transient, as
         :meth:`feedtune.plants.software_servo.SoftwareServo.loop`'s 2τ + dead time. A
         discrete model's poles z map to p = ln(z)/T, |Re p| = −ln|z|/T. Roots in pure Python
-        (:func:`feedtune.linalg.roots`): a scale, computed without numpy."""
+        (:func:`feedtune.loops.linalg.roots`): a scale, computed without numpy."""
         model = self.params.model
         _, den = model.polynomials()
         if model.discrete:
@@ -841,7 +841,7 @@ def _roots_at_one(p: list[float]) -> int:
     return count
 
 
-#: the engine's field paths (:mod:`feedtune.sampled_plants`) as the spec's pointers
+#: the engine's field paths (:mod:`feedtune.loops.sampled_plants`) as the spec's pointers
 _POINTERS = {"/plant/dead_time": "/plant/dead_time", "/tunables/sampling_period":
              "/tunables/sampling_period", "/controller": "/plant/discretisation",
              "/plant": "/plant/model"}

@@ -19,11 +19,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from feedtune import linalg
 from feedtune.expr import to_float
 from feedtune.lazy import ca, np
-from feedtune.loop import TransferLoop
-from feedtune.protocols import Capability
+from feedtune.loops import linalg
+from feedtune.loops.loop import TransferLoop
+from feedtune.loops.protocols import Capability
 
 #: Order n of the [n/n] Padé approximant of e^{−sθ} in the polynomials. Its gain is exactly
 #: 1 at every ω; its phase error at x = ωθ is 3.8e-8 rad at x = 1 and 1.8e-5 rad (0.001°)
@@ -161,7 +161,7 @@ class LinearLoop(TransferLoop):
         return super().velocity_constant
 
     def offers(self, capability: Capability) -> bool:
-        """As every loop (:class:`feedtune.protocols.DeclaredCapabilities`); a loop of type
+        """As every loop (:class:`feedtune.loops.protocols.DeclaredCapabilities`); a loop of type
         2 or more offers no velocity constant."""
         if capability is Capability.VELOCITY_CONSTANT and self.loop_type > 1:
             return False

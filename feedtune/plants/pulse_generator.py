@@ -9,7 +9,7 @@ period, so the pulse rate is at most f and the velocity at most v_max = δ f (Ko
 1, f_m = V_m/BLU, with the iteration rate of eq 2 as the pulse-rate ceiling). Without the
 law the commanded acceleration reaches δ f² (Tian eq 1); with it δ f²/k.
 
-The loop is :class:`feedtune.pulse_train.PulseLoop`: an exact, discrete simulation, not a
+The loop is :class:`feedtune.loops.pulse_train.PulseLoop`: an exact, discrete simulation, not a
 linear model. Its tunables are tuned by the derivative-free search of
 :mod:`feedtune.tuner.search` (see docs/tian.md).
 
@@ -27,9 +27,9 @@ from typing import Annotated, Literal, Mapping
 
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
-from feedtune.model import SpecModel
+from feedtune.loops.pulse_train import MotorCharacteristic, PulseInput, PulseLoop
 from feedtune.plants.base import Plant, Tunable
-from feedtune.pulse_train import MotorCharacteristic, PulseInput, PulseLoop
+from feedtune.schema.model import SpecModel
 
 
 class PulseGeneratorParams(SpecModel):

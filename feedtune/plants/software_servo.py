@@ -13,7 +13,7 @@ approximation, the dead time L = (computation_delay + ½)·T in the loop replace
 
 ``interpolation``: ``linear`` puts an interpolator in front of the servo that sends a
 point on the path every reference interval (Sato Figs 2–3); the loop then carries an
-:class:`~feedtune.loop.Interpolator` for the circle metrics of Sato et al.
+:class:`~feedtune.loops.loop.Interpolator` for the circle metrics of Sato et al.
 ``integer_ratio`` asks the tuner (``feedtune.problem``) for a whole q = T/Δt_p.
 
 References
@@ -33,12 +33,12 @@ from typing import Literal, Mapping
 
 from pydantic import Field, PositiveFloat, model_validator
 
-from feedtune import linalg
 from feedtune.lazy import ca, np
-from feedtune.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
-                           SampledLoop, TransferLoop)
-from feedtune.model import SpecModel
+from feedtune.loops import linalg
+from feedtune.loops.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
+                                 SampledLoop, TransferLoop)
 from feedtune.plants.base import Plant, Tunable
+from feedtune.schema.model import SpecModel
 
 #: sampled step responses are summed sample by sample over this many times (2τ + dead time),
 #: the dead time (computation_delay + 1)·T at the smallest T of the box

@@ -53,13 +53,13 @@ from typing import Literal, Mapping
 
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
-from feedtune import linalg
 from feedtune.lazy import np
-from feedtune.loop import TransferLoop
-from feedtune.model import SpecModel
+from feedtune.loops import linalg
+from feedtune.loops.loop import TransferLoop
 from feedtune.plants.base import Plant, Tunable
 from feedtune.plants.cascade import cascade_loop, compensator_corners
 from feedtune.plants.compensator import CompensatorKind, compensator_tunables
+from feedtune.schema.model import SpecModel
 
 #: largest ratio torque constant / back-emf constant (or its inverse) accepted; in SI units
 #: the two are equal for a lossless machine, so a factor beyond this is a unit slip

@@ -15,7 +15,7 @@ import hashlib
 import json
 from pathlib import Path
 
-from feedtune.files import write_atomic
+from feedtune.schema.files import write_atomic
 
 #: the manifest's file name inside the report directory
 MANIFEST = ".feedtune-report.json"

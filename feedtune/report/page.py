@@ -7,7 +7,7 @@ import json
 from html import escape
 
 from feedtune import __version__
-from feedtune.labels import metric_label
+from feedtune.schema.labels import metric_label
 
 CSS = """body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;

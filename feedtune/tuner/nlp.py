@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import to_array, to_float
-from feedtune.status import ERROR, INFEASIBLE, OPTIMAL
+from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build, cached_structure, store_structure
 from feedtune.tuner.evaluation import smallest_magnitudes

@@ -1,6 +1,6 @@
 """Derivative-free search on an exact simulation, for loops the NLP cannot take.
 
-A loop that declares ``exact_only`` (Tian's pulse generator, :mod:`feedtune.pulse_train`)
+A loop that declares ``exact_only`` (Tian's pulse generator, :mod:`feedtune.loops.pulse_train`)
 is a discrete simulation: its metrics are piecewise constant in the tunables (a pulse more
 or less), so they have no useful derivatives and IPOPT cannot be used. This tuner runs
 scipy's differential evolution on the same ``make_loop`` / metric callables the NLP tuner
@@ -27,7 +27,7 @@ from typing import Callable, Mapping
 import numpy as np
 from scipy import optimize
 
-from feedtune.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
+from feedtune.schema.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
 from feedtune.tuner.nlp import Problem
 from feedtune.tuner.types import (Bound, Outcome, Settings, StartOutcome, Term, Variable,
                                   within as _within)

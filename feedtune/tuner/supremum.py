@@ -109,7 +109,7 @@ def window_maxima(f, centres: np.ndarray, h: float | np.ndarray, lower: float,
     """Maximum of f(u) in every window [c − 2h, c + 2h] ∩ [lower, upper], all at once.
 
     Golden section in every window together (one call of ``f`` on an array per step), as
-    feedtune.frequency refines peaks symbolically. Returns (values, u).
+    feedtune.loops.frequency refines peaks symbolically. Returns (values, u).
     """
     a = np.maximum(centres - 2 * h, lower)
     b = np.minimum(centres + 2 * h, upper)

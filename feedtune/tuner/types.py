@@ -12,8 +12,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
-from feedtune.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
-from feedtune.status import SOLVED  # noqa: F401  (the tuner's modules read it here)
+from feedtune.schema.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
+from feedtune.schema.status import SOLVED  # noqa: F401  (the tuner's modules read it here)
 
 #: relative tolerance when reporting whether a bound holds
 FEASIBILITY_TOL = 1e-6
@@ -82,7 +82,7 @@ class Settings:
 
     def __post_init__(self):
         """Refuse IPOPT options that would load a library, whoever built the settings (a
-        spec's options are allow-listed by :mod:`feedtune.spec` before they get here)."""
+        spec's options are allow-listed by :mod:`feedtune.schema.spec` before they get here)."""
         for name, value in self.ipopt_options.items():
             if name in LIBRARY_IPOPT_OPTIONS and value not in SAFE_LIBRARY_CHOICES:
                 raise ValueError(f"IPOPT option {name} = {value!r} would load a library")

@@ -12,7 +12,7 @@ never imports CasADi (tests/architecture).
 
 from __future__ import annotations
 
-from feedtune.labels import metric_label
+from feedtune.schema.labels import metric_label
 from feedtune.validate.entries import poles_entry, stable_entry
 from feedtune.validate.measurements import Phase, measures
 from feedtune.validate.model import NotCovered

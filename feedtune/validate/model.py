@@ -3,7 +3,7 @@ block, and the curves ``feedtune report`` draws.
 
 A model is built from a result's plant spec and tuned values (plain floats) by the class
 registered for the plant type in :mod:`feedtune.validate.models`. It is written from the
-papers with numpy/scipy, never from :mod:`feedtune.loop` or CasADi (tests/architecture).
+papers with numpy/scipy, never from :mod:`feedtune.loops.loop` or CasADi (tests/architecture).
 A method a plant cannot offer raises :class:`NotCovered` with the reason.
 """
 

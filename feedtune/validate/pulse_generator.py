@@ -1,5 +1,5 @@
 """Tian's V-F pulse generator for the validator: the algorithm of Tian §2–§3 run period by
-period in plain Python, with none of the tuner's short cuts (feedtune/pulse_train.py jumps
+period in plain Python, with none of the tuner's short cuts (feedtune/loops/pulse_train.py jumps
 over saturated runs), over the horizon the result reports.
 
 Every period T = 1/f: the command rounded to whole pulses minus the counter is the error,

@@ -1,7 +1,7 @@
 """The validator's frequency and step-shape metrics of the sampled-data software servo.
 
 numpy/scipy only, on :class:`feedtune.validate.software_servo.ServoModel` (the drive
-discretised by ``expm``, Van Loan), never on :mod:`feedtune.loop`:
+discretised by ``expm``, Van Loan), never on :mod:`feedtune.loops.loop`:
 
 * the open loop L(e^{jωT}) = K·z^{−d}·C(zI − Φ)⁻¹Γ (:meth:`ServoModel.open_loop`) and
   H = L/(1 + L) on a logarithmic grid from a thousandth of the slowest closed-loop pole

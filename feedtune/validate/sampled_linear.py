@@ -1,7 +1,7 @@
 """The ``linear`` plant's sampled implementation for the validator, from the spec's numbers.
 
 The digital loop of ``implementation: sampled`` (:mod:`feedtune.plants.linear`) written
-again with scipy, never from :mod:`feedtune.sampled_lti`:
+again with scipy, never from :mod:`feedtune.loops.sampled_lti`:
 
 * the drive (:func:`feedtune.validate.linear.drive_block`; a velocity output integrated to
   the position) behind a zero-order hold, discretised by ``scipy.signal.cont2discrete``

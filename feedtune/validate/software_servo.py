@@ -1,6 +1,7 @@
-"""An independent numpy/scipy model of the ``software_servo`` plant (no CasADi, no feedtune.loop).
+"""An independent numpy/scipy model of the ``software_servo`` plant (no CasADi, no
+feedtune.loops.loop).
 
-Written from the papers, not from :mod:`feedtune.loop`:
+Written from the papers, not from :mod:`feedtune.loops.loop`:
 
 * ``reference_pulse`` (Koren 1979 eqs 3–7): open loop K/(s(1 + sτ)), closed loop
   ẍ + ẋ/τ + (K/τ)x = (K/τ)r, states [x, ẋ];

@@ -8,7 +8,8 @@
 Checked twice: statically, by parsing every import (direct or through other feedtune
 modules, package ``__init__`` files included), and at run time, by importing the package
 in a fresh interpreter and looking at ``sys.modules``. Also the naming rule of STYLE.md:
-``"ward_leonard"`` → ``plants/ward_leonard.py`` → ``WardLeonard``, ``WardLeonardParams``.
+``"ward_leonard"`` → ``plants/ward_leonard.py`` → ``WardLeonard``, ``WardLeonardParams``;
+``"iae"`` → ``objectives/time/iae.py`` (one family folder) → ``Iae``.
 """
 
 from __future__ import annotations
@@ -177,11 +178,11 @@ def test_import_parser_sees_every_import_form(tmp_path):
         "from ..plants import base\n"
         "from .. import objectives as obj\n"
         "import importlib\n"
-        "importlib.import_module('feedtune.objectives.iae')\n")
+        "importlib.import_module('feedtune.objectives.time.iae')\n")
     names = direct_imports(source, tmp_path / "feedtune")
     assert _violations(names, ("feedtune.plants",)) and _violations(names, ("feedtune.objectives",))
     assert {"feedtune.plants.software_servo", "feedtune.objectives", "feedtune.plants.base",
-            "feedtune.objectives.iae"} <= names
+            "feedtune.objectives.time.iae"} <= names
 
 
 @pytest.mark.parametrize("package, forbidden", RULES, ids=[p for p, _ in RULES])
@@ -198,9 +199,10 @@ def test_importing_the_package_loads_nothing_forbidden(package, forbidden):
 
 VALIDATE_MODULES = _modules_under("feedtune.validate") + _modules_under("feedtune.report")
 #: what the tuner computes with: the validator and the report must not lean on any of it
-TUNER_SIDE = ("casadi", "feedtune.loop", "feedtune.linalg", "feedtune.plants",
-              "feedtune.objectives", "feedtune.pulse_train", "feedtune.timeresponse",
-              "feedtune.frequency", "feedtune.signals", "feedtune.problem", "feedtune.tuner")
+TUNER_SIDE = ("casadi", "feedtune.loops.loop", "feedtune.loops.linalg", "feedtune.plants",
+              "feedtune.objectives", "feedtune.loops.pulse_train", "feedtune.loops.timeresponse",
+              "feedtune.loops.frequency", "feedtune.loops.signals", "feedtune.problem",
+              "feedtune.tuner")
 
 
 @pytest.mark.parametrize("module", VALIDATE_MODULES)
@@ -249,8 +251,10 @@ def test_plant_key_module_class_params_share_one_stem(key):
 def test_metric_key_name_module_class_share_one_stem(key):
     cls = METRICS[key]
     assert cls.name == key
-    assert cls.__module__ == f"feedtune.objectives.{key}"
-    assert (PACKAGE_ROOT / "objectives" / f"{key}.py").is_file()
+    package, _, stem = cls.__module__.rpartition(".")
+    family = package.removeprefix("feedtune.objectives.")
+    assert stem == key and package == f"feedtune.objectives.{family}" and "." not in family
+    assert (PACKAGE_ROOT / "objectives" / family / f"{key}.py").is_file()
     assert cls.__name__ == _camel(key)
 
 

@@ -20,7 +20,7 @@ from scipy.optimize import brentq
 import feedtune
 from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE_NAME = "koren-1979-sampled-data"

@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from feedtune.objectives import METRICS
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -86,7 +86,7 @@ def test_the_table_agrees_with_what_a_spec_accepts(table, name):
     the spec check lists as supported when a metric is refused (a metric no configuration
     of this one's label supports is refused, with the JSON pointer)."""
     from feedtune.plants import plant_for
-    from feedtune.spec import plant_configuration
+    from feedtune.schema.spec import plant_configuration
 
     spec = example(name)
     label = plant_configuration(plant_for(parse_spec(spec).plant).params)

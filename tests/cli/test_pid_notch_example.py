@@ -24,7 +24,7 @@ from scipy.optimize import minimize_scalar
 
 from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.validate.linear import LinearModel
 
 REPO = Path(__file__).resolve().parents[2]

@@ -117,7 +117,8 @@ def test_report_tables_list_the_whole_result(sato_report):
         assert m["metric"] in labels
     assert sum(c == "OK" for c in cells) >= len(result["constraints"]) + len(
         [e for e in result["validation"]["entries"] if e["ok"]])
-    # the report names a metric with options as the result's metrics keys do (feedtune.labels)
+    # the report names a metric with options as the result's metrics keys do
+    # (feedtune.schema.labels)
     assert "circle_roughness(radius=0.05,feed=0.05)" in cells
 
 

@@ -1,15 +1,15 @@
-"""Contract of the Loop and Plant protocols (feedtune/protocols.py).
+"""Contract of the Loop and Plant protocols (feedtune/loops/protocols.py).
 
 * every loop a plant of the registry builds, in every configuration, is of a class that
   declares its capabilities, and offers only capabilities its class declares;
-* a loop class has every member of :class:`~feedtune.protocols.Loop` and of the protocol
+* a loop class has every member of :class:`~feedtune.loops.protocols.Loop` and of the protocol
   of each capability it declares, and declares every capability whose members it has
   (a method added without its declaration is not silently unused, nor a declaration
   without its methods silently broken);
 * every ``Capability.X`` written in ``feedtune/`` is a capability that exists (a misspelt
   one would otherwise surface only when that code runs), and no module probes a loop or
   a plant with ``getattr``/``hasattr``;
-* every plant of the registry has the members of :class:`~feedtune.protocols.Plant`.
+* every plant of the registry has the members of :class:`~feedtune.loops.protocols.Plant`.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ import pytest
 
 import feedtune
 from contract_cases import ALL_CONFIGS, CONFIGS, nominal
+from feedtune.loops.protocols import PROTOCOLS, Capability, DeclaredCapabilities, Loop, Plant
 from feedtune.plants import PLANTS
-from feedtune.protocols import PROTOCOLS, Capability, DeclaredCapabilities, Loop, Plant
 
 PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 

@@ -17,10 +17,10 @@ from contract_cases import (CONFIGS, OPTION_SAMPLES, as_float, exact_expr, exact
                             log_point, metric_cases,
                             narrow_box, nominal, numeric_metric, option_variants, symbolic_loop)
 from feedtune.expr import Crossing, PoleRegion, Supremum
-from feedtune.loop import HorizonError
-from feedtune.model import SpecModel
+from feedtune.loops.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.objectives.base import Metric
+from feedtune.schema.model import SpecModel
 
 CASES = metric_cases()
 CASE_IDS = [f"{name}-{config.id}-{options.model_dump()}" for config, name, options in CASES]

@@ -15,11 +15,11 @@ import pytest
 from contract_cases import (ALL_CONFIGS, CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float, grid,
                             literal_fields, log_point, nominal, numpy_loop_stable,
                             stability_sample, symbolic_loop)
-from feedtune.loop import Drive
-from feedtune.model import SpecModel
+from feedtune.loops.loop import Drive
+from feedtune.loops.protocols import Capability
 from feedtune.plants import PLANTS
 from feedtune.plants.base import Tunable
-from feedtune.protocols import Capability
+from feedtune.schema.model import SpecModel
 from feedtune.validate.stability import check_stability
 
 OMEGAS = [0.3, 3.0, 30.0]  # rad/s: below, near and above typical feed-drive bandwidths

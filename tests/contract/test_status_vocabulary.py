@@ -1,7 +1,8 @@
-"""One status vocabulary (feedtune/status.py): no module writes a status as a string of its own.
+"""One status vocabulary (feedtune/schema/status.py): no module writes a status as a string of
+its own.
 
 A status set or compared anywhere in ``feedtune/`` (``status=...``, ``"status": ...``,
-``Outcome(...)``, ``status == ...``) is one of the names of :mod:`feedtune.status`, never a
+``Outcome(...)``, ``status == ...``) is one of the names of :mod:`feedtune.schema.status`, never a
 string literal, so a new status or a typo cannot slip past the result's ``Literal``.
 """
 
@@ -12,8 +13,8 @@ from pathlib import Path
 from typing import get_args
 
 import feedtune
-from feedtune import status
-from feedtune.result import TuneResult
+from feedtune.schema import status
+from feedtune.schema.result import TuneResult
 
 PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 
@@ -59,7 +60,7 @@ def test_no_status_literal_outside_the_vocabulary():
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         found += [f"{path.relative_to(PACKAGE_ROOT)}:{line}" for line in _status_literals(tree)]
-    assert not found, f"status strings written outside feedtune/status.py: {found}"
+    assert not found, f"status strings written outside feedtune/schema/status.py: {found}"
 
 
 def test_result_status_is_the_vocabulary():

@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
-from feedtune.spec import MAX_JSON_DEPTH, SolverSpec, Spec, SpecError, TunableSpec, parse_spec
+from feedtune.schema.spec import (MAX_JSON_DEPTH, SolverSpec, Spec, SpecError, TunableSpec,
+                                  parse_spec)
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE_PATH = REPO / "examples" / "koren-1979-sampled-data.json"

@@ -29,8 +29,8 @@ import feedtune
 from conftest import TUNED, load_example, tune_dict
 from discrete_checks import control_peak_and_bandwidth
 from feedtune.api import Result, ResultError
-from feedtune.export import loop_to_control
-from feedtune.loop import ContinuousLoop
+from feedtune.loops.export import loop_to_control
+from feedtune.loops.loop import ContinuousLoop
 from feedtune.plants.software_servo import koren_step_response
 
 EXAMPLES = sorted(TUNED)

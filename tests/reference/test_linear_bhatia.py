@@ -17,7 +17,7 @@ import math
 import pytest
 
 from conftest import load_example, tune_dict
-from feedtune import linalg
+from feedtune.loops import linalg
 
 EXAMPLE = load_example("bhatia-1971-hydraulic")
 NAMES = {"position_gain": "position_controller.kp", "velocity_gain": "velocity_controller.kp"}

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from conftest import load_example, tune_dict
-from feedtune.objectives.surface_roughness import table_1_coefficients
+from feedtune.objectives.contour.surface_roughness import table_1_coefficients
 
 RADIUS = 0.05  # m
 OMEGA = 1.0  # rad/s

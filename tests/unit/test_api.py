@@ -19,7 +19,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 import feedtune
 import feedtune.problem
 from feedtune.api import Result, ResultError
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "koren-1979-sampled-data.json"

@@ -21,8 +21,8 @@ import pytest
 from scipy.linalg import expm
 
 from feedtune.objectives import METRICS
-from feedtune.objectives.circle import CircleOptions
-from feedtune.objectives.circle_test import circle_test
+from feedtune.objectives.contour.circle import CircleOptions
+from feedtune.objectives.contour.circle_test import circle_test
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from expression_values import as_number
 from test_sato_metrics import sato_loop

@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 import stat
 
-from feedtune.files import write_atomic
+from feedtune.schema.files import write_atomic
 
 
 def _umask() -> int:

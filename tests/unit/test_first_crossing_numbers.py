@@ -1,4 +1,4 @@
-"""feedtune.frequency.first_crossing on a loop of numbers takes a float path (no graph of
+"""feedtune.loops.frequency.first_crossing on a loop of numbers takes a float path (no graph of
 if_else nodes is built); it must give what the symbolic path gives, to the last bit."""
 
 import math
@@ -6,7 +6,7 @@ import math
 import casadi as ca
 import pytest
 
-from feedtune.frequency import first_crossing
+from feedtune.loops.frequency import first_crossing
 
 BAND = (1e-2, 1e4)  # rad/s
 
@@ -54,9 +54,9 @@ def test_bundled_loops_give_the_symbolic_answer(example):
 
     import numpy as np
 
-    from feedtune.objectives import frequency_domain
+    from feedtune.objectives.frequency import frequency_domain
     from feedtune.problem import build_plant, resolve_tunables
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     repo = Path(__file__).resolve().parents[2]
     spec = parse_spec((repo / "examples" / f"{example}.json").read_text())

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from feedtune.problem import tune
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

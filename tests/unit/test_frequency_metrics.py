@@ -13,7 +13,7 @@ crossover_frequency) against closed forms, python-control and a dense numpy grid
     2·10⁶ points (polished with scipy) for M_peak and the −3 dB bandwidth. The issue asks
     for agreement within 0.1 %; the tests assert what is measured, far tighter.
 (c) A light resonance (ζ = 0.03, 0.02) placed exactly between two points of the metrics'
-    own grid (feedtune.frequency.POINTS_PER_DECADE) is still found.
+    own grid (feedtune.loops.frequency.POINTS_PER_DECADE) is still found.
 """
 
 from __future__ import annotations
@@ -27,10 +27,10 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.expr import Magnitude
-from feedtune.frequency import POINTS_PER_DECADE, log_grid, lowest_value
-from feedtune.loop import TransferLoop
+from feedtune.loops.frequency import POINTS_PER_DECADE, log_grid, lowest_value
+from feedtune.loops.loop import TransferLoop
 from feedtune.objectives import METRICS
-from feedtune.objectives.frequency_domain import normalised_gain_squared
+from feedtune.objectives.frequency.frequency_domain import normalised_gain_squared
 from feedtune.plants.hydraulic_rotary import HydraulicRotary, HydraulicRotaryParams
 
 FREQUENCY_METRICS = ("m_peak", "bandwidth", "gain_margin", "phase_margin", "crossover_frequency")
@@ -187,7 +187,7 @@ def test_bandwidth_beyond_a_light_resonance_between_grid_points(zeta, where):
 
 @pytest.mark.parametrize("zeta, where", RESONANCE_CASES)
 def test_lowest_value_finds_a_narrow_dip_between_grid_points(zeta, where):
-    """feedtune.frequency.lowest_value (the tuner's check that no dip below −3 dB hides under
+    """feedtune.loops.frequency.lowest_value (the tuner's check that no dip below −3 dB hides under
     a bandwidth candidate) on −|T|² of the same resonances: its minimum is −M_peak², taken
     at ω_r = ω_n√(1 − 2ζ²), the frequency the tuner's exchange step adds. The location is
     only as sharp as the square root of rounding on a flat minimum: 1e-7 relative."""

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from feedtune.problem import tune
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 

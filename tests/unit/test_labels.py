@@ -1,10 +1,10 @@
-"""One spelling of a metric with its options (feedtune.labels.metric_label), used by the
+"""One spelling of a metric with its options (feedtune.schema.labels.metric_label), used by the
 result's keys, the summary, the report, validation warnings and the tuner's bound names."""
 
-from feedtune.labels import metric_label
-from feedtune.problem import tune
-from feedtune.spec import parse_spec
 from feedtune.api import Result
+from feedtune.problem import tune
+from feedtune.schema.labels import metric_label
+from feedtune.schema.spec import parse_spec
 
 
 def test_label_spelling():

@@ -1,5 +1,5 @@
-"""feedtune.linalg against numpy: characteristic polynomial, Hurwitz/Schur tests, complex solve,
-polynomial roots.
+"""feedtune.loops.linalg against numpy: characteristic polynomial, Hurwitz/Schur tests,
+complex solve, polynomial roots.
 
 Every check compares the CasADi-op helper with an independent numpy computation (roots,
 eigenvalues, ``numpy.poly``, ``numpy.linalg.solve``) on seeded random data.
@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from feedtune import linalg
+from feedtune.loops import linalg
 from expression_values import as_number, as_numbers
 
 
@@ -207,7 +207,7 @@ def test_pivoted_solve_is_numpys_on_symbols_and_numbers():
     """Two rows nearly parallel (the closed loop of a backward-Euler PI at T/T_i = 734) and
     a zero leading pivot: SX, MX and DM give LAPACK's answer to 1e-12 (normwise; measured
     2e-13); the gradient through the pivot choice is the solution's."""
-    from feedtune.linalg import pivoted_solve
+    from feedtune.loops.linalg import pivoted_solve
 
     a = np.array([[-1.07869514e5, -8.52775484e4, 4.30886938e3],
                   [-2.11422248e5, -1.67143995e5, 8.44538398e3],

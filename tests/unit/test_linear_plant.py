@@ -16,10 +16,10 @@ import control
 import numpy as np
 import pytest
 
+from feedtune.objectives import METRICS
 from feedtune.plants import plant_for
 from feedtune.plants.linear_loop import PADE_ORDER, pade
-from feedtune.objectives import METRICS
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 from feedtune.validate.linear import LinearModel, pade_block
 
 #: examples/user-defined-drive.json with a notch in its velocity loop (6 tunables)

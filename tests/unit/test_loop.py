@@ -1,4 +1,4 @@
-"""feedtune.loop against independent numpy/scipy constructions.
+"""feedtune.loops.loop against independent numpy/scipy constructions.
 
 * IntegratorLag.discretise against the Van Loan matrix exponential (scipy.linalg.expm).
 * SampledLoop matrices against a numpy build of Koren's Fig 4 loop with a delay buffer.
@@ -21,8 +21,8 @@ import pytest
 from scipy.integrate import quad
 from scipy.linalg import expm
 
-from feedtune.loop import (MAX_HORIZON_SAMPLES, ContinuousLoop, HorizonError, IntegratorLag,
-                           SampledLoop)
+from feedtune.loops.loop import (MAX_HORIZON_SAMPLES, ContinuousLoop, HorizonError, IntegratorLag,
+                                 SampledLoop)
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams, koren_step_response
 
 TAU = 0.02  # s, Koren's design example drive time constant
@@ -263,7 +263,7 @@ def test_tuner_lengthens_the_horizon_until_the_nlp_is_exact():
     the first NLP is 1.3 % low. The tuner re-solves with a longer horizon until the NLP's
     objective matches the exact evaluation, and reports that gap."""
     from feedtune.problem import MODEL_GAP_TOL, tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     gain, period, delay = _LIGHTLY_DAMPED.values()
     result = tune(parse_spec({

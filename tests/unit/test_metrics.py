@@ -298,7 +298,7 @@ def test_radius_gain_excess_continuous_matches_closed_form_without_cancellation(
     excess is ~1e-11 and a plain |H| − 1 keeps ~5 digits; 1e-9 relative is asked. (At
     K = 1/(2τ) the ω² term vanishes and |S|² − 2 Re S cancels too; that case would need
     the open loop, which Loops do not expose.)"""
-    from feedtune.objectives.circle import radius_gain_excess
+    from feedtune.objectives.contour.circle import radius_gain_excess
 
     x = ((1 - 2 * gain * TAU) * omega**2 + TAU**2 * omega**4) / gain**2
     expected = -x / (math.sqrt(1 + x) * (1 + math.sqrt(1 + x)))
@@ -311,7 +311,7 @@ def test_radius_gain_excess_sampled_tends_to_eq28_at_tiny_omega_t(gain, period):
     """Eq 28's leading term (L/2)(ωT)² is the exact |H| − 1 up to O((ωT)²) relative (the
     coefficient is ~30 here): at ωT = 1e-6 they agree to 1e-8, which needs |H| − 1
     (~1e-11) free of cancellation; a plain |H| − 1 keeps ~5 digits."""
-    from feedtune.objectives.circle import radius_gain_excess
+    from feedtune.objectives.contour.circle import radius_gain_excess
 
     omega = 1e-6 / period
     loop = _loop("sampled_data", gain, period)
@@ -323,7 +323,7 @@ def test_min_radius_of_a_loop_of_numbers_scans_the_radii_once(monkeypatch):
     """The exact minimum radius evaluates the criterion over its grid of radii once (the
     radii above the largest failing one are read from that scan), then point by point for
     the refinements; the value is the scan's own."""
-    import feedtune.objectives.min_radius as min_radius
+    import feedtune.objectives.contour.min_radius as min_radius
 
     sizes = []
     vectorised = min_radius._vectorised

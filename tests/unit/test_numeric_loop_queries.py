@@ -12,10 +12,10 @@ from pathlib import Path
 import casadi as ca
 import pytest
 
-from feedtune.loop import HorizonError
+from feedtune.loops.loop import HorizonError
+from feedtune.loops.sampled_plants import SampledModelError
 from feedtune.plants import plant_for
-from feedtune.sampled_plants import SampledModelError
-from feedtune.spec import _PLANT, tunable_box
+from feedtune.schema.spec import _PLANT, tunable_box
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE_PLANTS = {path.stem: json.loads(path.read_text())["plant"]

@@ -1,4 +1,4 @@
-"""feedtune.frequency.peak on a loop of numbers takes a float path (issue 15: no graph of
+"""feedtune.loops.frequency.peak on a loop of numbers takes a float path (issue 15: no graph of
 48 golden-section steps over the grid is built; f, f′, f″ SX-expanded): it must give what
 the symbolic path gives, to the last bit, for toy responses, the bundled Bhatia and
 Ward-Leonard loops (tuned and hand designs), seeded random points of their boxes, and
@@ -15,11 +15,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import feedtune.frequency as frequency
-from feedtune.objectives.frequency_domain import normalised_gain_squared
-from feedtune.objectives.m_peak import MPeak
+import feedtune.loops.frequency as frequency
+from feedtune.objectives.frequency.frequency_domain import normalised_gain_squared
+from feedtune.objectives.frequency.m_peak import MPeak
 from feedtune.problem import build_plant, resolve_tunables
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner.terms import exact_value
 
 REPO = Path(__file__).resolve().parents[2]

@@ -1,10 +1,10 @@
 """Issue 15: the final evaluation of a loop of numbers is faster, with the same bits.
 
-- :func:`feedtune.frequency._peak_of_numbers` refines to the end only the windows whose
+- :func:`feedtune.loops.frequency._peak_of_numbers` refines to the end only the windows whose
   bound after a few golden steps reaches the largest grid value: the answer must be the
   one of refining every window, to the last bit (the screen switched off by setting
   ``_SCREEN_STEPS`` to the number of golden steps);
-- :func:`feedtune.frequency._number_functions` builds f, f′, f″ in SX directly: the same
+- :func:`feedtune.loops.frequency._number_functions` builds f, f′, f″ in SX directly: the same
   bits as expanding the MX Functions the symbolic path builds, and None on a loop of
   symbols (which keeps the symbolic path);
 - the gain and phase margins read L at a crossing of numbers in floats: the same bits as
@@ -21,10 +21,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import feedtune.frequency as frequency
-from feedtune.objectives import METRICS, frequency_domain
+import feedtune.loops.frequency as frequency
+from feedtune.objectives import METRICS
+from feedtune.objectives.frequency import frequency_domain
 from feedtune.problem import build_plant, resolve_tunables
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner.terms import exact_value
 
 REPO = Path(__file__).resolve().parents[2]

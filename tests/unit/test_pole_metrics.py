@@ -14,12 +14,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from feedtune import linalg
 from feedtune.expr import PoleRegion, Supremum
-from feedtune.loop import ContinuousLoop, Drive, IntegratorLag, SampledLoop
+from feedtune.loops import linalg
+from feedtune.loops.loop import ContinuousLoop, Drive, IntegratorLag, SampledLoop
 from feedtune.objectives import METRICS
-from feedtune.objectives.pole_region import (decay_conditions, damping_conditions,
-                                             rotated_product, routh_column)
+from feedtune.objectives.poles.pole_region import (decay_conditions, damping_conditions,
+                                                   rotated_product, routh_column)
 from feedtune.validate import poles as validator_poles
 
 TAU = 0.02  # Koren's design example [s]
@@ -70,7 +70,7 @@ def test_rotated_product_has_the_roots_turned_both_ways():
 def test_routh_column_decides_stability_as_the_roots_do():
     """Random real polynomials of degree 2–12 with real roots and pairs spread over two
     decades, half of them unstable: every entry positive exactly when every root has
-    Re < 0, and the same verdict as the Hurwitz minors (feedtune.linalg)."""
+    Re < 0, and the same verdict as the Hurwitz minors (feedtune.loops.linalg)."""
     rng = np.random.default_rng(11)
     for _ in range(300):
         n = int(rng.integers(2, 13))
@@ -211,7 +211,7 @@ def test_sensitivity_peak_of_bhatias_loop_is_max_of_one_over_one_plus_l():
     from scipy.optimize import minimize_scalar
 
     from feedtune.plants import plant_for
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
     import json
     from pathlib import Path
 
@@ -279,7 +279,7 @@ SERVO = {"name": "t", "plant": {"type": "software_servo", "technique": "sampled_
      "not defined for this plant configuration, pulse_generator"),
 ])
 def test_the_spec_refuses_what_the_tuner_cannot_hold(change, pointer, words):
-    from feedtune.spec import SpecError, parse_spec
+    from feedtune.schema.spec import SpecError, parse_spec
 
     with pytest.raises(SpecError) as info:
         parse_spec({**SERVO, **change})
@@ -288,7 +288,7 @@ def test_the_spec_refuses_what_the_tuner_cannot_hold(change, pointer, words):
 
 
 def test_the_spec_takes_a_maximised_region_by_default():
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     spec = parse_spec({**SERVO, "objective": [{"metric": "decay_rate"}],
                        "constraints": [{"metric": "decay_rate", "min": 5}]})

@@ -10,7 +10,7 @@ import casadi as ca
 import pytest
 
 from feedtune.problem import Reports, _report_sets, build_plant, resolve_tunables
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner.terms import exact_value
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -73,7 +73,7 @@ def test_a_symbolic_loop_gets_the_expressions_themselves():
 def test_a_term_on_a_loop_of_numbers_is_built_once_for_itself_and_its_report(monkeypatch):
     """Issue 15: the exact evaluation of a tuned design builds an objective term's or a
     constraint's expression once; the report of the same metric and options takes it."""
-    from feedtune.objectives.radial_error import RadialError
+    from feedtune.objectives.contour.radial_error import RadialError
     from feedtune.problem import tune
 
     builds = []

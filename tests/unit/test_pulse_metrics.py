@@ -1,4 +1,4 @@
-"""Pulse-generator metrics against closed forms (feedtune.pulse_train, Tian et al.)."""
+"""Pulse-generator metrics against closed forms (feedtune.loops.pulse_train, Tian et al.)."""
 
 from __future__ import annotations
 

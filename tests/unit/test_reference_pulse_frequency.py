@@ -20,7 +20,7 @@ from scipy.optimize import minimize_scalar
 from feedtune.objectives import METRICS
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.problem import tune
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner.terms import exact_value
 from feedtune.validate.model import NotCovered
 from feedtune.validate.software_servo import ServoModel

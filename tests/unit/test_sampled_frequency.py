@@ -310,7 +310,7 @@ def test_validator_flags_a_wrong_reported_margin():
 
 def tuned(spec: dict):
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
     return tune(parse_spec(spec))
 
 

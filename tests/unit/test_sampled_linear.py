@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 import feedtune
+from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.plants import plant_for
-from feedtune.sampled_lti import SampledLTILoop
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TAU = 0.02  # Koren's drive time constant [s] (examples/koren-1979-sampled-data.json)

@@ -1,4 +1,4 @@
-"""The general sampled-data loop (feedtune.sampled_lti) against Koren's dedicated loop, scipy
+"""The general sampled-data loop (feedtune.loops.sampled_lti) against Koren's dedicated loop, scipy
 and python-control."""
 
 import json
@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 from scipy import integrate, linalg, optimize, signal
 
-from feedtune.loop import IntegratorLag, SampledLoop
-from feedtune.objectives.damping_ratio import DampingRatio
-from feedtune.objectives.radial_error import RadialError
+from feedtune.loops.loop import IntegratorLag, SampledLoop
+from feedtune.loops.sampled_controllers import (cascade_controller, discretise_transfer,
+                                                error_controller)
+from feedtune.loops.sampled_lti import SampledLTILoop
+from feedtune.loops.sampled_lti_integrals import _substep, partial_integral
+from feedtune.loops.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
+                                           expm_function)
+from feedtune.objectives.constants.damping_ratio import DampingRatio
+from feedtune.objectives.contour.radial_error import RadialError
 from feedtune.problem import tune
-from feedtune.sampled_controllers import (cascade_controller, discretise_transfer,
-                                          error_controller)
-from feedtune.sampled_lti import SampledLTILoop
-from feedtune.sampled_plants import (ContinuousPlant, DiscretePlant, SampledModelError,
-                                     expm_function)
-from feedtune.sampled_lti_integrals import _substep, partial_integral
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner import Bound, Problem, Settings, Term, Variable
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -572,7 +572,7 @@ def test_schur_conditions_agree_with_eigenvalues(velocity_gain, stable):
     assert all(x > 0 for x in conditions) == stable
 
 
-#: what metrics, the tuner and feedtune.spec read from a sampled loop
+#: what metrics, the tuner and feedtune.schema.spec read from a sampled loop
 LOOP_INTERFACE = ("discrete", "period", "period_min", "horizon", "order", "drive",
                   "interpolator", "has_exact_step_error", "horizon_samples",
                   "symbolic_horizon_samples", "unrolled_steps")

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from feedtune.plants import plant_for
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from test_sampled_linear import loop_of
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

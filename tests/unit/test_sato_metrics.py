@@ -16,13 +16,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from feedtune.loop import Interpolator
+from feedtune.loops.loop import Interpolator
 from feedtune.objectives import METRICS
-from feedtune.objectives.circle import CircleOptions
-from feedtune.objectives.radial_error import RadialError
-from feedtune.objectives.surface_roughness import TABLE_1, TABLE_1_Q, table_1_coefficients
+from feedtune.objectives.contour.circle import CircleOptions
+from feedtune.objectives.contour.radial_error import RadialError
+from feedtune.objectives.contour.surface_roughness import TABLE_1, TABLE_1_Q, table_1_coefficients
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 from expression_values import as_number
 
 CIRCLE = CircleOptions(radius=0.05, feed=0.05)  # Sato's circle: 50 mm at 1 rad/s

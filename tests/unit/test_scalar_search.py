@@ -16,7 +16,7 @@ import pytest
 
 from feedtune.objectives import METRICS
 from feedtune.problem import build_plant, resolve_tunables
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner import Bound, Problem, Settings, Term
 from feedtune.tuner.scalar import ScalarSearch, applies
 

@@ -1,4 +1,4 @@
-"""feedtune.signals: exact error integrals against quadrature and closed forms.
+"""feedtune.loops.signals: exact error integrals against quadrature and closed forms.
 
 References for the closed forms used here:
 
@@ -21,7 +21,7 @@ import pytest
 from scipy.integrate import IntegrationWarning, quad
 from scipy.optimize import brentq
 
-from feedtune.signals import second_order_error_integrals, sample_error_integrals
+from feedtune.loops.signals import second_order_error_integrals, sample_error_integrals
 from expression_values import as_number
 
 DAMPING_RATIOS = [0.1, 0.5, 0.707, 0.99, 1.0, 1.5, 3.0]
@@ -270,7 +270,7 @@ def test_sample_error_integrals_have_finite_matching_derivatives(alpha, beta, ga
 def test_second_order_integrals_from_the_cached_function_equal_a_direct_build():
     """Built once per process like the per-sample integrals: on symbols, numbers and
     derivatives the same values as the expression built directly, to the last bit."""
-    from feedtune.signals import _second_order
+    from feedtune.loops.signals import _second_order
 
     x = ca.SX.sym("x", 4)
     cached = ca.vertcat(*second_order_error_integrals(*ca.vertsplit(x)))

@@ -12,7 +12,7 @@ import pytest
 
 from feedtune.plants import plant_for
 from feedtune.problem import tune
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.tuner import cache
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

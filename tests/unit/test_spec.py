@@ -8,7 +8,8 @@ import pytest
 
 from pydantic import TypeAdapter
 
-from feedtune.spec import MAX_CONSTRAINTS, MAX_OBJECTIVE_TERMS, IpoptOptions, SpecError, parse_spec
+from feedtune.schema.spec import (MAX_CONSTRAINTS, MAX_OBJECTIVE_TERMS, IpoptOptions, SpecError,
+                                  parse_spec)
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "koren-1979-sampled-data.json"
 

@@ -19,12 +19,12 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from feedtune.loop import TransferLoop
+from feedtune.loops.loop import TransferLoop
 from feedtune.objectives import METRICS
 from feedtune.objectives.base import Metric
 from feedtune.plants.hydraulic_rotary import HydraulicRotary, HydraulicRotaryParams
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "bhatia-1971-hydraulic.json"
 TIME_METRICS = ("iae", "ise", "itae", "settling_time", "overshoot", "load_rejection")
@@ -198,9 +198,9 @@ def test_unstable_transfer_loop_gives_infinity():
 # -- Bhatia's loop ---------------------------------------------------------------------------------
 
 def test_metric_values_are_the_exact_responses():
-    """The metrics read feedtune.timeresponse (checked there against closed forms and an
+    """The metrics read feedtune.loops.timeresponse (checked there against closed forms and an
     independent expm + quad evaluation of this very loop) without loss."""
-    from feedtune.timeresponse import load_response, reference_error
+    from feedtune.loops.timeresponse import load_response, reference_error
 
     _, loop, _, _ = _bhatia()
     num, den = loop.numeric_transfer("error", "reference")
@@ -221,7 +221,7 @@ def test_ramp_steady_error_is_one_over_cv():
     e − e_ss and are finite. His own Table polynomial (Ch. IV F) gives C_v = K'_p·9.492e10/
     9.531e10 = 79.67 1/s at K'_p = 80; ours is 79.73 (his 0.01 s printed as 0.0105 does not
     enter C_v; the 4-digit coefficients do): 0.1 %."""
-    from feedtune.timeresponse import reference_error
+    from feedtune.loops.timeresponse import reference_error
 
     _, loop, _, _ = _bhatia()
     c_v = float(loop.velocity_constant)
@@ -237,7 +237,7 @@ def test_load_rejection_steady_error_of_a_type_1_loop():
     """The integration sits after the load torque, so a type-1 loop keeps a static load
     error: θ_ss/T_L = −(K_ce/D_m²)/(K'_p K'_v K_s K_q/D_m) (App. A2, Fig 16 at s = 0;
     the compensators have unit DC gain)."""
-    from feedtune.timeresponse import load_response
+    from feedtune.loops.timeresponse import load_response
 
     plant, loop, values, _ = _bhatia()
     p = plant.params

@@ -1,4 +1,4 @@
-"""feedtune.timeresponse against closed forms and an independent evaluation.
+"""feedtune.loops.timeresponse against closed forms and an independent evaluation.
 
 Closed forms: first order e = e^{−at}; second order underdamped
 e = e^{−ζωt}(cos ω_d t + ζ/√(1−ζ²) sin ω_d t) with ISE = (1 + 4ζ²)/(4ζω), overshoot
@@ -22,8 +22,8 @@ from scipy.linalg import expm, matrix_balance
 from scipy.optimize import brentq
 from scipy.signal import tf2ss
 
-from feedtune.timeresponse import (DECAY, ResponseTooLongError, UnstableResponseError,
-                                   load_response, reference_error, step_response)
+from feedtune.loops.timeresponse import (DECAY, ResponseTooLongError, UnstableResponseError,
+                                         load_response, reference_error, step_response)
 
 LN_DECAY = math.log(1 / DECAY)
 

@@ -1,4 +1,5 @@
-"""feedtune.loop.TransferLoop and the polynomial helpers of feedtune.linalg against numpy.
+"""feedtune.loops.loop.TransferLoop and the polynomial helpers of feedtune.loops.linalg against
+numpy.
 
 * Frequency, open-loop and error responses against numpy.polyval on the same polynomials.
 * The velocity constant lim s·L(s) against s·L(s) at small s and Bhatia's closed form.
@@ -21,8 +22,8 @@ import control
 import numpy as np
 import pytest
 
-from feedtune import linalg
-from feedtune.loop import TransferLoop
+from feedtune.loops import linalg
+from feedtune.loops.loop import TransferLoop
 from feedtune.plants.hydraulic_rotary import HydraulicRotary, HydraulicRotaryParams
 from expression_values import as_number, as_numbers
 
@@ -371,7 +372,7 @@ def _fixed_gains_result(velocity_gain, position_gain, stable_velocity_loop=True)
     """Tune Bhatia's uncompensated drive with both gains fixed (no free tunable: one
     evaluation, no IPOPT)."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     plant = {"type": "hydraulic_rotary", "torque_motor_gain": 0.254,
              "torque_motor_time_constant": 0.01, "flow_gain": 5.44225e-6,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from feedtune.expr import Magnitude, Supremum
-from feedtune.frequency import peak
+from feedtune.loops.frequency import peak
 from feedtune.tuner.evaluation import Evaluator, Scales, Seen, smallest_magnitudes
 from feedtune.tuner.supremum import make_scan
 

@@ -20,7 +20,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.plants import plant_for
 from feedtune.problem import tune
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "bhatia-1971-hydraulic.json"
 PLANT = {k: v for k, v in json.loads(EXAMPLE.read_text())["plant"].items()

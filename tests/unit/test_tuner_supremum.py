@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from feedtune.expr import Supremum
-from feedtune.frequency import peak
+from feedtune.expr import Crossing
+from feedtune.loops.frequency import peak
 from feedtune.tuner.builder import NlpBuilder
 from feedtune.tuner.nlp import Problem
-from feedtune.expr import Crossing
 from feedtune.tuner.supremum import (EXCHANGE_POINTS, EXCHANGE_TOL, ROW_STRIDE, ExchangeGroup,
                                      FrequencyFunction, add_exchange_points,
                                      make_scan, refined_maximum, supremum_below, tracked)

@@ -1,6 +1,6 @@
 """The validator's time-domain circle test and ramp response, against closed forms, and the
 circle metrics of a tuned Sato example against the tuner's closed-form periodic steady
-state (feedtune/objectives/circle_test.py: a different method for the same quantity).
+state (feedtune/objectives/contour/circle_test.py: a different method for the same quantity).
 
 Tolerances: the continuous loop follows r·e^{jωt} through the exact exponential of the
 augmented system (rounding only, 1e-12 of r); sampled loops at the samples likewise.
@@ -56,7 +56,7 @@ def test_sato_circle_metrics_agree_with_the_tuner():
     simulation re-measures the mean deviation, circularity and roughness within tolerance,
     and the deviation is the polygon's: every point inside the circle (mean −1e-5 m)."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     spec = parse_spec((Path(__file__).resolve().parents[2] / "examples" /
                        "sato-finish.json").read_bytes())
@@ -89,7 +89,7 @@ def test_pade_model_results_validate_on_the_pade_loop(name, decrease):
     and 83.24 µm unrounded, docs/sato.md). Every metric the tuner reports on this model is
     re-measured within tolerance."""
     from feedtune.problem import tune
-    from feedtune.spec import parse_spec
+    from feedtune.schema.spec import parse_spec
 
     spec = parse_spec((Path(__file__).resolve().parents[2] / "examples" / f"{name}.json").read_bytes())
     result = tune(spec).model_dump(mode="json")

@@ -29,7 +29,7 @@ from feedtune import load_result
 from feedtune.objectives import METRICS
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.problem import tune
-from feedtune.spec import parse_spec
+from feedtune.schema.spec import parse_spec
 from feedtune.validate import validate_result
 from feedtune.validate.software_servo import ServoModel
 

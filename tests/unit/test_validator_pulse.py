@@ -1,6 +1,6 @@
 """The validator's pulse generator (Tian's V-F transformation run plainly, period by period)
 against Tian's closed forms and against the tuner's simulation with its short cuts
-(feedtune/pulse_train.py jumps over saturated runs and coasts to the next pulse): both must
+(feedtune/loops/pulse_train.py jumps over saturated runs and coasts to the next pulse): both must
 give the same pulse train and the same errors, bit for bit (the same float operations in
 the same order).
 """
@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from feedtune.pulse_train import PulseInput, simulate
+from feedtune.loops.pulse_train import PulseInput, simulate
 from feedtune.validate import validate_result
 from feedtune.validate.pulse_generator import PulseModel
 
@@ -73,7 +73,7 @@ def test_plain_run_equals_the_short_cuts_over_the_tian_example_box(value, ratio,
     """Over the example's box (error limit 0.05–5 rad, k 100–5000, f 50–200 kHz, δ = 430/140 000
     rad): long law ramps, saturated runs and coasting to the next pulse, bit for bit the
     plain recursion (pulses, every e_i, the stop at rest), on the automatic horizon."""
-    from feedtune.pulse_train import automatic_horizon
+    from feedtune.loops.pulse_train import automatic_horizon
 
     delta = 430.0 / 140e3
     command = PulseInput("step", amplitude=amplitude)

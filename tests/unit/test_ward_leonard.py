@@ -19,7 +19,7 @@ import pytest
 
 from feedtune.plants import PLANTS
 from feedtune.plants.ward_leonard import WardLeonard, WardLeonardParams
-from feedtune.spec import SpecError, parse_spec
+from feedtune.schema.spec import SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "ward-leonard-feed-drive.json"
 

@@ -1,0 +1,129 @@
+"""Smallest radius above which every circle at full speed stays within half a BLU."""
+
+from __future__ import annotations
+
+import math
+
+from feedtune.expr import to_float
+from feedtune.lazy import ca, np
+from feedtune.loops.protocols import Loop
+from feedtune.objectives.base import Metric
+from feedtune.objectives.contour.circle import radius_gain_excess
+
+#: radii scanned, per decade of r, over SPAN decades from V_m/C_v up (ω from C_v down);
+#: the symbolic scan (inside the NLP) is coarser than the exact one (reported values)
+PER_DECADE_SYMBOLIC, PER_DECADE_EXACT, SPAN = 100, 400, 4
+#: bisections of one grid cell (ln-width ln(10)/100) before Newton: 2^-30 of it
+_BISECTIONS = 30
+#: times the exact scan may grow by SPAN decades when its largest radius still fails
+_EXTENSIONS = 3
+
+
+class MinRadius(Metric):
+    """r_min [m]: the smallest r* such that every circle of radius r ≥ r* at the maximum
+    velocity V_m has a radial error r·| |H(jV_m/r)| − 1 | ≤ BLU/2.
+
+    Koren's criterion (eqs 30–32: diametral error within one BLU at V_m), on the loop's own
+    frequency response instead of the leading term of eq 28. The error need not fall
+    monotonically with r: where the ω² and ω⁴ terms of eq 28 have opposite signs it dips
+    below BLU/2 and rises above it again, so r_min is the *largest* radius where the
+    criterion fails (e.g. K = 38.7 1/s, T = 5.908 ms, τ = 10 ms, BLU = 1 µm, V_m =
+    0.333 m/s: the criterion holds on 58.3–91.0 mm, fails up to 162.9 mm; r_min = 162.9 mm).
+    Reduces to eq 33 where the ω² term dominates and to eq 39 (coefficient 4^(1/3), see
+    docs/errata.md) at K = 1/(2τ).
+
+    Radii are scanned from V_m/C_v (where the error is of the order of the following error
+    V_m/C_v ≫ BLU) up SPAN decades.
+
+    * On a loop of numbers (the values a result reports) the value is exact: a scan of
+      PER_DECADE_EXACT radii per decade, every local maximum of the error above the
+      largest failing radius refined (bounded Brent on ln r) so that no failing band
+      narrower than the grid is missed, then Brent's root above the largest failing radius.
+    * In the NLP: the largest failing radius of a scan of PER_DECADE_SYMBOLIC radii per
+      decade brackets the root (the bracket carries no derivative), bisection narrows it
+      and Newton's method through CasADi's rootfinder refines it, so that the derivatives
+      are exact (implicit function theorem). A failing band narrower than that grid can
+      be missed there; the tuner then sees a gap to the exact value (``model_gap``). Where
+      a dip touches BLU/2, r_min jumps: the metric is discontinuous in the gains there.
+    """
+
+    name = "min_radius"
+    unit = "m"
+    description = ("Minimum circle radius above which every circle at V_m has radial error "
+                   "≤ BLU/2 (exact)")
+    reference = "Koren 1979 eqs 30–33, 38–39"
+
+    def supports(self, loop: Loop, options=None):
+        return loop.drive.blu is not None and loop.drive.max_velocity is not None
+
+    def evaluate(self, loop: Loop, options):
+        v, blu = loop.drive.max_velocity, loop.drive.blu
+        log_r = ca.MX.sym("log_r")
+        radius = ca.exp(log_r)
+        excess = radius * ca.fabs(radius_gain_excess(loop, v / radius)) / (blu / 2) - 1  # > 0: fails
+        low = ca.log(v / loop.velocity_constant)
+        free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
+        excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
+        if not free:  # a loop of numbers: scalar arithmetic, evaluated faster as SX
+            return ca.DM(_exact(_vectorised(excess_fn.expand()), to_float(low)))
+        count = PER_DECADE_SYMBOLIC * SPAN
+        cell = math.log(10) / PER_DECADE_SYMBOLIC
+        grid = low + ca.DM(np.arange(count + 1) * cell).T
+        # the scan is scalar arithmetic: expanded to SX it evaluates ~2x faster
+        values = excess_fn.expand().map(count + 1)(grid, *free)
+        worst = ca.stop_diff(ca.mmax(ca.if_else(values > 0, grid, low)), 1)  # largest failing
+        lower, upper = worst, worst + cell
+        for _ in range(_BISECTIONS):
+            middle = (lower + upper) / 2
+            fails = excess_fn(middle, *free) > 0
+            lower = ca.if_else(fails, middle, lower)
+            upper = ca.if_else(fails, upper, middle)
+        refine = ca.rootfinder("min_radius", "newton", excess_fn,
+                               {"abstol": 1e-12, "max_iter": 20, "error_on_fail": False})
+        return ca.exp(refine((lower + upper) / 2, *free))
+
+
+def _vectorised(fn: ca.Function):
+    """``fn`` of one scalar as a function of a numpy array, mapped once per array size
+    (a scan maps hundreds of points, the refinements call it one point at a time)."""
+    maps = {}
+
+    def evaluate(u: np.ndarray) -> np.ndarray:
+        size = np.size(u)
+        if size not in maps:
+            maps[size] = fn if size == 1 else fn.map(size)
+        return np.array(maps[size](np.reshape(u, (1, size))), dtype=float).ravel()
+
+    return evaluate
+
+
+def _exact(excess, low: float) -> float:
+    """r_min [m] of a loop of numbers: ``excess(ln r)`` (vectorised) > 0 where a circle of
+    radius r fails; ``low`` = ln(V_m/C_v). The scan grows by SPAN decades while its last
+    radius fails (a slow loop), up to _EXTENSIONS times, then +∞; NaN
+    (reported as null) when even V_m/C_v passes (f_m/C_v of a few units: not a CNC axis)."""
+    from scipy.optimize import brentq, minimize_scalar  # 0.11 s: only for a number
+
+    u = low + np.arange(PER_DECADE_EXACT * SPAN + 1) * math.log(10) / PER_DECADE_EXACT
+    values = excess(u)
+    for _ in range(_EXTENSIONS):  # a slow loop: SPAN more decades, until a circle passes
+        if values[-1] <= 0:
+            break
+        u = np.concatenate([u, u[-1] + (u[1:] - u[0])])
+        values = np.concatenate([values, excess(u[values.size:])])
+    if values[-1] > 0:
+        return math.inf
+    if values[0] <= 0:
+        return math.nan
+    worst = u[np.nonzero(values > 0)[0][-1]]
+    # a failing band narrower than the grid shows as a local maximum that does not fail
+    for i in np.nonzero((values[1:-1] >= values[:-2]) & (values[1:-1] >= values[2:]))[0] + 1:
+        if u[i + 1] <= worst:
+            continue
+        res = minimize_scalar(lambda x: -excess(np.array([x]))[0], bounds=(u[i - 1], u[i + 1]),
+                              method="bounded", options={"xatol": 1e-12})
+        if -res.fun > 0:
+            worst = max(worst, float(res.x))
+    above = u > worst  # the scan's own values there: no second pass over the grid
+    upper = u[above][np.argmax(values[above] <= 0)]
+    return math.exp(brentq(lambda x: excess(np.array([x]))[0], worst, upper, xtol=1e-15))

@@ -1,0 +1,178 @@
+"""What the closed-loop pole metrics share (``decay_rate``, ``pole_damping``): the poles of
+a loop of numbers in the s-plane, and polynomial tests for "every pole in a region".
+
+A sampled loop's z-plane poles are mapped by s = ln(z)/T (principal branch), as MATLAB's
+``damp`` does; a pole at z = 0 (a buffer sample of a computation delay) decays at once and
+limits neither measure. The tests are the Hurwitz (Liénard–Chipart) conditions of
+:func:`feedtune.loops.linalg.hurwitz_conditions`, as the loops' own stability conditions.
+"""
+
+from __future__ import annotations
+
+import math
+
+from feedtune.expr import PoleRegion, is_symbolic
+from feedtune.lazy import ca, np
+from feedtune.loops import linalg
+from feedtune.loops.protocols import Loop
+
+
+def s_plane_poles(matrix, discrete: bool, period: float | None):
+    """Closed-loop poles [1/s] of a state matrix of numbers: its eigenvalues, or for a
+    sampled loop ln(z)/T of every eigenvalue z ≠ 0, T = ``period`` [s]."""
+    poles = np.linalg.eigvals(np.asarray(matrix, dtype=float)).astype(complex)
+    if discrete:
+        poles = np.log(poles[poles != 0]) / period
+    return poles
+
+
+def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> PoleRegion:
+    """The :class:`~feedtune.expr.PoleRegion` of ``loop`` for ``measure(s-plane poles)``
+    (numpy, a float), ``conditions(level)`` (or None) and the measure's range over stable
+    loops [``lower``, ``upper``].
+
+    The value comes from the numeric poles of the loop's state matrix (and period), so it
+    agrees with the result's ``stability.poles``.
+    """
+    matrix = loop.state_matrix
+    n = matrix.shape[0]
+    discrete = bool(loop.discrete)
+    period = loop.period if discrete else 0.0
+    inputs = ca.veccat(ca.vec(ca.MX(matrix)), ca.MX(period))
+
+    def of_numbers(numbers) -> float:
+        numbers = np.asarray(numbers, dtype=float).ravel()
+        a = numbers[:n * n].reshape(n, n, order="F")  # ca.vec stacks columns
+        if not np.all(np.isfinite(a)):
+            return math.nan
+        return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
+
+    if not is_symbolic(inputs):
+        exact = ca.MX(of_numbers(ca.evalf(inputs)))
+    elif conditions is None:  # reported only: never an expression the NLP would trust
+        raise TypeError("this pole measure has no polynomial test on this loop: it is "
+                        "evaluated on a loop of numbers only")
+    else:
+        exact = ca.MX(math.nan)
+    return PoleRegion(conditions, inputs, of_numbers, exact, lower, upper)
+
+
+def decay_of(poles) -> float:
+    """σ_min = min −Re p [1/s] (∞ without a pole: every mode dies at once)."""
+    return float(np.min(-poles.real)) if poles.size else math.inf
+
+
+def damping_of(poles) -> float:
+    """ζ_min = min −Re p/|p| [1] (1 without a pole; 0 for a pole at the origin)."""
+    if not poles.size:
+        return 1.0
+    size = np.abs(poles)
+    zeta = np.where(size > 0, -poles.real / np.where(size > 0, size, 1.0), 0.0)
+    return float(np.min(zeta))
+
+
+def _balanced(poly: list) -> tuple[list, object]:
+    """(p(ω0·x)/ω0^n, ω0) for a monic p (highest power first), ω0 = |p(0)|^(1/n) [rad/s]:
+    roots of geometric mean size 1, so the tests' minors stay O(1)…O(10⁴) for loops whose
+    corners span decades (as :func:`feedtune.loops.linalg.balanced_polynomial`)."""
+    n = len(poly) - 1
+    omega0 = ca.fabs(poly[-1]) ** (1.0 / n)
+    return [c * omega0 ** (-i) for i, c in enumerate(poly)], omega0
+
+
+def rotated_product(poly: list, angle) -> list:
+    """Coefficients of p(e^{jα}x)·p(e^{−jα}x), α = ``angle`` [rad], highest power first.
+
+    A real polynomial: the x^m coefficient is Σ_{k+l=m} b_k b_l cos((k − l)α) with b_k the
+    coefficient of x^k. Its roots are the roots of p turned by ±α.
+    """
+    b = list(reversed(poly))  # ascending
+    n = len(b) - 1
+    out = []
+    for m in range(2 * n + 1):
+        total = 0
+        for k in range(max(0, m - n), min(m, n) + 1):
+            total = total + b[k] * b[m - k] * (ca.cos((2 * k - m) * angle) if 2 * k != m else 1)
+        out.append(total)
+    return list(reversed(out))
+
+
+def decay_conditions(loop: Loop):
+    """level σ [1/s] ↦ expressions all positive iff every closed-loop pole has −Re p > σ.
+
+    Continuous: the Routh test (:func:`routh_column`) of p(s − σ), whose roots are the
+    poles moved right by σ (written on the balanced polynomial, x = s/ω0). Sampled:
+    |z| < e^{−σT}, the Routh test of p(r·z)/rⁿ with r = e^{−σT} mapped by
+    z = (1 + w)/(1 − w), as the loop's settling conditions.
+
+    Routh's entries rather than the Hurwitz minors of feedtune.loops.linalg (whose pivoted
+    elimination the loops' stability rows use): measured on Bhatia's example with all
+    eight tunables free and σ_min ≥ 12 1/s, the minors ended at IPOPT's iteration limit
+    (1428 iterations; their Liénard–Chipart subset: infeasible after 951), the Routh
+    entries at the optimum in 114.
+    """
+    poly = loop.characteristic_polynomial
+    if loop.discrete:
+        period = loop.period
+
+        def conditions(level):
+            radius = ca.exp(-level * period)
+            scaled = [c * radius ** (-k) for k, c in enumerate(poly)]
+            return routh_column(linalg.bilinear_to_continuous(scaled))
+
+        return conditions
+    balanced, omega0 = _balanced(poly)
+
+    def conditions(level):
+        return routh_column(linalg.taylor_shift(balanced, -level / omega0))
+
+    return conditions
+
+
+def routh_column(coefficients: list) -> list:
+    """The Routh array's first column after the leading coefficient, each entry multiplied
+    by that coefficient: all positive exactly when the polynomial (highest power first) is
+    Hurwitz stable; entry k is Δ_k/Δ_{k−1} of the Hurwitz minors.
+
+    O(n²) operations where the minors cost O(n⁴) (used for the degree-2n product of
+    :func:`damping_conditions`: 16 for Bhatia's loop). Near the region's boundary only the
+    last minor Δ_{n−1} (a pair on the boundary) or a_0 (a real root) vanishes, so every
+    entry is smooth there; a pivot that is exactly 0 (far outside) is replaced by the
+    smallest normal number, so no row is NaN.
+    """
+    lead = coefficients[0]
+    rows = [list(coefficients[0::2]), list(coefficients[1::2])]
+    column = []
+    n = len(coefficients) - 1
+    for _ in range(n):
+        upper, lower = rows[-2], rows[-1]
+        column.append(lead * lower[0])
+        pivot = ca.if_else(lower[0] == 0, 2.2250738585072014e-308, lower[0])
+        width = len(upper) - 1
+        nxt = [(pivot * upper[j + 1] - upper[0] * (lower[j + 1] if j + 1 < len(lower) else 0))
+               / pivot for j in range(width)]
+        rows.append(nxt or [0])
+    return column
+
+
+def damping_conditions(loop: Loop):
+    """level ζ [1] ↦ expressions all positive iff every closed-loop pole of a continuous
+    loop has −Re p/|p| > ζ, or None for a sampled loop.
+
+    A pole has damping above ζ when it lies within the angle arccos ζ of the negative real
+    axis; turning every pole by ±α, α = arcsin ζ, keeps them all in the open left half
+    plane exactly then. So the test is the Routh–Hurwitz test (:func:`routh_column`) of
+    the real polynomial p(e^{jα}s)·p(e^{−jα}s) of degree 2n (on the balanced polynomial). For ζ = 0 it is
+    p² (stability); real poles pass for every ζ < 1. A sampled loop's region ζ ≥ ζ0 is
+    bounded by a logarithmic spiral in the z-plane, which no Schur test of a polynomial
+    describes: there the metric is reported only.
+    """
+    if loop.discrete:
+        return None
+    balanced, _ = _balanced(loop.characteristic_polynomial)
+
+    def conditions(level):
+        # ζ ≥ 1 holds nowhere but on real poles: α = π/2 turns them onto the jω axis
+        return routh_column(rotated_product(balanced, ca.asin(ca.fmin(level, 1))))
+
+    return conditions
