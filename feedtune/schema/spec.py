@@ -631,6 +631,10 @@ def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
     except SampledModelError as exc:  # "<pointer>: <message>" (feedtune.plants.linear)
         pointer, _, message = str(exc).partition(": ")
         return errors + [(pointer, message)]
+    except ArithmeticError as exc:  # e.g. D_m = 1e-300: D_m² underflows to 0, then K/D_m²
+        return errors + [("/plant", "the plant's numbers leave double precision when the "
+                                    f"loop is formed ({type(exc).__name__}: {exc}); give "
+                                    "them in SI units within about 1e-150 … 1e150")]
     supported = optimisable = None  # computed when a message needs them
     for section, adapter in _TERM.items():
         terms = raw.get(section)

@@ -202,6 +202,9 @@ _SERVO, _HYDRAULIC = "software_servo", "hydraulic_rotary"
          delete=False)
 @example(site=(_HYDRAULIC, ("objective", 0, "goal")), value="maximise", delete=False)
 @example(site=(_HYDRAULIC, ("objective", 0, "goal")), value=None, delete=True)
+# found by hypothesis: D_m² underflows to 0 (ZeroDivisionError), or overflows
+@example(site=(_HYDRAULIC, ("plant", "displacement")), value=1e-300, delete=False)
+@example(site=(_HYDRAULIC, ("plant", "displacement")), value=1e200, delete=False)
 def test_one_field_changed_gives_a_spec_or_errors_naming_the_input(site, value, delete):
     plant, path = site
     base = PLANT_EXAMPLES[plant]
