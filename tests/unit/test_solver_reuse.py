@@ -4,37 +4,15 @@ specs are NLP parameters, and a result never depends on whether its solver was r
 from __future__ import annotations
 
 import copy
-import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from example_specs import load_example, without_timing
 from feedtune.plants import plant_for
 from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
 from feedtune.tuner import cache
-
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-TIMING = ("solve_time", "build_time", "evaluation_time")
-
-
-def _example(name: str) -> dict:
-    data = json.loads((EXAMPLES / name).read_text(encoding="utf-8"))
-    if name == "koren-1979-min-iae-radius.json":
-        # one free gain: the scalar search, which builds no solver, unless an IPOPT option
-        # is given (this one is IPOPT's default here: same results)
-        data["solver"]["ipopt_options"] = {"hessian_approximation": "exact"}
-    return data
-
-
-def _without_timing(result) -> dict:
-    data = result.model_dump(mode="json")
-    for key in TIMING:
-        data["solver"].pop(key)
-    for start in data["solver"]["starts"]:
-        start.pop("solve_time")
-    return data
 
 
 def _variant(data: dict, **plant) -> dict:
@@ -64,7 +42,7 @@ def _tune_after(first: dict | None, second: dict):
       "period": 0.02, "damping_min": 0.6}),
 ])
 def test_reused_solver_gives_the_result_of_a_fresh_one(example, changes):
-    a = _example(example)
+    a = load_example(example)
     b = _variant(a, **changes["plant"])
     b["name"] = a["name"] + "-b"
     if "gain_max" in changes:
@@ -81,7 +59,7 @@ def test_reused_solver_gives_the_result_of_a_fresh_one(example, changes):
     fresh, info = _tune_after(None, b)
     assert info["hits"] == 0 and info["misses"] == 1, info
     assert reused.success and fresh.success
-    assert _without_timing(reused) == _without_timing(fresh)
+    assert without_timing(reused) == without_timing(fresh)
 
 
 def _circles(data: dict, radius: float, feed: float) -> dict:
@@ -106,14 +84,14 @@ def test_specs_that_differ_in_their_circles_share_a_solver(example, radius, feed
     """A circle's radius and feed enter the metrics through arithmetic only, so they are
     NLP parameters (feedtune.problem.LiftedOptions): a second circle runs on the first
     one's solver and gets the result a fresh solver gives."""
-    a = _example(example)
+    a = load_example(example)
     b = _circles(a, radius, feed)
     reused, info = _tune_after(a, b)
     assert info["hits"] == 1 and info["misses"] == 1, info
     fresh, info = _tune_after(None, b)
     assert info["hits"] == 0 and info["misses"] == 1, info
     assert reused.success and fresh.success
-    assert _without_timing(reused) == _without_timing(fresh)
+    assert without_timing(reused) == without_timing(fresh)
 
 
 def test_lifted_circle_gives_the_result_of_the_spec_numbers():
@@ -124,7 +102,7 @@ def test_lifted_circle_gives_the_result_of_the_spec_numbers():
     from feedtune.objectives import METRICS
     from feedtune.problem import LiftedOptions, resolve_tunables
 
-    spec = parse_spec(_example("koren-1979-sampled-data.json"))
+    spec = parse_spec(load_example("koren-1979-sampled-data.json"))
     plant = plant_for(spec.plant)
     _, _, box = resolve_tunables(spec, plant)
     term = spec.objective[0]
@@ -146,7 +124,7 @@ def test_lifted_circle_gives_the_result_of_the_spec_numbers():
 def test_a_number_that_shapes_the_graph_makes_a_new_solver():
     """τ sizes the step-response horizon of a minimum-IAE loop (its sample count): a
     different τ is a different structure, never a parameter of the same solver."""
-    a = _example("koren-1979-min-iae-radius.json")
+    a = load_example("koren-1979-min-iae-radius.json")
     b = _variant(a, time_constant=0.03)
     _, info = _tune_after(a, b)
     assert info["hits"] == 0 and info["misses"] == 2, info
@@ -156,7 +134,7 @@ def test_one_free_gain_builds_no_solver_and_matches_ipopt():
     """Minimum IAE over the gain alone goes to the scalar search (feedtune.tuner.scalar):
     no IPOPT solver is built, and the tuned gain is IPOPT's to the search's resolution
     (Brent in ln K to ~5e-8, see tests/unit/test_scalar_search.py)."""
-    ipopt = _example("koren-1979-min-iae-radius.json")
+    ipopt = load_example("koren-1979-min-iae-radius.json")
     scalar = copy.deepcopy(ipopt)
     del scalar["solver"]["ipopt_options"]
     cache.clear_solver_cache()
@@ -170,17 +148,17 @@ def test_one_free_gain_builds_no_solver_and_matches_ipopt():
 
 
 def test_same_spec_twice_reuses_and_repeats_the_result():
-    a = _example("koren-1979-sampled-data.json")
+    a = load_example("koren-1979-sampled-data.json")
     cache.clear_solver_cache()
     first = tune(parse_spec(a))
     second = tune(parse_spec(a))
     assert cache.solver_cache_info()["hits"] == 1
-    assert _without_timing(first) == _without_timing(second)
+    assert without_timing(first) == without_timing(second)
 
 
 def test_cache_is_bounded_least_recently_used_first(monkeypatch):
     monkeypatch.setattr(cache, "SOLVER_CACHE_SIZE", 1)
-    a = _example("koren-1979-sampled-data.json")
+    a = load_example("koren-1979-sampled-data.json")
     b = copy.deepcopy(a)
     b["solver"]["tol"] = 1e-8  # an nlpsol option: part of the key
     cache.clear_solver_cache()
@@ -195,7 +173,7 @@ def test_plant_numbers_as_expressions_give_the_same_loop():
     equals the plain loop."""
     import casadi as ca
 
-    data = _example("koren-1979-min-iae-radius.json")
+    data = load_example("koren-1979-min-iae-radius.json")
     plant = plant_for(parse_spec(data).plant)
     numbers = plant.numbers()
     assert set(numbers) == {"time_constant", "blu", "max_velocity"}

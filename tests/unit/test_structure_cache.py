@@ -6,35 +6,13 @@ numbers, and gets the result a fresh build gives."""
 from __future__ import annotations
 
 import copy
-import json
-from pathlib import Path
 
 import pytest
 
+from example_specs import load_example, without_timing
 from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
 from feedtune.tuner import cache, nlp
-
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-TIMING = ("solve_time", "build_time", "evaluation_time")
-
-
-def _example(name: str) -> dict:
-    data = json.loads((EXAMPLES / name).read_text(encoding="utf-8"))
-    if name == "koren-1979-min-iae-radius.json":
-        # one free gain: the scalar search, which builds no solver (no graph to compare),
-        # unless an IPOPT option is given (this one is IPOPT's default here)
-        data["solver"]["ipopt_options"] = {"hessian_approximation": "exact"}
-    return data
-
-
-def _without_timing(result) -> dict:
-    data = result.model_dump(mode="json")
-    for key in TIMING:
-        data["solver"].pop(key)
-    for start in data["solver"]["starts"]:
-        start.pop("solve_time")
-    return data
 
 
 def _changed(data: dict, plant: dict | None = None, **paths) -> dict:
@@ -61,7 +39,7 @@ SAME = [
 
 @pytest.mark.parametrize("example, changes", SAME)
 def test_a_spec_of_a_known_structure_builds_no_graph_and_gets_the_fresh_result(example, changes):
-    a = _example(example)
+    a = load_example(example)
     b = _changed(a, **changes)
     cache.clear_solver_cache()
     tune(parse_spec(a))
@@ -72,7 +50,7 @@ def test_a_spec_of_a_known_structure_builds_no_graph_and_gets_the_fresh_result(e
     fresh = tune(parse_spec(b))
     assert cache.structure_cache_info()["hits"] == 0
     assert reused.success and fresh.success
-    assert _without_timing(reused) == _without_timing(fresh)
+    assert without_timing(reused) == without_timing(fresh)
 
 
 def _keys(data: dict, monkeypatch) -> tuple[list[str], set[str]]:
@@ -109,7 +87,7 @@ def test_equal_structure_keys_mean_equal_graphs(example, changes, monkeypatch):
     """The key is sound: two specs with one structure key have one serialized graph (the
     solver cache's key, computed from the built Functions), and every pair in DIFFERENT
     whose graphs differ has two keys."""
-    a = _example(example)
+    a = load_example(example)
     b = _changed(a, **changes)
     keys_a, graphs_a = _keys(a, monkeypatch)
     keys_b, graphs_b = _keys(b, monkeypatch)
@@ -127,7 +105,7 @@ def test_equal_structure_keys_mean_equal_graphs(example, changes, monkeypatch):
 
 def test_structure_cache_is_bounded_least_recently_used_first(monkeypatch):
     monkeypatch.setattr(cache, "STRUCTURE_CACHE_SIZE", 1)
-    a = _example("koren-1979-sampled-data.json")
+    a = load_example("koren-1979-sampled-data.json")
     b = _changed(a, constraints__0__max=0.9)
     cache.clear_solver_cache()
     for data in (a, b, a):
