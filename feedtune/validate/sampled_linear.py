@@ -18,6 +18,12 @@ again with scipy, never from :mod:`feedtune.loops.sampled_lti`:
   e = v_ref − v (v = ẏ at the sample, C A x), u = C_v(z)e; u(k) enters a buffer of c + d
   (+ 1 with a fraction) held commands.
 
+A discrete drive (``model.period``: its coefficients or matrices in z) takes the place of
+the held drive: its own A, B, C (realised and balanced as a drive in s is) with Φ = A,
+Γ₀ = B, Γ₁ = 0, T = ``model.period`` and d its whole samples of dead time; it has no motion
+between samples, so no step integrals (the loop reports none) and a step response at the
+samples.
+
 They are assembled into one recursion s(k+1) = F s(k) + G r(k), whose eigenvalues are the
 poles; H(e^{jωT}) = C(zI − F)⁻¹G; the open loop L is the same recursion with the
 controller's position input cut (L = −position per injected position, the inner
