@@ -156,11 +156,7 @@ class LinearModel(ContinuousModel):
     def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None):
         """The model of a result's plant spec and tuned values (floats): this continuous
         loop, or :class:`feedtune.validate.sampled_linear.SampledLinearModel` for
-        ``implementation: sampled``."""
-        if plant["model"].get("period") is not None:
-            # its coefficients are in z: read as a model in s they would be another drive
-            raise NotCovered("a discrete drive model (model.period) is not modelled by the "
-                             "validator yet")
+        ``implementation: sampled`` (which a discrete drive, ``model.period``, requires)."""
         if plant.get("implementation", "continuous") == "sampled":
             from feedtune.validate.sampled_linear import SampledLinearModel
 

@@ -18,6 +18,12 @@ again with scipy, never from :mod:`feedtune.loops.sampled_lti`:
   e = v_ref − v (v = ẏ at the sample, C A x), u = C_v(z)e; u(k) enters a buffer of c + d
   (+ 1 with a fraction) held commands.
 
+A discrete drive (``model.period``: its coefficients or matrices in z) takes the place of
+the held drive: its own A, B, C (realised and balanced as a drive in s is) with Φ = A,
+Γ₀ = B, Γ₁ = 0, T = ``model.period`` and d its whole samples of dead time; it has no motion
+between samples, so no step integrals (the loop reports none) and a step response at the
+samples.
+
 They are assembled into one recursion s(k+1) = F s(k) + G r(k), whose eigenvalues are the
 poles; H(e^{jωT}) = C(zI − F)⁻¹G; the open loop L is the same recursion with the
 controller's position input cut (L = −position per injected position, the inner
@@ -97,15 +103,52 @@ class SampledLinearModel:
     sampled = True
 
     def __init__(self, plant: dict, tuned: dict):
-        self.period = period = float(tuned["sampling_period"])
+        model = plant["model"]
+        #: a discrete drive (``model.period``): its own matrices in z, no intersample motion
+        self.discrete = model.get("period") is not None
+        self.period = period = float(model["period"] if self.discrete
+                                     else tuned["sampling_period"])
         self.position_unit = plant["output_unit"].removesuffix("/s")
         self.cascade = plant.get("velocity_controller", "none") != "none"
         self.feedforward = float(plant.get("velocity_feedforward", 0.0)) if self.cascade else 0.0
         self.delay = int(plant.get("computation_delay", 0))
-        drive = drive_block(plant["model"])
+        drive = drive_block(model)  # in z for a discrete drive: the same realisation
         if np.any(drive.d):
             raise NotCovered("a drive with direct feedthrough (D ≠ 0) is not modelled")
         a, b, c = drive.a, drive.b, drive.c
+        if self.discrete:  # a position output and a position controller (LinearParams)
+            self.drive = _balanced(a, b, c)
+            self.whole, self.fraction = self._discrete_dead_time(plant), 0.0
+            self.phi, self.gamma_late = self.drive.a, self.drive.b
+            self.gamma_early = np.zeros_like(self.drive.b)
+        else:
+            self._sample_drive(plant, a, b, c)
+        method = METHODS[plant.get("discretisation", "tustin")]
+        loop = "velocity" if self.cascade else "position"
+        law = controller_block(loop, plant, tuned)
+        if self.cascade:
+            position = controller_block("position", plant, tuned)
+            if position.order:
+                raise NotCovered("a sampled cascade's position controller is a gain")
+            self.position_gain = float(position.d[0, 0])
+        if law.order:
+            ad, bd, cd, dd, _ = cont2discrete((law.a, law.b, law.c, law.d), period, method)
+        else:
+            ad, bd, cd, dd = law.a, law.b, law.c, law.d
+        self.controller = Block(ad, bd, cd, dd)
+        self.held = self.delay + self.whole + (1 if self.fraction > 0 else 0)
+        self._layout()
+
+    def _discrete_dead_time(self, plant: dict) -> int:
+        """A discrete drive's dead time in whole samples: ``dead_time_samples``, or
+        ``dead_time`` [s] (a whole multiple of the period, checked by the spec) over T."""
+        samples = int(plant.get("dead_time_samples") or 0)
+        return samples or round(float(plant.get("dead_time", 0.0)) / self.period)
+
+    def _sample_drive(self, plant: dict, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> None:
+        """A drive in s behind the ZOH: Φ, Γ₀, Γ₁ with the dead time's whole samples and
+        fraction (the modified z-transform)."""
+        period = self.period
         if plant["output_unit"] not in ("m", "rad"):  # a velocity output: x = ∫y
             n = a.shape[0]
             a = np.block([[a, np.zeros((n, 1))], [c, np.zeros((1, 1))]])
@@ -124,21 +167,6 @@ class SampledLinearModel:
         early_phi, early_gamma = _hold(a, b, fraction)
         self.gamma_early = late_phi @ early_gamma  # applied over the first θ_f of a period
         self.early = (early_phi, early_gamma)
-        method = METHODS[plant.get("discretisation", "tustin")]
-        loop = "velocity" if self.cascade else "position"
-        law = controller_block(loop, plant, tuned)
-        if self.cascade:
-            position = controller_block("position", plant, tuned)
-            if position.order:
-                raise NotCovered("a sampled cascade's position controller is a gain")
-            self.position_gain = float(position.d[0, 0])
-        if law.order:
-            ad, bd, cd, dd, _ = cont2discrete((law.a, law.b, law.c, law.d), period, method)
-        else:
-            ad, bd, cd, dd = law.a, law.b, law.c, law.d
-        self.controller = Block(ad, bd, cd, dd)
-        self.held = self.delay + whole + (1 if fraction > 0 else 0)
-        self._layout()
 
     @classmethod
     def from_result(cls, plant: dict, tuned: dict, stability: dict | None = None):
@@ -329,6 +357,8 @@ class SampledLinearModel:
     def step_error(self) -> tuple[np.ndarray, np.ndarray]:
         """(t [s], e = 1 − y(t)) after a unit step, exact at every point of a grid with
         ``_substeps()`` points per sample (and the fraction's switch θ_f)."""
+        if self.discrete:  # the loop refuses the step integrals of such a drive too
+            raise NotCovered("a discrete drive model has no response between samples")
         states, now, state = self.step_samples()
         samples = states.shape[0]
         sl = self.slices
@@ -383,7 +413,14 @@ class SampledLinearModel:
         return error_integrals(*self.step_error())
 
     def responses(self) -> dict[str, Response]:
-        """The unit step response (the report's; no load input)."""
+        """The unit step response (the report's; no load input): at the samples only for a
+        discrete drive."""
+        if self.discrete:
+            states, _, _ = self.step_samples()
+            t = np.arange(states.shape[0]) * self.period
+            one = np.ones_like(t)
+            return {"step": Response("step", t, one, states @ self.position_row(),
+                                     self.position_unit)}
         t, e = self.step_error()
         one = np.ones_like(t)
         return {"step": Response("step", t, one, one - e, self.position_unit)}

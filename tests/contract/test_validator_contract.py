@@ -64,10 +64,7 @@ EXEMPT: dict[tuple[str, str], str] = {
 #: plant configurations (contract ids, prefix) the validator has no model of yet: their
 #: results say ``covered: false``. Listed, not hidden: each case is an expected failure
 #: (xfail) that fails outright once a model exists, so the entry must then be dropped.
-UNCOVERED: dict[tuple[str, str], str] = {
-    ("linear[", "(z)"): "a discrete drive model (model.period) has no validator model yet: "
-                        "the sampled implementation's model should take it (issue 16 item 6)",
-}
+UNCOVERED: dict[tuple[str, str], str] = {}
 
 
 def _exempt(model, name: str) -> str | None:
@@ -118,7 +115,25 @@ VALIDATED_IN_FULL = [c for c in CONFIGS if c.key == "linear" and "implementation
                      and _uncovered(c) is None]
 
 
-@pytest.mark.parametrize("config", VALIDATED_IN_FULL, ids=[c.id for c in VALIDATED_IN_FULL])
+#: (configuration id, metric) its loop reports: a discrete drive has no intersample response,
+#: so no step integral (its objective is then M_p, which every sampled loop reports)
+_REPORTED = {(config.id, name) for config, name, _, _ in CASES}
+
+
+#: configurations whose full validation finds a disagreement in the loop, not yet fixed:
+#: strict expected failures (an XPASS fails, so the entry goes once the loop is fixed)
+DISAGREES: dict[str, str] = {
+    "linear[implementation=sampled,model=transfer_function(z)]": (
+        "the loop reports gain_margin ≈ 1e-13 (a phase crossing at ω ≈ 1e-13 rad/s, where "
+        "the drive's pole at z = 1, rounded to 1 − 6e-16 by the float coefficients of "
+        "(z − 1)(z − a), makes L real); the validator and python-control's "
+        "stability_margins give 327.12"),
+}
+
+
+@pytest.mark.parametrize("config", [
+    pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=DISAGREES[c.id]))
+    if c.id in DISAGREES else c for c in VALIDATED_IN_FULL], ids=[c.id for c in VALIDATED_IN_FULL])
 def test_a_nominal_sampled_linear_result_is_validated_in_full(config):
     """``feedtune.tune`` at the nominal point (every tunable fixed, so the result holds the
     loop's own metrics and nothing an optimiser chose) is covered, every reported metric
@@ -129,7 +144,7 @@ def test_a_nominal_sampled_linear_result_is_validated_in_full(config):
     circle = {"radius": OPTION_SAMPLES["radius"], "feed": OPTION_SAMPLES["feed"]}
     spec = {"name": "contract", "plant": plant,
             "tunables": {k: {"value": v} for k, v in nominal(config).items()},
-            "objective": [{"metric": "iae"}],
+            "objective": [{"metric": "iae" if (config.id, "iae") in _REPORTED else "m_peak"}],
             "constraints": [{"metric": "radial_error", **circle, "max": 1.0}]}
     result = json.loads(feedtune.tune(spec).to_json())
     block = result["validation"]

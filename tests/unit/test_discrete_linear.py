@@ -296,10 +296,14 @@ def test_discrete_model_reports_every_metric_of_the_sampled_loop_but_the_integra
         assert discrete[name].value == pytest.approx(dedicated[name].value, rel=1e-7), name
 
 
-def test_validator_does_not_measure_a_discrete_model(tuned):
-    """No validator model takes a drive given in z yet: it says so, and measures nothing
-    (read as a model in s its coefficients would be another drive)."""
-    block = json.loads(tuned["discrete"].to_json())["validation"]
-    assert block["covered"] is False and block["ok"] is None
-    assert "discrete" in block["reason"]
-    assert not block["entries"]
+def test_validator_measures_every_metric_of_a_discrete_model(tuned):
+    """The validator's own model of the drive given in z
+    (feedtune/validate/sampled_linear.py) re-measures every metric the result reports, each
+    within its tolerance (tests/unit/test_validator_discrete_linear.py checks that model
+    against the drive in s and python-control)."""
+    result = json.loads(tuned["discrete"].to_json())
+    block = result["validation"]
+    assert block["covered"] is True and block["ok"] is True, block
+    measured = {e["metric"] for e in block["entries"]}
+    reported = {m["metric"] for m in result["metrics"].values() if m["value"] is not None}
+    assert reported <= measured, reported - measured
