@@ -41,26 +41,50 @@ class Magnitude(NamedTuple):
     expr: object
 
 
-class Supremum(NamedTuple):
+class Supremum:
     """max over ω of ``fn(ω) ≥ 0``: a grid of points plus the maximum refined between them.
 
     ``exact`` is the refined maximum and ``argmax`` the ω [rad/s] where it is taken (0 for
     ω → 0); both are expressions, continuous but not smooth where the maximising peak
     changes. The NLP bounds ``fn`` on the grid (smooth point by point); the tuner then
-    checks ``exact`` and adds ``argmax`` to the points while the bound is exceeded (the
-    exchange method for semi-infinite constraints).
+    checks the refined peak numerically and adds its ω to the points while the bound is
+    exceeded (the exchange method for semi-infinite constraints).
+
+    ``exact`` and ``argmax`` are given, or ``locate`` gives them (a callable returning
+    (exact, argmax)), called the first time either is read: on a loop of symbols the
+    refinement is a large graph (≈ 0.1 s each on issue 16's drive) that the tuner never
+    reads, since it starts its variables from a numeric scan.
     """
 
-    fn: Callable
-    grid: object  # numpy array of ω [rad/s]
-    exact: object
-    argmax: object
+    __slots__ = ("fn", "grid", "_located", "_locate")
+
+    def __init__(self, fn: Callable, grid, exact=None, argmax=None, *,
+                 locate: Callable | None = None):
+        self.fn, self.grid = fn, grid  # grid: numpy array of ω [rad/s]
+        self._located = None if locate is not None else (exact, argmax)
+        self._locate = locate
+
+    def _pair(self):
+        if self._located is None:
+            self._located = tuple(self._locate())
+        return self._located
+
+    @property
+    def exact(self):
+        """The refined maximum of ``fn`` (an expression)."""
+        return self._pair()[0]
+
+    @property
+    def argmax(self):
+        """The ω [rad/s] of the refined maximum (0 for ω → 0; an expression)."""
+        return self._pair()[1]
 
 
-class Crossing(NamedTuple):
+class Crossing:
     """The lowest ω where ``condition(ω)`` falls to 0 (it is positive below).
 
-    ``exact`` locates it directly (an expression that jumps where a dip touches 0). The
+    ``exact`` locates it directly (an expression that jumps where a dip touches 0), given
+    or computed by ``locate()`` when first read (as :class:`Supremum`). The
     tuner instead makes ω an auxiliary variable b with condition(b·x) ≥ m·(1 − x) on a
     relative grid x ∈ (0, 1) (a small margin m keeps dips off the level), and
     condition(b) = 0 where b must be the crossing itself (≥ 0 when b is maximised or
@@ -70,11 +94,21 @@ class Crossing(NamedTuple):
     so that it stays finite and smooth across a loop's stability boundary.
     """
 
-    condition: Callable
-    relative_grid: object  # numpy array of x in (0, 1)
-    lowest_minimum: Callable  # (b, m) ↦ (min over ω ≤ b of condition − m(1 − ω/b), its ω)
-    band: tuple
-    exact: object
+    __slots__ = ("condition", "relative_grid", "lowest_minimum", "band", "_exact", "_locate")
+
+    def __init__(self, condition: Callable, relative_grid, lowest_minimum: Callable | None,
+                 band: tuple, exact=None, *, locate: Callable | None = None):
+        self.condition, self.relative_grid = condition, relative_grid  # x in (0, 1)
+        # (b, m) ↦ (min over ω ≤ b of condition − m(1 − ω/b), its ω)
+        self.lowest_minimum, self.band = lowest_minimum, band
+        self._exact, self._locate = exact, locate
+
+    @property
+    def exact(self):
+        """The crossing [rad/s] (an expression), located when first read."""
+        if self._exact is None and self._locate is not None:
+            self._exact = self._locate()
+        return self._exact
 
 
 class PoleRegion(NamedTuple):

@@ -31,6 +31,8 @@ class NlpBuilder:
         self._extra_lower: list[float] = []
         self._extra_upper: list[float] = []
         self.extra_start: list = []  # start of each auxiliary variable, an expression of z
+        self.scanned: list[ca.MX] = []  # symbols of numerically scanned values starts read
+        self.start_scans: list = []  # the scan giving each (its ``exact(z, p)``)
         self.rows: list = []
         self._lbg: list[float] = []
         self._ubg: list[float] = []
@@ -45,9 +47,17 @@ class NlpBuilder:
         self._param_values.append(float(value))
         return symbol
 
-    def variable(self, name: str, lower: float, upper: float, start) -> ca.MX:
+    def variable(self, name: str, lower: float, upper: float, start, scan=None) -> ca.MX:
         """A new auxiliary NLP variable in [lower, upper], started at ``start`` (an
-        expression of z); its symbol."""
+        expression of z); its symbol. With a ``scan`` (feedtune.tuner.supremum.make_scan),
+        ``start`` maps the scan's value at each start, a symbol filled in numerically
+        (:meth:`scanned_values`), to the start: the exact peak or crossing is never built
+        as a graph of z."""
+        if scan is not None:
+            value = ca.MX.sym(f"{name}_scanned")
+            self.scanned.append(value)
+            self.start_scans.append(scan)
+            start = start(value)
         symbol = ca.MX.sym(name)
         self._extra.append(symbol)
         self._extra_lower.append(lower)
@@ -68,6 +78,11 @@ class NlpBuilder:
         for k in range(expr.numel()):
             self.constrain(expr[k], lower, upper)
         return range(start, len(self.rows))
+
+    def scanned_values(self, z, p) -> list[float]:
+        """The value of every scan a start reads (:meth:`variable`) at log tunables ``z``,
+        parameters ``p``."""
+        return [scan.exact(z, p) for scan in self.start_scans]
 
     def slot(self, name: str, default: float) -> tuple[int, ca.MX]:
         """An exchange point: a parameter set while solving (``default`` until then); its

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from feedtune.expr import Magnitude
 from feedtune.tuner.terms import exact_value
 from feedtune.tuner.types import finite
 
@@ -49,8 +50,9 @@ class Evaluator:
                  bound_scans: list, stability: list, settling: list, matrices: dict):
         self.weights = list(weights)
         self.term_scans, self.bound_scans = list(term_scans), list(bound_scans)
-        self.term_magnitude = [exact_value(v)[1] for v in terms]
-        self.bound_magnitude = [exact_value(v)[1] for v in bounds]
+        # not exact_value: a Supremum's or Crossing's exact graph is built only when read
+        self.term_magnitude = [isinstance(v, Magnitude) for v in terms]
+        self.bound_magnitude = [isinstance(v, Magnitude) for v in bounds]
         self.matrix_names = list(matrices)
         self.n_params = p.numel()  # the parameters existing now: a call passes that many
 

@@ -128,6 +128,7 @@ class Problem:
         self.lbw, self.ubw = builder.lbw, builder.ubw
         self.lbg, self.ubg = builder.lbg, builder.ubg
         self.slot_defaults = builder.slot_defaults
+        self._scanned = builder.scanned_values  # the scans the extra variables start from
         given = settings.ipopt_options.get("hessian_approximation")
         # peaks and crossings over frequency: the limited-memory Hessian first (measured
         # faster), the exact one for a start it leaves unsolved, infeasible or unstable
@@ -178,7 +179,7 @@ class Problem:
                                [f / objective_scale, ca.vertcat(*builder.rows)],
                                ["x", "p"], ["f", "g"]),
             "settling": ca.Function("settling", [z, p], [ca.vertcat(ca.MX(0, 1), *scaled_settling)]),
-            "extra_start": ca.Function("extra_start", [z, p],
+            "extra_start": ca.Function("extra_start", [z, p, *builder.scanned],
                                        [ca.vertcat(ca.MX(0, 1), *builder.extra_start)]),
             # per exchange group: the level its refined peak or dip is checked against
             "exchange_levels": ca.Function("exchange_levels", [z, *builder.extra, p],
@@ -452,7 +453,9 @@ class Problem:
 
     def _x0(self, z0: np.ndarray) -> np.ndarray:
         """Start of every NLP variable: z0, and the extra variables where z0 puts them."""
-        extra = np.asarray(self.extra_start(z0, self.param_values), dtype=float).ravel()
+        extra = np.asarray(self.extra_start(z0, self.param_values,
+                                            *self._scanned(z0, self.param_values)),
+                           dtype=float).ravel()
         extra = np.clip(np.nan_to_num(extra, nan=0.0, posinf=1e6, neginf=-1e6),
                         self.lbw[self.n_z:], self.ubw[self.n_z:])
         return np.concatenate([z0, extra])

@@ -325,7 +325,7 @@ def crossing_variable(builder: NlpBuilder, value: Crossing, scan: "CrossingScan"
     maximised or bounded below. Appends its exchange group to ``groups``.
     """
     lo, hi = value.band
-    u = builder.variable(f"log_crossing{index}", math.log(lo), math.log(hi), ca.log(value.exact))
+    u = builder.variable(f"log_crossing{index}", math.log(lo), math.log(hi), ca.log, scan)
     b = ca.exp(u)
     builder.constrain(scan.fn.rows(b), 0, 0 if equality else ca.inf)
 

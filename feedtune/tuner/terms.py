@@ -39,7 +39,8 @@ def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
     at the starts (see feedtune.tuner.builder.Scales); ``scan`` the numeric scan of a
     Supremum or Crossing value (feedtune.tuner.supremum.make_scan).
     """
-    expr, magnitude = exact_value(value)
+    magnitude = isinstance(value, Magnitude)  # exact_value only where read: on a loop of
+    # symbols a Supremum's or Crossing's exact value is a large graph the NLP does not use
     if isinstance(value, Crossing):
         return weight * crossing_variable(builder, value, scan, index, sign > 0, groups)
     if isinstance(value, PoleRegion):
@@ -48,9 +49,10 @@ def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
         return weight * region_term(builder, value, index, reference)
     if isinstance(value, Supremum) and sign > 0:  # epigraph: fn(ω) ≤ s·t, minimise
         s = builder.parameter(f"term_scale{index}", scale(reference))
-        t = builder.variable(f"peak{index}", 0, ca.inf, value.exact / s * 1.01)
+        t = builder.variable(f"peak{index}", 0, ca.inf, lambda peak: peak / s * 1.01, scan)
         supremum_below(builder, value, scan, s * t, s, True, groups)
         return weight * s * t
+    expr = exact_value(value)[0]
     if magnitude and sign < 0:  # maximising |e|: no epigraph bounds it from above
         return weight * ca.fabs(expr)
     if magnitude:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
@@ -66,7 +68,7 @@ def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
               reference: float | None, groups: list[ExchangeGroup]) -> None:
     """Rows holding ``bound.lower ≤ value ≤ bound.upper``, divided by the bound's scale
     (``scan`` as for :func:`add_term`)."""
-    expr, magnitude = exact_value(value)
+    magnitude = isinstance(value, Magnitude)  # exact_value only where read, as add_term
     s_value = scale(bound.lower, bound.upper) if (bound.lower or bound.upper) else scale(reference)
     s = builder.parameter(f"bound_scale{index}", s_value)
     lower = bound.lower / s_value if bound.lower is not None else -ca.inf
@@ -83,10 +85,11 @@ def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
         supremum_below(builder, value, scan, builder.parameter(f"bound_upper{index}", bound.upper),
                        s, bound.upper > 0, groups)
         if bound.lower is not None:
-            builder.constrain(expr / s, lower, ca.inf)
+            builder.constrain(value.exact / s, lower, ca.inf)
     elif magnitude and bound.lower is not None and bound.lower > 0:
-        builder.constrain(expr**2 / s**2, lower**2, upper**2 if bound.upper is not None else ca.inf)
+        builder.constrain(value.expr**2 / s**2, lower**2,
+                          upper**2 if bound.upper is not None else ca.inf)
     elif magnitude:
-        builder.constrain(expr / s, -upper, upper)
+        builder.constrain(value.expr / s, -upper, upper)
     else:
-        builder.constrain(expr / s, lower, upper)
+        builder.constrain(exact_value(value)[0] / s, lower, upper)

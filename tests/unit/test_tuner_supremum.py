@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from feedtune.expr import Supremum
+from feedtune.expr import Supremum, is_symbolic
 from feedtune.expr import Crossing
 from feedtune.loops.frequency import peak
 from feedtune.tuner.builder import NlpBuilder
@@ -62,6 +62,51 @@ def test_the_exchange_method_holds_the_true_peak_not_the_grid():
     assert outcome.values["k"] == pytest.approx(2.0, rel=1e-6)
     assert outcome.constraints[0][1] == pytest.approx(1.0, rel=1e-6)
     assert outcome.starts[0].exchange_points >= 1
+
+
+def _on_numbers_only(loop, exact):
+    """``locate`` for a Supremum or Crossing of ``loop``: ``exact()`` on a loop of numbers
+    (the tuned design's reported value), an error on the NLP's loop of symbols."""
+    def locate():
+        if is_symbolic(loop.k):
+            raise AssertionError("the tuner built the exact value on the loop of symbols")
+        return exact()
+    return locate
+
+
+def test_the_tuner_never_builds_the_exact_peak_or_crossing_graph():
+    """The exact value of a Supremum or Crossing on the NLP's loop is a large graph; the
+    tuner starts its epigraph and crossing variables from the numeric scan instead, so a
+    ``locate`` that must not run does not (the answer as with the exact value given)."""
+    def lazy_peak(loop):
+        given = toy_peak(loop)
+        return Supremum(given.fn, GRID,
+                        locate=_on_numbers_only(loop, lambda: (given.exact, given.argmax)))
+
+    problem = Problem([Variable("k", 0.1, 10.0, initial=1.0)], {},
+                      lambda values: ToyLoop(values["k"]),
+                      [Term("k", lambda loop: loop.k, -1.0)],
+                      [Bound("peak", lazy_peak, None, 1.0)], {}, Settings(multistart=1))
+    outcome = problem.solve()
+    assert outcome.success, outcome.message
+    assert outcome.values["k"] == pytest.approx(2.0, rel=1e-6)
+
+
+def test_a_crossing_variable_starts_at_the_scanned_crossing():
+    """max over c of the crossing of 1 − ω/c (at ω = c): its variable ln b starts at ln c
+    of the start (brentq to 4 eps relative, far inside 1e-12), and the answer is the box's
+    top c = 10."""
+    def crossing(loop):
+        return Crossing(lambda w: 1 - w / loop.k, np.geomspace(1e-3, 1.0, 121)[:-1], None,
+                        (0.01, 100.0), locate=_on_numbers_only(loop, lambda: loop.k))
+
+    problem = Problem([Variable("c", 0.1, 10.0, initial=3.0)], {},
+                      lambda values: ToyLoop(values["c"]), [Term("b", crossing, -1.0)], [], {},
+                      Settings(multistart=1, scalar_search=False))
+    assert problem._x0(np.array([math.log(3.0)]))[1] == pytest.approx(math.log(3.0), abs=1e-12)
+    outcome = problem.solve()
+    assert outcome.success, outcome.message
+    assert outcome.values["c"] == pytest.approx(10.0, rel=1e-6)
 
 
 def test_coarse_grid_rows_then_exchange_rows_switched_off():

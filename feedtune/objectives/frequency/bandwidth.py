@@ -32,7 +32,6 @@ class Bandwidth(Metric):
     def evaluate(self, loop: Loop, options):
         gain = below_nyquist(loop, normalised_gain_squared(loop), 0.0)  # |H|² = 0 beyond π/T
         band = loop.frequency_band
-        omega = first_crossing(gain, band, 0.5, "bandwidth")
         count = len(log_grid(band))
 
         def condition(w):
@@ -43,4 +42,5 @@ class Bandwidth(Metric):
             return lowest_value(lambda w: condition(w) - margin * (1 - w / b), (band[0], b),
                                 count, "bandwidth_dip")
 
-        return Crossing(condition, relative_grid(band), lowest_minimum, band, omega)
+        return Crossing(condition, relative_grid(band), lowest_minimum, band,
+                        locate=lambda: first_crossing(gain, band, 0.5, "bandwidth"))

@@ -26,6 +26,9 @@ class MPeak(Metric):
 
     def evaluate(self, loop: Loop, options):
         gain = normalised_gain_squared(loop)
-        value, omega_peak = peak(gain, loop.frequency_band, "m_peak")
+        def locate():  # refined when read (the tuner scans numerically instead)
+            value, omega_peak = peak(gain, loop.frequency_band, "m_peak")
+            return ca.sqrt(value), omega_peak
+
         return Supremum(lambda omega: ca.sqrt(gain(omega)), log_grid(loop.frequency_band),
-                        ca.sqrt(value), omega_peak)
+                        locate=locate)

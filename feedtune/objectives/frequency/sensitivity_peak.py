@@ -36,6 +36,9 @@ class SensitivityPeak(Metric):
             re, im = loop.sensitivity_response(omega)
             return re**2 + im**2
 
-        value, omega_peak = peak(gain, loop.frequency_band, "sensitivity_peak")
+        def locate():  # refined when read (the tuner scans numerically instead)
+            value, omega_peak = peak(gain, loop.frequency_band, "sensitivity_peak")
+            return ca.sqrt(value), omega_peak
+
         return Supremum(lambda omega: ca.sqrt(gain(omega)), log_grid(loop.frequency_band),
-                        ca.sqrt(value), omega_peak)
+                        locate=locate)
