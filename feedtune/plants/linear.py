@@ -802,8 +802,10 @@ class Linear(Plant):
         model = self.params.model
         num, den = model.polynomials()
         if model.discrete:
+            # a root within 1e-9 of z = 1 is an integrator (_roots_at_one), not a corner at
+            # |ln z|/T ≈ 1e-16/T: c2d leaves a few ulps there
             found = [abs(cmath.log(z)) / model.period for p in (num, den)
-                     for z in linalg.roots(p) if z != 0]
+                     for z in linalg.roots(p) if z != 0 and abs(z - 1) > 1e-9]
             found.append(math.pi / model.period)
         else:
             found = [bound for p in (num, den) for bound in _root_bounds(p)]

@@ -120,20 +120,7 @@ VALIDATED_IN_FULL = [c for c in CONFIGS if c.key == "linear" and "implementation
 _REPORTED = {(config.id, name) for config, name, _, _ in CASES}
 
 
-#: configurations whose full validation finds a disagreement in the loop, not yet fixed:
-#: strict expected failures (an XPASS fails, so the entry goes once the loop is fixed)
-DISAGREES: dict[str, str] = {
-    "linear[implementation=sampled,model=transfer_function(z)]": (
-        "the loop reports gain_margin ≈ 1e-13 (a phase crossing at ω ≈ 1e-13 rad/s, where "
-        "the drive's pole at z = 1, rounded to 1 − 6e-16 by the float coefficients of "
-        "(z − 1)(z − a), makes L real); the validator and python-control's "
-        "stability_margins give 327.12"),
-}
-
-
-@pytest.mark.parametrize("config", [
-    pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=DISAGREES[c.id]))
-    if c.id in DISAGREES else c for c in VALIDATED_IN_FULL], ids=[c.id for c in VALIDATED_IN_FULL])
+@pytest.mark.parametrize("config", VALIDATED_IN_FULL, ids=[c.id for c in VALIDATED_IN_FULL])
 def test_a_nominal_sampled_linear_result_is_validated_in_full(config):
     """``feedtune.tune`` at the nominal point (every tunable fixed, so the result holds the
     loop's own metrics and nothing an optimiser chose) is covered, every reported metric
