@@ -427,7 +427,18 @@ class _SampledLoopBase(_LoopBase):
     characteristic polynomial in z, ``period``, ``period_min`` and ``horizon``: the
     equivalent s-plane pole pair, the step integrals' horizon and their settling conditions
     (Koren's :class:`SampledLoop`, the general
-    :class:`feedtune.loops.sampled_lti.SampledLTILoop`)."""
+    :class:`feedtune.loops.sampled_lti.SampledLTILoop`). Each subclass builds
+    ``_matrices``, whose first two entries are Φ_cl and Γ_cl."""
+
+    @property
+    def state_matrix(self):
+        """Φ_cl: state(k+1) = Φ_cl state(k) + Γ_cl r(k)."""
+        return self._matrices[0]
+
+    @property
+    def input_matrix(self):
+        """Γ_cl: the column by which the reference r(k) enters the state."""
+        return self._matrices[1]
 
     @cached_property
     def _equivalent_poles(self):
@@ -585,14 +596,6 @@ class SampledLoop(_SampledLoopBase):
             for i in range(1, self.delay):
                 phi[m + i, m + i - 1] = 1
         return phi, gamma, kx, kr
-
-    @property
-    def state_matrix(self):
-        return self._matrices[0]
-
-    @property
-    def input_matrix(self):
-        return self._matrices[1]
 
     @property
     def position_row(self):

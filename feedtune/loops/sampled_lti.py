@@ -329,15 +329,6 @@ class SampledLTILoop(_SampledLoopBase):
         return self._open_matrices
 
     @property
-    def state_matrix(self):
-        """Φ_cl: state(k+1) = Φ_cl state(k) + Γ_cl r(k)."""
-        return self._matrices[0]
-
-    @property
-    def input_matrix(self):
-        return self._matrices[1]
-
-    @property
     def position_row(self):
         return ca.horzcat(ca.DM(self.plant.c), ca.DM.zeros(1, self.order - self.plant.order))
 
