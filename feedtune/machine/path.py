@@ -1,0 +1,239 @@
+"""A programmed tool path: straight lines and circular arcs in the XY plane, in metres.
+
+A part program (:mod:`feedtune.machine.gcode`) or a built-in path becomes a :class:`Path`,
+a sequence of :class:`Line` and :class:`Arc` segments, each with its programmed feed
+[m/s]. The interpolator turns a path into per-axis references; the contour metrics
+measure the distance of the actual tool point from the path with :meth:`Path.distance`.
+
+Coordinates are (x, y, z) [m]; arcs lie in the XY plane (G17) and keep z linear along the
+arc (a helix) so that a program with a z move in an arc block is not silently flattened.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _point(p) -> np.ndarray:
+    a = np.asarray(p, dtype=float).reshape(-1)
+    if a.size == 2:
+        a = np.append(a, 0.0)
+    if a.size != 3 or not np.all(np.isfinite(a)):
+        raise ValueError(f"a path point needs 2 or 3 finite coordinates [m], got {p!r}")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Line:
+    """A straight segment from ``start`` to ``end`` [m] at ``feed`` [m/s] (G0/G1)."""
+
+    start: np.ndarray
+    end: np.ndarray
+    feed: float
+    rapid: bool = False
+    #: the program line it came from (1-based), or 0 for a built-in path
+    source_line: int = 0
+
+    def __post_init__(self):
+        object.__setattr__(self, "start", _point(self.start))
+        object.__setattr__(self, "end", _point(self.end))
+
+    @property
+    def length(self) -> float:
+        """Length [m]."""
+        return float(np.linalg.norm(self.end - self.start))
+
+    def point_at(self, s) -> np.ndarray:
+        """Points at arc length ``s`` [m] from the start (array (n,) → (n, 3))."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        length = self.length
+        u = s / length if length > 0 else np.zeros_like(s)
+        return self.start + u[:, None] * (self.end - self.start)
+
+    def tangent_at(self, s) -> np.ndarray:
+        """Unit tangents [1] at arc length ``s`` (n, 3); zero for a zero-length line."""
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        length = self.length
+        d = (self.end - self.start) / length if length > 0 else np.zeros(3)
+        return np.broadcast_to(d, (s.size, 3)).copy()
+
+    def distance(self, points) -> np.ndarray:
+        """Distance [m] of each point (n, 2 or 3) from the segment (the nearest point of it)."""
+        p = _points(points)
+        d = self.end - self.start
+        dd = float(d @ d)
+        u = np.zeros(len(p)) if dd == 0 else np.clip((p - self.start) @ d / dd, 0.0, 1.0)
+        return np.linalg.norm(p - (self.start + u[:, None] * d), axis=1)
+
+
+@dataclass(frozen=True, eq=False)
+class Arc:
+    """A circular arc in the XY plane about ``center`` [m], counter-clockwise when ``ccw``
+    (G3) or clockwise (G2), at ``feed`` [m/s]; a full circle when ``start`` equals ``end``.
+
+    The radius is |start − center| in XY; ``end`` must lie on the same circle to within
+    ``1e-9`` m plus ``1e-6`` of the radius (a G-code arc's end point is rounded to the
+    program's resolution), or the arc is refused.
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    center: np.ndarray
+    ccw: bool
+    feed: float
+    source_line: int = 0
+
+    def __post_init__(self):
+        object.__setattr__(self, "start", _point(self.start))
+        object.__setattr__(self, "end", _point(self.end))
+        c = _point(self.center)
+        c[2] = 0.0
+        object.__setattr__(self, "center", c)
+        r0 = math.hypot(*(self.start - c)[:2])
+        r1 = math.hypot(*(self.end - c)[:2])
+        if r0 <= 0:
+            raise ValueError("an arc needs a start point away from its centre")
+        if abs(r1 - r0) > 1e-9 + 1e-6 * r0:
+            raise ValueError(
+                f"arc end is {r1:.9g} m from the centre, start {r0:.9g} m: not one circle"
+            )
+
+    @property
+    def radius(self) -> float:
+        """Radius R [m]."""
+        return math.hypot(*(self.start - self.center)[:2])
+
+    @property
+    def sweep(self) -> float:
+        """Signed swept angle [rad], in (0, 2π] counter-clockwise, [−2π, 0) clockwise."""
+        a0 = math.atan2(*(self.start - self.center)[1::-1])
+        a1 = math.atan2(*(self.end - self.center)[1::-1])
+        delta = (a1 - a0) % (2 * math.pi)
+        if self.ccw:
+            return delta if delta > 1e-12 else 2 * math.pi
+        return delta - 2 * math.pi if delta > 1e-12 else -2 * math.pi
+
+    @property
+    def length(self) -> float:
+        """Length along the (helical) arc [m]."""
+        planar = self.radius * abs(self.sweep)
+        return math.hypot(planar, self.end[2] - self.start[2])
+
+    def _angle(self, s) -> tuple[np.ndarray, np.ndarray]:
+        s = np.atleast_1d(np.asarray(s, dtype=float))
+        u = s / self.length
+        a0 = math.atan2(*(self.start - self.center)[1::-1])
+        return a0 + u * self.sweep, u
+
+    def point_at(self, s) -> np.ndarray:
+        """Points at arc length ``s`` [m] from the start (n, 3)."""
+        a, u = self._angle(s)
+        r = self.radius
+        z = self.start[2] + u * (self.end[2] - self.start[2])
+        return np.column_stack(
+            [self.center[0] + r * np.cos(a), self.center[1] + r * np.sin(a), z]
+        )
+
+    def tangent_at(self, s) -> np.ndarray:
+        """Unit tangents [1] at arc length ``s`` (n, 3)."""
+        a, _ = self._angle(s)
+        sign = 1.0 if self.ccw else -1.0
+        planar = self.radius * abs(self.sweep)
+        dz = self.end[2] - self.start[2]
+        t = np.column_stack([-sign * np.sin(a) * planar, sign * np.cos(a) * planar,
+                             np.full(a.shape, dz)])
+        return t / math.hypot(planar, dz)
+
+    def distance(self, points) -> np.ndarray:
+        """Distance [m] of each point from the arc: from the circle where the point's angle
+        lies within the sweep, else from the nearer end point. XY only for a planar arc;
+        a helix is measured in XY plus the z of the nearest angle."""
+        p = _points(points)
+        rel = p[:, :2] - self.center[:2]
+        a0 = math.atan2(*(self.start - self.center)[1::-1])
+        ang = np.arctan2(rel[:, 1], rel[:, 0])
+        sweep = self.sweep
+        # angle travelled from the start in the arc's direction, in [0, 2π)
+        travelled = ((ang - a0) if sweep > 0 else (a0 - ang)) % (2 * math.pi)
+        inside = travelled <= abs(sweep)
+        u = np.clip(travelled / abs(sweep), 0.0, 1.0)
+        z = self.start[2] + u * (self.end[2] - self.start[2])
+        radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius), p[:, 2] - z)
+        ends = np.minimum(np.linalg.norm(p - self.start, axis=1),
+                          np.linalg.norm(p - self.end, axis=1))
+        return np.where(inside, radial, ends)
+
+
+Segment = Line | Arc
+
+
+@dataclass(frozen=True, eq=False)
+class Path:
+    """A programmed path: segments end to start, in program order."""
+
+    segments: tuple[Segment, ...]
+
+    def __post_init__(self):
+        segs = tuple(self.segments)
+        object.__setattr__(self, "segments", segs)
+        for k in range(1, len(segs)):
+            gap = float(np.linalg.norm(segs[k].start - segs[k - 1].end))
+            if gap > 1e-9:
+                raise ValueError(
+                    f"segment {k} starts {gap:.3g} m from where segment {k - 1} ends"
+                )
+
+    @property
+    def length(self) -> float:
+        """Total length [m]."""
+        return float(sum(seg.length for seg in self.segments))
+
+    def distance(self, points) -> np.ndarray:
+        """Contour error [m]: distance of each point (n, 2 or 3) from the nearest point of
+        any segment (rapid moves included; a caller excludes them by slicing the path)."""
+        p = _points(points)
+        if not self.segments:
+            raise ValueError("an empty path has no distance")
+        out = np.full(len(p), np.inf)
+        for seg in self.segments:
+            out = np.minimum(out, seg.distance(p))
+        return out
+
+
+def _points(points) -> np.ndarray:
+    p = np.asarray(points, dtype=float)
+    if p.ndim == 1:
+        p = p[None, :]
+    if p.shape[1] == 2:
+        p = np.column_stack([p, np.zeros(len(p))])
+    if p.shape[1] != 3:
+        raise ValueError(f"points must be (n, 2) or (n, 3) [m], got shape {p.shape}")
+    return p
+
+
+@dataclass(frozen=True, eq=False)
+class Reference:
+    """Per-axis position references from the interpolator, sampled every ``period``.
+
+    Attributes
+    ----------
+    period : float
+        Interpolation (and sampling) period T [s].
+    time : ndarray (n,)
+        Sample times k·T [s].
+    position : ndarray (n, 3)
+        Commanded x, y, z [m] at each sample.
+    arc_length : ndarray (n,)
+        Commanded distance along the path [m] at each sample.
+    segment : ndarray of int (n,)
+        Index of the path segment being cut at each sample.
+    """
+
+    period: float
+    time: np.ndarray
+    position: np.ndarray
+    arc_length: np.ndarray
+    segment: np.ndarray
