@@ -186,11 +186,13 @@ def _words(text: str, fail) -> list[tuple[str, float, str]]:
     while pos < len(text):
         m = _WORD.match(text, pos)
         if m is None:
-            bad = text[pos:pos + 12]
+            bad = re.match(r".[^A-Z]*", text[pos:]).group(0)[:24]
             what = ("parameters and expressions are not read" if bad[0] in "#[]="
                     else "block delete is not read" if bad[0] == "/"
                     else "not a word (a letter and a plain decimal number)")
             fail(bad, what)
+        if m.group(1) == "O":
+            fail(m.group(0), "subroutines and program numbers (O words) are not read")
         value = float(m.group(2))
         if not abs(value) <= MAX_COORDINATE:
             fail(m.group(0), f"|value| above {MAX_COORDINATE:g}")
@@ -298,8 +300,6 @@ def parse_program(text: str, *, source: str, units: str | None = None,
                                                   "move the tool"))
             elif letter == "K":
                 fail(written, "K is an arc centre offset of G18/G19: only G17 is read")
-            elif letter == "O":
-                fail(written, "subroutines and program numbers (O words) are not read")
             elif letter != "P":  # P: a G4 dwell's time, checked below
                 fail(written, "word not read")
 

@@ -295,7 +295,9 @@ def pulse_reference(reference: Reference, *, pulse_equivalent: float,
     The interpolated position is rounded to whole pulses (BLUs) each period and fed to
     ``feedtune.loops.pulse_train``'s V-F recursion (error limit, optional acceleration
     law |e_i − e_{i−1}| ≤ value/k, accumulator); the returned positions are the pulse
-    counters times ``pulse_equivalent`` [m], on the BLU grid.
+    counters times ``pulse_equivalent`` [m], on the BLU grid. The generators lag the
+    command; the reference is extended, holding the last command, until every counter has
+    reached the end point (``arc_length`` and ``segment`` stay those of the command).
 
     Parameters
     ----------
@@ -326,11 +328,26 @@ def pulse_reference(reference: Reference, *, pulse_equivalent: float,
         raise ValueError(
             f"an axis moves {fastest} BLU in one period: faster than the V-F generator's one "
             f"pulse per period (δ/T = {delta / reference.period:.6g} m/s); use a shorter period")
-    out = np.empty_like(counts)
-    for axis in range(3):
-        base = counts[0, axis]
-        pulses, _ = _track(counts[:, axis] - base, value, step_limit)
-        out[:, axis] = base + np.cumsum(pulses, dtype=np.int64)
-    return Reference(period=reference.period, time=reference.time,
-                     position=out * delta, arc_length=reference.arc_length,
-                     segment=reference.segment)
+    # the generators lag; hold the last command until every counter has reached it
+    extra = 16 + int(math.ceil(4 * value * (1 if acceleration_ratio is None else acceleration_ratio)))
+    while True:
+        command = np.concatenate([counts, np.repeat(counts[-1:], extra, axis=0)])
+        out = np.empty_like(command)
+        for axis in range(3):
+            base = command[0, axis]
+            pulses, _ = _track(command[:, axis] - base, value, step_limit)
+            out[:, axis] = base + np.cumsum(pulses, dtype=np.int64)
+        settled = np.flatnonzero(np.any(out != command[-1], axis=1))
+        last = len(counts) - 1 if settled.size == 0 else max(len(counts) - 1, int(settled[-1]) + 1)
+        if last < len(command) - 1 or len(command) > MAX_SAMPLES:
+            break
+        extra *= 4
+    if np.any(out[last] != counts[-1]):
+        raise ValueError("the V-F generators did not settle on the path's end")
+    n = last + 1
+    time = np.arange(n) * reference.period
+    hold = n - len(counts)
+    arc_length = np.concatenate([reference.arc_length, np.repeat(reference.arc_length[-1:], hold)])
+    segment = np.concatenate([reference.segment, np.repeat(reference.segment[-1:], hold)])
+    return Reference(period=reference.period, time=time, position=out[:n] * delta,
+                     arc_length=arc_length[:n], segment=segment[:n])
