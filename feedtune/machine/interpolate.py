@@ -21,18 +21,22 @@ Junction speeds v_j (j = 0 … n, v_0 = v_n = 0, the exact stop at the end):
   of a rapid (G0) move (Bhatia §III: rapid traverse is a positioning move, executed from
   rest to rest by its own controller, Fig 5);
 - the **corner rule** (with ``corner_tolerance`` ε [m] and ``time_constant`` τ [s]):
-  where the direction turns by θ, the axes' velocity vector jumps by
-  |Δv| = 2 v sin(θ/2). Bhatia (§IV.H, the corner at B) states that the deviation "depends
-  (for a given servo) entirely on how drastic a change is entailed" in the axis feed
-  rates, and models each slide's response to a change of ramp by a first-order
-  velocity response V_i + ΔV(1 − e^{−t/τ}) with τ that of the least responsive slide. A
-  slide following so drifts τ|Δv| from an ideal one by the time its velocity has
-  changed; the rule holds that drift within ε: v_j ≤ ε / (2 τ sin(θ_j/2)). For the same
-  first-order slide the contour error of a sharp corner cut at constant speed v is
-  exactly v τ sin θ / e (the tool is e^{−s} sin θ·vτ from the new line and
-  (s − 1 + e^{−s}) sin θ·vτ from the old one, s = t/τ; both equal at s = 1), below the
-  drift for every θ, so ε bounds the corner error; a reversal (θ = π) stops, which the
-  first-order model alone would not ask for (it has no overshoot);
+  Bhatia (§IV.H, the corner at B) says the deviation "depends (for a given servo)
+  entirely on how drastic a change is entailed" in the axis feed rates, and models each
+  slide's response to a change of ramp by a first-order velocity response
+  V_i + ΔV(1 − e^{−t/τ}), τ that of the least responsive slide. Such a slide runs
+  behind the reference by its lag ℓ = τv + τ²a along the path (velocity lag, plus what
+  a deceleration at a adds: p = r − τṙ + τ²r̈ for a piecewise-quadratic r). At a
+  corner that turns the path by θ the lag vector turns with it and changes by
+  2 sin(θ/2)·ℓ; the rule holds that change within ε:
+  v_j ≤ ε / (2 τ sin(θ_j/2)) − τ a (0 where this is negative: the tool stops; ε is then
+  below what the acceleration alone leaves, ≈ τ²a sin θ / e, and a smaller a is needed).
+  For the first-order slide itself the contour error of the corner is at most
+  ℓ sin θ / e, exactly v τ sin θ / e at constant speed (the tool is e^{−s} sin θ·vτ from
+  the new line and (s − 1 + e^{−s}) sin θ·vτ from the old one, s = t/τ; both equal at
+  s = 1), and sin θ / e < 2 sin(θ/2): ε bounds it with margin. A reversal (θ = π) slows
+  to ε/(2τ) − τa although the first-order model would retrace without error: real
+  slides overshoot (Bhatia's B, Fig 38), and the rule keeps them slow there;
 - what the acceleration allows: v_{j+1}² ≤ v_j² + 2 a L_j and v_j² ≤ v_{j+1}² + 2 a L_j,
   solved exactly by two cumulative minima in v² (no loop over blocks).
 
@@ -148,14 +152,18 @@ class _Segments:
         return out
 
 
-def corner_speed(turn: np.ndarray, corner_tolerance: float, time_constant: float) -> np.ndarray:
+def corner_speed(turn, corner_tolerance: float, time_constant: float,
+                 max_acceleration: float = 0.0) -> np.ndarray:
     """Highest speed [m/s] through a corner that turns the path by ``turn`` [rad] (0 = no
-    turn, π = reversal): ε / (2 τ sin(θ/2)), the velocity step |Δv| = 2 v sin(θ/2) times
-    the slowest slide's time constant τ [s] held within ``corner_tolerance`` ε [m]
-    (module docstring; Bhatia 1971 §IV.H). Infinite where the path does not turn."""
+    turn, π = reversal): v = ε / (2 τ sin(θ/2)) − τ a, at least 0, so that the lag
+    τv + τ²a of a first-order slide with time constant τ [s], decelerating at
+    ``max_acceleration`` a [m/s²], changes by at most ``corner_tolerance`` ε [m] as the
+    path turns (module docstring; Bhatia 1971 §IV.H). Infinite where the path does not
+    turn."""
     jump = 2.0 * np.sin(0.5 * np.asarray(turn, dtype=float))
     with np.errstate(divide="ignore"):
-        return np.where(jump > 0, corner_tolerance / (time_constant * jump), np.inf)
+        v = corner_tolerance / (time_constant * jump) - time_constant * max_acceleration
+    return np.where(jump > 0, np.maximum(v, 0.0), np.inf)
 
 
 def transition_length(initial_speed, final_speed, time_constant: float):
@@ -190,7 +198,7 @@ def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
     if tolerance is not None:
         t_start, t_end = seg.tangents()
         cosine = np.clip(np.einsum("ij,ij->i", t_end[:-1], t_start[1:]), -1.0, 1.0)
-        cap[1:n] = np.minimum(cap[1:n], corner_speed(np.arccos(cosine), tolerance, tau))
+        cap[1:n] = np.minimum(cap[1:n], corner_speed(np.arccos(cosine), tolerance, tau, accel or 0.0))
     if accel is None:
         return cap
     # v² ≤ cap², forward: w_{j+1} ≤ w_j + 2aL_j; backward: w_j ≤ w_{j+1} + 2aL_j. With
