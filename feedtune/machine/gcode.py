@@ -399,7 +399,8 @@ def _arc_centre(start: np.ndarray, end: np.ndarray, moves: dict, seen: dict, ccw
 
     With I/J the end may lie off the start's circle by ``ARC_RADIUS_TOLERANCE`` (program
     rounding); the centre is then moved to the nearest point of the chord's perpendicular
-    bisector, at most that tolerance, so that start and end share one circle.
+    bisector when that is at most the same tolerance away, so that start and end share
+    one circle.
     """
     scale = UNIT_METRES[unit]
     name = "G3" if ccw else "G2"
@@ -434,7 +435,13 @@ def _arc_centre(start: np.ndarray, end: np.ndarray, moves: dict, seen: dict, ccw
     if abs(r1 - r0) > ARC_RADIUS_TOLERANCE[unit] * scale:
         fail(name, f"end is {r1:.9g} m from the centre, start {r0:.9g} m: not one circle")
     if half > 0 and r1 != r0:
+        # onto the chord's perpendicular bisector, if that moves the centre within the
+        # rounding; a chord far shorter than the radius (a full circle whose end is off
+        # its start by float rounding) would send it far, so it stays, and the arc's
+        # own check (radii within 1e-9 m + 1e-6 R) decides
         mid = 0.5 * (start[:2] + end[:2])
         u = chord / (2 * half)
-        c = c - u * float((c - mid) @ u)
+        shift = float((c - mid) @ u)
+        if abs(shift) <= ARC_RADIUS_TOLERANCE[unit] * scale:
+            c = c - u * shift
     return np.array([c[0], c[1], 0.0])

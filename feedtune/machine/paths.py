@@ -65,7 +65,7 @@ def bhatia_profile(*, exact_stop_at_b: bool = False,
     """Bhatia's Fig 38 profile ("Study of System Operation", thesis p. 110, §IV.H).
 
     Printed in the text (used as printed): block 1, A → B, 2.9813" at 40 in/min with
-    tan θ₁ = 2 (so Δx = 4/3", Δy = 8/3"); the axis feed rates of blocks 2–5 (in/s):
+    tan θ₁ = 2 (Δx = 1.3333", Δy = 2.6666": his 4-decimal coordinates); the axis feed rates of blocks 2–5 (in/s):
     block 2 (.5962, .2981), 40 in/min; block 3 (.0298, .0149), block 4 (.0304, .0137),
     block 5 (.0313, .0115), each 2 in/min; the rapid traverse to A before block 1; the
     deceleration block CC' between blocks 2 and 3 of length "of the order of .010"",
@@ -99,7 +99,7 @@ def bhatia_profile(*, exact_stop_at_b: bool = False,
     fast = 40 * INCH / 60  # 40 in/min [m/s]
     slow = 2 * INCH / 60
     a = np.array([1.0, 1.0, 0.0]) * INCH
-    b = a + np.array([4 / 3, 8 / 3, 0.0]) * INCH
+    b = a + 2.9813 * INCH * _direction(math.atan(2.0))
     theta2 = math.atan2(0.2981, 0.5962)
     cc = float(transition_length(fast, slow, time_constant))
     c_prime = b + np.array([2.0, 1.0, 0.0]) * INCH

@@ -230,3 +230,15 @@ def test_zero_length_move_is_a_reported_skip_not_a_segment():
     assert len(prog.path.segments) == 1
     assert (prog.skips[0].line, prog.skips[0].word) == (2, "G1")
     assert isinstance(prog.path.segments[0], Line)
+
+
+def test_full_circle_whose_end_is_off_its_start_by_float_rounding_keeps_its_centre():
+    # incremental sums put the start at 0.015014000000000001 m, the absolute end at
+    # 0.015014 m: a chord of 1e-18 m; the centre must stay start + (I, J) (hypothesis
+    # found a projection onto that chord's bisector moving it by 0.25 mm)
+    prog = parse_program("G21 G91 G1 Y0.470 F100\nY14.544\nG90 G3 Y15.014 I6.026 J-0.253\n",
+                         source="t")
+    arc = prog.path.segments[-1]
+    start = prog.path.segments[-2].end
+    np.testing.assert_allclose(arc.center[:2], start[:2] + [6.026e-3, -0.253e-3], atol=TOL)
+    assert arc.sweep == pytest.approx(2 * math.pi, abs=1e-12)
