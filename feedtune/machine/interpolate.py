@@ -1,7 +1,8 @@
 """The interpolator: a :class:`Path` → per-axis position references sampled every T.
 
 ``interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
-corner_tolerance: float | None = None, time_constant: float | None = None) -> Reference``
+corner_tolerance: float | None = None, time_constant: float | None = None,
+feed_override: float = 1.0) -> Reference``
 
 Feed profile
 ------------
@@ -89,7 +90,7 @@ def _positive(value, name: str, unit: str) -> float:
 class _Segments:
     """The path's segments as columns (n,) / (n, 3), read once."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, feed_override: float = 1.0):
         segs = path.segments
         if not segs:
             raise ValueError("an empty path has nothing to interpolate")
@@ -103,6 +104,7 @@ class _Segments:
         self.end = np.array([s.end for s in segs])
         self.is_arc = np.array([isinstance(s, Arc) for s in segs])
         self.rapid = np.array([isinstance(s, Line) and s.rapid for s in segs])
+        self.feed = np.where(self.rapid, self.feed, self.feed * feed_override)
         self.exact_stop = np.array([bool(s.exact_stop) for s in segs])
         self.center = np.zeros((n, 3))
         self.radius = np.zeros(n)
@@ -180,11 +182,14 @@ def transition_length(initial_speed, final_speed, time_constant: float):
 
 def junction_speeds(path: Path, *, max_acceleration: float | None = None,
                     corner_tolerance: float | None = None,
-                    time_constant: float | None = None) -> np.ndarray:
+                    time_constant: float | None = None,
+                    feed_override: float = 1.0) -> np.ndarray:
     """Speeds [m/s] at the n + 1 block junctions of ``path`` (start, between blocks, end)
-    by the rules of the module docstring; without ``max_acceleration`` the feed jumps at
-    junctions and this returns the limits before acceleration (0 at exact stops)."""
-    return _junctions(_Segments(path), max_acceleration, corner_tolerance, time_constant)
+    by the rules of the module docstring (arguments as :func:`interpolate`'s); without
+    ``max_acceleration`` the feed jumps at junctions and this returns the limits before
+    acceleration (0 at exact stops)."""
+    return _junctions(_Segments(path, feed_override), max_acceleration, corner_tolerance,
+                      time_constant)
 
 
 def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
@@ -212,7 +217,8 @@ def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
 
 def interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
                 corner_tolerance: float | None = None,
-                time_constant: float | None = None) -> Reference:
+                time_constant: float | None = None,
+                feed_override: float = 1.0) -> Reference:
     """Sample the path's motion every ``period``.
 
     Parameters
@@ -229,6 +235,9 @@ def interpolate(path: Path, *, period: float, max_acceleration: float | None = N
         None: no corner slow-down.
     time_constant : float or None
         τ [s] of the least responsive slide, for the corner rule.
+    feed_override : float
+        Factor [1] on every programmed feed except rapids (a control's feed override; a
+        tuner varies it to trade cycle time against contour error).
 
     Returns
     -------
@@ -246,7 +255,7 @@ def interpolate(path: Path, *, period: float, max_acceleration: float | None = N
         time_constant = _positive(time_constant, "time_constant", "s")
         if accel is None:
             raise ValueError("a corner slow-down needs max_acceleration [m/s²] to slow down with")
-    seg = _Segments(path)
+    seg = _Segments(path, _positive(feed_override, "feed_override", "1"))
     length = seg.length
     if accel is None:
         peak = seg.feed

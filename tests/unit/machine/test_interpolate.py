@@ -239,3 +239,16 @@ def test_pulse_reference_refuses_faster_than_one_pulse_per_period():
 def test_bad_arguments(kw, match):
     with pytest.raises(ValueError, match=match):
         interpolate(corner(0.01, 0.0, feed=0.01, turn=1.0), **kw)
+
+
+def test_feed_override_scales_cutting_feeds_not_rapids():
+    path = parse_program("G21 G0 X10\nG1 X20 F600\n", source="t", rapid_feed=0.1).path
+    ref = interpolate(path, period=1e-4, feed_override=0.5)
+    v = speeds(ref)
+    seg = ref.segment
+    inside = (seg[1:] == seg[:-1])
+    inside[-1] = False
+    np.testing.assert_allclose(v[inside & (seg[:-1] == 0)], 0.1, atol=SPEED)
+    np.testing.assert_allclose(v[inside & (seg[:-1] == 1)], 0.005, atol=SPEED)
+    with pytest.raises(ValueError, match="feed_override"):
+        interpolate(path, period=1e-4, feed_override=0.0)
