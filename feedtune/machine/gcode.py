@@ -43,7 +43,7 @@ Untrusted input: the text is read, never executed; nothing names a file; at most
 decimals (no exponents), finite and within ``MAX_COORDINATE`` program units.
 
 Library choice (see docs/design.md, "Part programs"): pygcode 0.2.1 (last release 2017)
-and nc-gcode-interpreter (Sinumerik dialect; polars and pyarrow) both read G41 and G81
+and nc-gcode-interpreter 0.1.9 (Sinumerik dialect; polars and pyarrow) both read G41 and G81
 without complaint and produce a wrong path; gcodeparser 0.3.0 drops the words after a
 ``( )`` comment and has no modal groups. This module is our own.
 """
