@@ -131,7 +131,8 @@ class Program:
     path : Path
         The programmed moves in metres, feeds in m/s, rapids flagged.
     units : str
-        "mm" or "inch": the units of the program's first move.
+        "mm" or "inch": the units of the program's first move (a program without moves:
+        the units last in effect, "mm" if it never said).
     skips : tuple of Skip
         What was read but does not become path.
     events : tuple of Event

@@ -108,7 +108,6 @@ class _Segments:
         self.exact_stop = np.array([bool(s.exact_stop) for s in segs])
         self.center = np.zeros((n, 3))
         self.radius = np.zeros(n)
-        self.angle0 = np.zeros(n)
         self.sweep = np.zeros(n)
         for k in np.flatnonzero(self.is_arc):
             arc = segs[k]
@@ -229,7 +228,8 @@ def interpolate(path: Path, *, period: float, max_acceleration: float | None = N
         Interpolation period T [s]; sample k is at time k·T.
     max_acceleration : float or None
         Largest tangential acceleration and deceleration a [m/s²]; None: each block at
-        its feed from its first sample to its last, the feed jumping between blocks.
+        its feed from its first sample to its last, the feed jumping between blocks (an
+        exact stop then takes no time).
     corner_tolerance : float or None
         ε [m] of the corner rule (needs ``time_constant`` and ``max_acceleration``);
         None: no corner slow-down.

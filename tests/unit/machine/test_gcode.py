@@ -199,6 +199,9 @@ ERRORS = [
     ("G21 G1 X1 F100\nX" + "9" * 8 + "\n", 2, "X" + "9" * 8),
     ("G21 G1 X1 N20 F100\n", 1, "N20"),
     ("G21 G1 X1 F100\nG3 X1 Y0 I0 J0\n", 2, "G3"),  # centre at the start
+    ("G21 G1 X1 F100\nX2 P3\n", 2, "P3"),         # P without G4
+    ("G21 G1 X1 F100\nG54.1 P2\n", 2, "G54.1"),
+    ("G21 G1 X1 F100\nX2 )\n", 2, ")"),
 ]
 
 

@@ -252,3 +252,17 @@ def test_feed_override_scales_cutting_feeds_not_rapids():
     np.testing.assert_allclose(v[inside & (seg[:-1] == 1)], 0.005, atol=SPEED)
     with pytest.raises(ValueError, match="feed_override"):
         interpolate(path, period=1e-4, feed_override=0.0)
+
+
+def test_junction_speeds_on_short_blocks_follow_the_acceleration_from_both_stops():
+    """50 collinear blocks of 0.1 mm at F = 0.05 m/s, a = 0.5 m/s²: reaching F takes
+    F²/2a = 2.5 mm, so junction j (at s_j) is min(F, √(2a s_j), √(2a (L − s_j)))."""
+    F, a, step, n = 0.05, 0.5, 1e-4, 50
+    pts = [(k * step, 0.0) for k in range(n + 1)]
+    path = Path(tuple(Line(p, q, F) for p, q in zip(pts[:-1], pts[1:])))
+    s = np.arange(n + 1) * step
+    expected = np.minimum(F, np.sqrt(2 * a * np.minimum(s, n * step - s)))
+    # v² is summed over the blocks: rounding ≈1e-18 m²/s², 1e-12 m/s on v ≥ 0.01 m/s
+    np.testing.assert_allclose(junction_speeds(path, max_acceleration=a), expected, atol=1e-9)
+    ref = interpolate(path, period=1e-4, max_acceleration=a)
+    assert np.abs(np.diff(speeds(ref))).max() / 1e-4 <= a + ACCEL
