@@ -39,8 +39,9 @@ and scaling modes, subroutines (O, M98/M99), parameters and expressions (#, [ ])
 block delete ``/``, axis words A B C U V W, words D H L P Q E, any other M code.
 
 Untrusted input: the text is read, never executed; nothing names a file; at most
-``MAX_PROGRAM_CHARS`` characters and ``MAX_LINE_CHARS`` per line; numbers are plain
-decimals (no exponents), finite and within ``MAX_COORDINATE`` program units.
+``MAX_PROGRAM_CHARS`` characters and ``MAX_LINE_CHARS`` per line; outside comments
+only ASCII; numbers are plain decimals (no exponents), within ``MAX_COORDINATE``
+program units.
 
 Library choice (see docs/design.md, "Part programs"): pygcode 0.2.1 (last release 2017)
 and nc-gcode-interpreter 0.1.9 (Sinumerik dialect; polars and pyarrow) both read G41 and G81
@@ -70,7 +71,7 @@ UNIT_METRES = {"mm": 1e-3, "inch": 0.0254}
 #: 0.0002 inch (a 3-decimal mm or 4-decimal inch program's rounding of end and centre)
 ARC_RADIUS_TOLERANCE = {"mm": 0.002, "inch": 0.0002}
 
-_WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
+_WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _MOTION = {0: "G0", 10: "G1", 20: "G2", 30: "G3"}
 #: modal groups of the G codes read (value ×10 → group)
 _GROUPS = {0: "motion", 10: "motion", 20: "motion", 30: "motion", 800: "motion",
@@ -157,7 +158,7 @@ def _name(letter: str, code: int) -> str:
 
 
 _COMMENT = re.compile(r"\([^()]*\)|;.*|[()]")
-_LINE = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*")
+_LINE = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*", re.ASCII)
 
 
 def _strip_comments(raw: str, fail) -> str:
@@ -175,6 +176,10 @@ def _strip_comments(raw: str, fail) -> str:
 
     if "(" in raw or ")" in raw or ";" in raw:
         raw = _COMMENT.sub(drop, raw)
+    if not raw.isascii():
+        # before upper(): "ı".upper() is "I", and \d would take other scripts' digits
+        bad = next(ch for ch in raw if not ch.isascii())
+        fail(bad, "a character outside ASCII (only comments may hold one)")
     return "".join(raw.split()).upper()
 
 

@@ -142,7 +142,7 @@ def test_exact_stops_pauses_and_skips():
 
 
 def test_comments_line_numbers_and_case():
-    text = "%\nn5 g21 (a comment; with a semicolon) g1 x1 ( two ) y2 f100 ; rest\n%\n"
+    text = "%\nn5 g21 (a comment; with a semicolon, ünïcode) g1 x1 ( two ) y2 f100 ; rest\n%\n"
     prog = parse_program(text, source="t")
     np.testing.assert_allclose(prog.path.segments[0].end, [1 * MM, 2 * MM, 0], atol=TOL)
 
@@ -202,6 +202,8 @@ ERRORS = [
     ("G21 G1 X1 F100\nX2 P3\n", 2, "P3"),         # P without G4
     ("G21 G1 X1 F100\nG54.1 P2\n", 2, "G54.1"),
     ("G21 G1 X1 F100\nX2 )\n", 2, ")"),
+    ("G21 G1 X1 F100\nX\u0661\u0660\n", 2, "\u0661"),  # Arabic-Indic digits ١٠
+    ("G21 G1 X1 F100\nG2 X2 \u0131-1\n", 2, "\u0131"),    # dotless ı, upper() is I
 ]
 
 
