@@ -184,7 +184,7 @@ def identify(data: list[MeasuredData], model: Model, max_dead_time: float | None
         plant = model.block(value_map, units, template)
         PLANTS[plant["type"]].Params.model_validate(plant)
     except ValueError as exc:
-        raise FitError(f"the identified plant block is not a valid {plant['type']} plant: "
+        raise FitError(f"the identified plant block is not a valid {model.name} plant: "
                        f"{exc}") from None
     return Identification(model, result, list(data), units, value_map,
                           {n: float(e) for n, e in zip(names, errors)}, plant)
