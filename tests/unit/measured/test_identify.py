@@ -222,3 +222,21 @@ def test_tuning_on_the_identified_plant_matches_the_true_plant(name):
     assert true_tuned.success and ident_tuned.success
     for tunable, value in true_tuned.values.items():
         assert ident_tuned.values[tunable] == pytest.approx(value, rel=0.02), tunable
+
+
+def test_sign_constrained_least_squares_against_scipy():
+    """The linear stage's constrained least squares (cvxpy, Clarabel) on a problem whose
+    unconstrained minimiser has a negative a_1 equals scipy's bounded lsq_linear to 1e-7
+    relative: Clarabel's default tolerances are 1e-8 on the optimality gap."""
+    from scipy.optimize import lsq_linear
+
+    from feedtune.measured.fit import _constrained_lstsq
+
+    rng = np.random.default_rng(4)
+    phi = rng.standard_normal((200, 4))
+    target = phi @ np.array([-1.0, 2.0, 0.5, -3.0]) + 0.1 * rng.standard_normal(200)
+    structure = Structure(zeros=1, poles=2, integrators=1, dead_time=False, positive_gain=True)
+    x = _constrained_lstsq(phi, target, structure)
+    reference = lsq_linear(phi, target, bounds=([0, 0, 0, -np.inf], np.inf), tol=1e-12).x
+    assert x[0] == pytest.approx(0.0, abs=1e-7)  # the active constraint a_1 ≥ 0
+    np.testing.assert_allclose(x, reference, rtol=1e-7, atol=1e-7)
