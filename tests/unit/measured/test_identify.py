@@ -240,3 +240,28 @@ def test_sign_constrained_least_squares_against_scipy():
     reference = lsq_linear(phi, target, bounds=([0, 0, 0, -np.inf], np.inf), tol=1e-12).x
     assert x[0] == pytest.approx(0.0, abs=1e-7)  # the active constraint a_1 ≥ 0
     np.testing.assert_allclose(x, reference, rtol=1e-7, atol=1e-7)
+
+
+@pytest.mark.parametrize("name", ["hydraulic_rotary", "ward_leonard"])
+def test_lumped_block_of_the_true_constants_is_the_same_drive(name):
+    """The block written from the true identifiable constants (lumped as models.py says)
+    has the example plant's velocity per volt at every frequency, to 1e-12 relative (the
+    rounding of the roots of a(s) that read the named parameters), so a tuning cannot
+    tell them apart."""
+    from feedtune.plants import PLANTS
+
+    model, spec_name = CASES[name][:2]
+    true_block = example(spec_name)["plant"]
+    rational, _, _ = truth(name)
+    values = dict(zip(model.parameters({"position": "rad", "input": "V"}),
+                      model.values(rational.numerator, rational.denominator, 0.0)))
+    lumped = model.block(values, {"position": "rad", "input": "V"}, true_block)
+
+    def velocity_per_volt(block, s):
+        drive = PLANTS[name](PLANTS[name].Params.model_validate(block))
+        num, d1, d2 = drive.velocity_per_volt()
+        return np.polyval(num, s) / (np.polyval(d1, s) * np.polyval(d2, s))
+
+    s = 1j * np.logspace(-2, 4, 200)
+    np.testing.assert_allclose(velocity_per_volt(lumped, s), velocity_per_volt(true_block, s),
+                               rtol=1e-12)
