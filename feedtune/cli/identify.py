@@ -13,6 +13,8 @@ from feedtune.cli.common import (EXIT_INTERNAL, EXIT_OK, POSITIVE, check_output,
 from feedtune.cli.report import check_report_dir
 
 MODELS = ("software_servo", "hydraulic_rotary", "ward_leonard", "linear")
+#: the options that shape the linear model only
+LINEAR_OPTIONS = ("poles", "zeros", "integrators", "dead_time", "max_dead_time")
 
 
 def _template(path: str) -> dict:
@@ -73,6 +75,11 @@ def identify(data, model_name, output, report_dir, poles, zeros, integrators, de
     and standard error, the transfer function, NRMSE [1] per file, what is lumped, and the
     plant block that `feedtune tune` takes.
     """
+    context = click.get_current_context()
+    given = [name for name in LINEAR_OPTIONS
+             if context.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE]
+    if given and model_name != "linear":
+        raise click.UsageError(f"--{given[0].replace('_', '-')} applies to --model linear only")
     target = check_output(output)
     report_path = check_report_dir(report_dir)
     from feedtune.measured import models

@@ -125,3 +125,9 @@ def test_models_the_data_cannot_give_are_exit_2(tmp_path, args, words):
     assert proc.returncode == 2, proc.stderr
     assert words in proc.stderr
     assert not (tmp_path / "p.json").exists()
+
+
+def test_linear_options_with_another_model_are_a_usage_error():
+    proc = run("identify", str(DATA / "software-servo-step.csv"), "--model", "software_servo",
+               "--dead-time")
+    assert proc.returncode == 2 and "--dead-time applies to --model linear only" in proc.stderr
