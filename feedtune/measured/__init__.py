@@ -1,0 +1,1 @@
+"""Measured data of an axis: reading it (``data``) and identifying a plant from it (``identify``)."""
