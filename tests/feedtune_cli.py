@@ -83,8 +83,13 @@ def _fresh_warnings():
         warnings.resetwarnings()
         for action, category, module in DEFAULT_WARNING_FILTERS:
             warnings.filterwarnings(action, category=category, module=module, append=True)
-        warnings.showwarning = warnings._showwarning_orig  # to sys.stderr, not pytest's list
+        warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
         yield
+
+
+def _show_on_stderr(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as the interpreter prints it, on the ``sys.stderr`` of the moment."""
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
 @contextlib.contextmanager
