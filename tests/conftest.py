@@ -10,10 +10,24 @@ suite starts many ``python -m feedtune`` processes and batch workers, and with
 ``pip install -e`` nothing else writes it when ``PYTHONDONTWRITEBYTECODE`` is set (as the
 tests set it for their subprocesses, and as many CI images do), so each of them compiled
 feedtune's sources again (≈ 0.1 s of CPU a process; issue 15).
+
+Helpers for every test (tests/README.md says when to use which):
+
+- ``from feedtune_cli import run_cli``: ``feedtune ARGS`` through the real entry point
+  (:func:`feedtune.__main__.run`) inside the test process, returning a
+  ``subprocess.CompletedProcess`` (tests/feedtune_cli.py); a ``python -m feedtune`` process
+  costs ≈ 1 s of CPU in imports alone.
+- the ``tuned`` fixture: ``tuned(spec)`` is ``feedtune.problem.tune(parse_spec(spec))``,
+  once per spec (by its canonical JSON) per test process, for tests that only read a
+  tuning's result.
 """
 
 import compileall
+import copy
+import json
 from pathlib import Path
+
+import pytest
 
 import feedtune
 from feedtune.__main__ import pin_blas_threads
@@ -28,3 +42,24 @@ def pytest_configure(config):
     if hasattr(config, "workerinput"):  # an xdist worker: the controller did it
         return
     compileall.compile_dir(Path(feedtune.__file__).parent, quiet=2)
+
+
+@pytest.fixture(scope="session")
+def tuned():
+    """``tuned(spec)``: the result of tuning ``spec`` (a dict as in a spec file), tuned once
+    per test process and shared by every test that asks for the same spec (same canonical
+    JSON: keys sorted). The result is shared: read it, do not change it (``model_copy`` one
+    to edit). For tests that only read a tuning; a test of the tuning itself (its solver,
+    its starts, its reuse of a cached solver) calls ``tune`` on its own."""
+    from feedtune.problem import tune
+    from feedtune.schema.spec import parse_spec
+
+    results = {}
+
+    def get(spec: dict):
+        key = json.dumps(spec, sort_keys=True)
+        if key not in results:
+            results[key] = tune(parse_spec(copy.deepcopy(spec)))
+        return results[key]
+
+    return get

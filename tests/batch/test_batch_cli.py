@@ -27,6 +27,7 @@ import batch_jobs
 from feedtune.batch.job import solve
 from feedtune.batch.local import LocalExecutor
 from feedtune.batch.runner import run_batch
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLES = REPO / "examples"
@@ -48,6 +49,13 @@ def run(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
 def batch(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
     """``python -m feedtune batch ARGS``."""
     return run("batch", *args, timeout=timeout)
+
+
+def in_process(*args: str) -> subprocess.CompletedProcess:
+    """``feedtune ARGS`` through the real entry point in this process (text out;
+    tests/feedtune_cli.py): for commands that start no batch worker (a ``tune``, a batch
+    refused before it starts), which need no process of their own."""
+    return run_cli(*args, cwd=REPO, text=True)
 
 
 def example(name: str = FAST) -> dict:
@@ -154,7 +162,7 @@ def test_exit_status_one_and_a_table_naming_the_failures(mixed_batch):
 def test_a_batch_result_is_what_feedtune_tune_writes(mixed_batch, tmp_path):
     _, out, _ = mixed_batch
     spec = out.parent / "specs" / "axis-001.json"
-    proc = run("tune", str(spec), "-o", str(tmp_path / "single.json"))
+    proc = in_process("tune", str(spec), "-o", str(tmp_path / "single.json"))
     assert proc.returncode == 0, proc.stderr
     single = without_times(json.loads((tmp_path / "single.json").read_text()))
     assert results(out)["axis-001.json"] == single
@@ -276,7 +284,7 @@ def test_unusable_inputs_exit_two_naming_them(tmp_path, case):
     else:
         (tmp_path / "notes.txt").write_text("{}")
         args, named = [str(tmp_path / "notes.txt")], "not a spec file"
-    proc = batch(*args, "--out", str(out))
+    proc = in_process("batch", *args, "--out", str(out))
     assert proc.returncode == 2, proc.stderr
     assert named in proc.stderr and "Traceback" not in proc.stderr
     assert not (out / "summary.json").exists()
@@ -308,7 +316,7 @@ def test_an_output_directory_where_inputs_are_read_is_refused(tmp_path, case):
     elif case == "matched-by-pattern":
         inputs, out = [str(specs / "**" / "*.json")], specs / "nested" / "results"
     before = tree(tmp_path)
-    proc = batch(*inputs, "--out", str(out))
+    proc = in_process("batch", *inputs, "--out", str(out))
     assert proc.returncode == 2, proc.stderr
     (line,) = proc.stderr.splitlines()
     assert line.startswith(f"error: --out {out} ") and f" {inputs[0]}: " in line, line

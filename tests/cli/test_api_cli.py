@@ -15,6 +15,7 @@ import matplotlib.image
 import pytest
 
 import feedtune
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((REPO / "examples").glob("*.json"))
@@ -31,9 +32,9 @@ def without_times(text: str) -> str:
 
 
 def feedtune_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          text=True, cwd=REPO, timeout=300,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (text out;
+    tests/feedtune_cli.py)."""
+    return run_cli(*args, cwd=REPO, text=True)
 
 
 #: tuned from scratch on both paths: one example per plant type and technique (sampled

@@ -1,6 +1,6 @@
 """``feedtune chart ...`` and ``feedtune select`` through the real entry point
-(``python -m feedtune``): exit statuses, the files written, and errors naming the option.
-Grids are kept small through the options so the whole file runs in seconds."""
+(``feedtune.__main__.run`` in this process, tests/feedtune_cli.py): exit statuses, the
+files written, and errors naming the option. Grids are kept small through the options so the whole file runs in seconds."""
 
 from __future__ import annotations
 
@@ -8,29 +8,25 @@ import csv
 import io
 import json
 import math
-import os
 import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          cwd=REPO, timeout=120, text=True,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+def run(*args: str, cwd: Path = REPO) -> subprocess.CompletedProcess:
+    """``feedtune ARGS`` through the real entry point in this process (text out;
+    tests/feedtune_cli.py), never raising on exit status."""
+    return run_cli(*args, cwd=cwd, text=True)
 
 
 def run_all(invocations: dict[str, list[str]]) -> dict[str, subprocess.CompletedProcess]:
-    """Side by side: most of each process's time is imports."""
-    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        futures = {name: pool.submit(run, *args) for name, args in invocations.items()}
-        return {name: f.result() for name, f in futures.items()}
+    return {name: run(*args) for name, args in invocations.items()}
 
 
 @pytest.fixture(scope="module")
@@ -122,8 +118,7 @@ def test_chart_selection(charts):
       "--json", "--emit-spec", "-"], "--emit-spec"),
 ])
 def test_bad_options_name_the_option(args, option, tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          text=True, cwd=tmp_path, timeout=60)
+    proc = run(*args, cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     assert option in proc.stderr
     assert not list(tmp_path.iterdir())  # nothing written

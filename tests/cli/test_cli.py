@@ -1,6 +1,7 @@
-"""The command line through its real entry points (``python -m feedtune`` and the
-``feedtune`` console script): exit statuses, stdout carrying only JSON, errors naming
-the field by JSON pointer, and the listing commands."""
+"""The command line through its real entry points (``feedtune.__main__.run`` in this
+process, tests/feedtune_cli.py; ``python -m feedtune`` and the ``feedtune`` console script
+where a process of its own is the point): exit statuses, stdout carrying only JSON, errors
+naming the field by JSON pointer, and the listing commands."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ import os
 import subprocess
 import sys
 import typing
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -22,31 +22,31 @@ from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
 from feedtune.schema.spec import parse_spec
 
+from feedtune_cli import run_cli
+
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE_NAME = "koren-1979-sampled-data"
 EXAMPLE = REPO / "examples" / f"{EXAMPLE_NAME}.json"
 
 
-def run(*args: str, stdin: bytes | None = None, cwd: Path | None = None,
-        exe: list[str] | None = None) -> subprocess.CompletedProcess:
-    """``python -m feedtune ARGS`` (bytes in, bytes out), never raising on exit status."""
+def run(*args: str, stdin: bytes | None = None, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """``feedtune ARGS`` through the real entry point in this process (bytes in, bytes out;
+    tests/feedtune_cli.py), never raising on exit status."""
+    return run_cli(*args, stdin=stdin or b"", cwd=cwd or REPO)
+
+
+def run_process(*args: str, exe: list[str] | None = None) -> subprocess.CompletedProcess:
+    """``python -m feedtune ARGS`` (or ``exe ARGS``) in a process of its own: for the console
+    script, and for what a process prints once (IPOPT's banner)."""
     command = (exe or [sys.executable, "-m", "feedtune"]) + list(args)
-    return subprocess.run(command, input=stdin if stdin is not None else b"",
-                          capture_output=True, cwd=cwd or REPO, timeout=120,
+    return subprocess.run(command, input=b"", capture_output=True, cwd=REPO, timeout=120,
                           env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
 
 
-def run_concurrently(invocations: dict[str, dict]) -> dict[str, subprocess.CompletedProcess]:
-    """``run(*args, **rest)`` for each named invocation, side by side: each process start
-    costs 0.4–1.3 s of imports (feedtune.problem pulls in scipy.stats), mostly CPU, so
-    this helps on an idle multi-core machine."""
-    def start(kw):
-        kw = dict(kw)
-        return run(*kw.pop("args"), **kw)
-
-    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
-        futures = {name: pool.submit(start, kw) for name, kw in invocations.items()}
-        return {name: future.result() for name, future in futures.items()}
+def run_each(invocations: dict[str, dict]) -> dict[str, subprocess.CompletedProcess]:
+    """``run(*args, **rest)`` for each named invocation."""
+    return {name: run(*kw["args"], **{k: v for k, v in kw.items() if k != "args"})
+            for name, kw in invocations.items()}
 
 
 def stderr(proc) -> str:
@@ -114,13 +114,13 @@ def _infeasible(spec):
 
 @pytest.fixture(scope="module")
 def tunes(tmp_path_factory):
-    """Every ``feedtune tune`` of a solvable or infeasible spec, run side by side."""
+    """Every ``feedtune tune`` of a solvable or infeasible spec."""
     out = tmp_path_factory.mktemp("tune")
     infeasible = out / "infeasible.json"
     infeasible.write_bytes(_spec_bytes(_infeasible))
     (out / "file").mkdir()
     (out / "infeasible-out").mkdir()
-    runs = run_concurrently({
+    runs = run_each({
         "stdout": {"args": ["tune", str(EXAMPLE)]},
         "stdin_to_file": {"args": ["tune", "-", "-o", str(out / "file" / "result.json")],
                           "stdin": EXAMPLE.read_bytes()},
@@ -245,7 +245,7 @@ def bad_runs(tmp_path_factory):
     invocations[("tune", "missing")] = {"args": ["tune", str(directory / "absent.json")]}
     invocations[("validate", "missing")] = {"args": ["validate", str(directory / "absent.json")]}
     invocations[("tune", "directory")] = {"args": ["tune", str(directory)]}
-    return run_concurrently(invocations), directory
+    return run_each(invocations), directory
 
 
 @pytest.mark.parametrize("command, case", [("tune", c) for c in BAD_SPECS]
@@ -424,7 +424,7 @@ def test_console_script():
     script = Path(sys.executable).parent / ("feedtune.exe" if os.name == "nt" else "feedtune")
     if not script.exists():
         pytest.skip(f"no console script at {script}")
-    proc = run("examples", exe=[str(script)])
+    proc = run_process("examples", exe=[str(script)])
     assert proc.returncode == 0, stderr(proc)
     assert EXAMPLE_NAME in proc.stdout.decode()
 
@@ -439,6 +439,6 @@ def test_help_gives_units_and_exit_statuses():
 def test_a_spec_without_free_tunables_prints_no_ipopt_banner():
     """Nothing is optimised, so IPOPT's only run is the version probe of the provenance
     block: its banner must not reach the terminal (it did, on stderr)."""
-    proc = run("tune", str(REPO / "examples" / "sato-table2-a.json"))
+    proc = run_process("tune", str(REPO / "examples" / "sato-table2-a.json"))
     assert proc.returncode == 0, stderr(proc)
     assert "Ipopt" not in stderr(proc) and b"Ipopt" not in proc.stdout

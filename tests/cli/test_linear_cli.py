@@ -5,21 +5,21 @@ validates (exit 0), a bad model is exit 2 naming its field and writes nothing, a
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "user-defined-drive.json"
 
 
 def run(*args: str, stdin: bytes = b"", cwd: Path = REPO) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], input=stdin,
-                          capture_output=True, cwd=cwd, timeout=300,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (bytes out;
+    tests/feedtune_cli.py)."""
+    return run_cli(*args, stdin=stdin, cwd=cwd)
 
 
 @pytest.fixture(scope="module")

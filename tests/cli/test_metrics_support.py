@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import copy
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -21,12 +19,15 @@ import pytest
 from feedtune.objectives import METRICS
 from feedtune.schema.spec import SpecError, parse_spec
 
+from feedtune_cli import run_cli
+
 REPO = Path(__file__).resolve().parents[2]
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          cwd=REPO, timeout=120, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (bytes out;
+    tests/feedtune_cli.py)."""
+    return run_cli(*args, cwd=REPO)
 
 
 @pytest.fixture(scope="module")

@@ -13,11 +13,12 @@ import json
 import re
 import shutil
 import subprocess
-import sys
 from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 DATA = REPO / "tests" / "data"
@@ -25,8 +26,9 @@ BHATIA = DATA / "bhatia-1971-hydraulic.result.json"
 
 
 def feedtune(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          timeout=120, cwd=REPO)
+    """``feedtune ARGS`` through the real entry point in this process (bytes out;
+    tests/feedtune_cli.py)."""
+    return run_cli(*args, cwd=REPO)
 
 
 class _Page(HTMLParser):

@@ -10,12 +10,12 @@ from __future__ import annotations
 import copy
 import json
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from feedtune.schema.spec import parse_spec
+from feedtune_cli import run_cli
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -28,8 +28,7 @@ def tune(tmp_path: Path, spec: dict, *args: str) -> tuple[subprocess.CompletedPr
     path = tmp_path / f"{spec['name']}.json"
     path.write_text(json.dumps(spec))
     out = tmp_path / f"{spec['name']}.result.json"
-    proc = subprocess.run([sys.executable, "-m", "feedtune", "tune", str(path), "-o", str(out), *args],
-                          capture_output=True, text=True, timeout=300)
+    proc = run_cli("tune", str(path), "-o", str(out), *args, text=True)
     assert proc.returncode in (0, 1), proc.stderr
     return proc, json.loads(out.read_text())
 

@@ -4,12 +4,11 @@ the independent re-simulation disagrees with a reported metric; Koren's examples
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -17,10 +16,7 @@ REPO = Path(__file__).resolve().parents[2]
 @pytest.mark.parametrize("name", ["koren-1979-sampled-data", "koren-1979-reference-pulse"])
 def test_koren_examples_validate_within_tolerance(name, tmp_path):
     out = tmp_path / "result.json"
-    proc = subprocess.run([sys.executable, "-m", "feedtune", "tune",
-                           str(REPO / "examples" / f"{name}.json"), "-o", str(out)],
-                          capture_output=True, timeout=120, cwd=REPO,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    proc = run_cli("tune", str(REPO / "examples" / f"{name}.json"), "-o", str(out), cwd=REPO)
     assert proc.returncode == 0, proc.stderr.decode()
     assert b"warning: validation" not in proc.stderr
     block = json.loads(out.read_text())["validation"]

@@ -21,15 +21,10 @@ def tune_dict(spec: dict):
 
 
 @pytest.fixture(scope="session")
-def tuned_example():
-    cache = {}
-
-    def get(name):
-        if name not in cache:
-            cache[name] = tune_dict(load_example(name))
-        return cache[name]
-
-    return get
+def tuned_example(tuned):
+    """``tuned_example(name)``: the bundled example ``name`` tuned, once per test process
+    (the ``tuned`` fixture of tests/conftest.py)."""
+    return lambda name: tuned(load_example(name))
 
 
 #: the optimum `feedtune tune` finds for each bundled example (measured with the bundled spec;

@@ -8,8 +8,6 @@ from __future__ import annotations
 import copy
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import casadi as ca
@@ -23,6 +21,7 @@ import feedtune
 from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.plants import plant_for
 from feedtune.schema.spec import SpecError, parse_spec
+from feedtune_cli import run_cli
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TAU = 0.02  # Koren's drive time constant [s] (examples/koren-1979-sampled-data.json)
@@ -213,8 +212,7 @@ def test_bad_discrete_spec_exits_2_from_the_cli(tmp_path):
     spec = with_plant(dead_time=0.5 * PERIOD)
     path, out = tmp_path / "spec.json", tmp_path / "result.json"
     path.write_text(json.dumps(spec))
-    run = subprocess.run([sys.executable, "-m", "feedtune", "tune", str(path), "-o", str(out)],
-                         capture_output=True, text=True)
+    run = run_cli("tune", str(path), "-o", str(out), text=True)
     assert run.returncode == 2, run.stderr
     assert "/plant/dead_time" in run.stderr
     assert not out.exists()

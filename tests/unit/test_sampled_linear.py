@@ -17,6 +17,7 @@ import feedtune
 from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.plants import plant_for
 from feedtune.schema.spec import SpecError, parse_spec
+from feedtune_cli import run_cli
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TAU = 0.02  # Koren's drive time constant [s] (examples/koren-1979-sampled-data.json)
@@ -124,15 +125,11 @@ def test_sampling_period_is_required_for_a_sampled_loop():
 
 
 def test_bad_sampled_spec_exits_2_from_the_cli(tmp_path):
-    import subprocess
-    import sys
-
     spec = spec_with(DRIVE, {"sampling_period": {"min": 1e-4, "max": 2e-3}})
     path = tmp_path / "spec.json"
     path.write_text(json.dumps(spec))
     out = tmp_path / "result.json"
-    run = subprocess.run([sys.executable, "-m", "feedtune", "tune", str(path), "-o", str(out)],
-                         capture_output=True, text=True)
+    run = run_cli("tune", str(path), "-o", str(out), text=True)
     assert run.returncode == 2, run.stderr
     assert "/plant/dead_time" in run.stderr
     assert not out.exists()
@@ -258,16 +255,12 @@ def test_readme_drive_sampled_at_1khz_tunes_from_the_cli(tmp_path):
     """examples/user-defined-sampled-drive.json (the README's axis, PI-in-P at 1 kHz) from
     `feedtune tune`, its phase-margin constraint left out to keep the test short (it costs
     5 s of NLP build): exit 0, a stable loop, the decay rate of its slowest pole."""
-    import subprocess
-    import sys
-
     spec = json.loads((EXAMPLES / "user-defined-sampled-drive.json").read_text())
     assert spec["plant"]["implementation"] == "sampled"
     spec["constraints"] = []
     path, out = tmp_path / "spec.json", tmp_path / "result.json"
     path.write_text(json.dumps(spec))
-    run = subprocess.run([sys.executable, "-m", "feedtune", "tune", str(path), "-o", str(out)],
-                         capture_output=True, text=True)
+    run = run_cli("tune", str(path), "-o", str(out), text=True)
     assert run.returncode == 0, run.stderr
     result = json.loads(out.read_text())
     assert result["success"] and result["stability"]["stable"]

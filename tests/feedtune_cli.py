@@ -1,0 +1,206 @@
+"""``feedtune ARGS`` inside the test process, through the command's real entry point.
+
+:func:`run_cli` calls :func:`feedtune.__main__.run` (what the ``feedtune`` script and
+``python -m feedtune`` run before they exit) with the process set up as a fresh
+``feedtune`` process would find it, and returns what ``subprocess.run([sys.executable,
+"-m", "feedtune", *args], capture_output=True)`` returns: a
+:class:`subprocess.CompletedProcess` with the exit status, stdout and stderr.
+
+What a test sees is what a user's terminal gets, not only what Python wrote:
+
+- file descriptors 1 and 2 are files of their own meanwhile, and ``sys.stdout`` and
+  ``sys.stderr`` write to them (UTF-8; stderr with ``backslashreplace``, as the command
+  sets it), so IPOPT's or C's ``printf`` lands where it would, in the order it would, and
+  a test that stdout holds only JSON fails if a solver prints on it;
+- ``sys.stdin`` reads ``stdin`` (bytes; empty by default, like ``input=b""``);
+- warnings are filtered and shown as by an interpreter started without ``-W`` (pytest's own
+  filters and recording are set aside), so "no warning on stderr" is tested, not hidden;
+- an exception that escapes the command prints its traceback on stderr and gives status 1,
+  as the interpreter would; ``SystemExit`` codes map as ``sys.exit`` maps them;
+- the working directory (``cwd``), environment variables (``env``: added or changed, as
+  ``{**os.environ, **env}``) and the SIGINT/SIGTERM handlers are put back afterwards.
+
+Saved per call: the ≈ 1 s of CPU a ``python -m feedtune`` process spends importing click,
+pydantic, numpy, scipy and CasADi (≈ 45 % of the suite's CPU went to such starts;
+benchmarks/README.md, "The test suite's CPU"). A solver the tuner built for an earlier
+test is reused here as in a batch; results do not depend on it (tests/unit/test_solver_reuse.py).
+
+What still needs a process of its own, so keep ``subprocess`` there: the process's exit
+(``feedtune.__main__.main`` ends without the interpreter's teardown), signals sent to the
+command, what a fresh interpreter imports (tests/cli/test_startup_imports.py), anything
+printed once per process (IPOPT's banner), the console script itself, and ``feedtune
+batch`` with workers (forked from a process that runs no other thread: an xdist worker has
+execnet's, so in-process the workers would be spawned and the batch would run another path).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import io
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import traceback
+import warnings
+from pathlib import Path
+
+from feedtune.__main__ import run
+
+REPO = Path(__file__).resolve().parents[1]
+
+#: the warning filters of ``python`` started without -W or PYTHONWARNINGS (the docs of the
+#: warnings module, "Default Warning Filter"), first match first
+DEFAULT_WARNING_FILTERS = (
+    ("default", DeprecationWarning, "__main__"),
+    ("ignore", DeprecationWarning, ""),
+    ("ignore", PendingDeprecationWarning, ""),
+    ("ignore", ImportWarning, ""),
+    ("ignore", ResourceWarning, ""),
+)
+
+_libc = ctypes.CDLL(None)
+
+
+def _flush_c_stdio() -> None:
+    _libc.fflush(None)
+
+
+def _exit_status(code) -> tuple[int, str]:
+    """(status, text for stderr) of ``sys.exit(code)``."""
+    if code is None:
+        return 0, ""
+    if isinstance(code, int):
+        return code & 0xFF, ""
+    return 1, f"{code}\n"
+
+
+@contextlib.contextmanager
+def _fresh_warnings():
+    with warnings.catch_warnings():
+        warnings.resetwarnings()
+        for action, category, module in DEFAULT_WARNING_FILTERS:
+            warnings.filterwarnings(action, category=category, module=module, append=True)
+        warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
+        yield
+
+
+def _show_on_stderr(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as the interpreter prints it, on the ``sys.stderr`` of the moment."""
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
+@contextlib.contextmanager
+def _environment(env: dict[str, str] | None):
+    before = dict(os.environ)
+    os.environ.update(env or {})
+    try:
+        yield
+    finally:
+        os.environ.clear()
+        os.environ.update(before)
+
+
+@contextlib.contextmanager
+def _working_directory(cwd: Path | str | None):
+    before = os.getcwd()
+    os.chdir(cwd or before)
+    try:
+        yield
+    finally:
+        os.chdir(before)
+
+
+@contextlib.contextmanager
+def _signal_handlers():
+    before = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in before.items():
+            signal.signal(signum, handler)
+
+
+@contextlib.contextmanager
+def _standard_streams(stdin: bytes):
+    """Descriptors 1 and 2 to temporary files and ``sys.std*`` on them; yields the files
+    (stdout, stderr), read once this exits."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    _flush_c_stdio()
+    out, err, given = (tempfile.TemporaryFile() for _ in range(3))
+    given.write(stdin)
+    given.seek(0)
+    saved_fds = {fd: os.dup(fd) for fd in (1, 2)}
+    saved_streams = sys.stdin, sys.stdout, sys.stderr
+    os.dup2(out.fileno(), 1)
+    os.dup2(err.fileno(), 2)
+    sys.stdin = io.TextIOWrapper(io.BufferedReader(io.FileIO(given.fileno(), "r", closefd=False)),
+                                 encoding="utf-8")
+    sys.stdout = io.TextIOWrapper(io.BufferedWriter(io.FileIO(1, "w", closefd=False)),
+                                  encoding="utf-8")
+    sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)),
+                                  encoding="utf-8", errors="backslashreplace",
+                                  line_buffering=True)
+    try:
+        yield out, err
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):
+                stream.flush()
+        _flush_c_stdio()
+        for stream in (sys.stdin, sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):
+                stream.close()
+        sys.stdin, sys.stdout, sys.stderr = saved_streams
+        for fd, saved in saved_fds.items():
+            os.dup2(saved, fd)
+            os.close(saved)
+        given.close()
+
+
+def run_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
+            env: dict[str, str] | None = None, text: bool = False) -> subprocess.CompletedProcess:
+    """``feedtune ARGS`` in this process; never raises on exit status.
+
+    Parameters
+    ----------
+    *args
+        The command line after ``feedtune``.
+    stdin
+        Bytes on standard input.
+    cwd
+        Working directory meanwhile (None: this process's).
+    env
+        Environment variables added or changed meanwhile.
+    text
+        Decode stdout and stderr as UTF-8 (``text=True`` of ``subprocess.run``).
+
+    Returns
+    -------
+    subprocess.CompletedProcess
+        ``args`` as ``["feedtune", *args]``, ``returncode``, ``stdout``, ``stderr``.
+    """
+    with contextlib.ExitStack() as stack:
+        stack.enter_context(_environment(env))
+        stack.enter_context(_working_directory(cwd))
+        stack.enter_context(_signal_handlers())
+        stack.enter_context(_fresh_warnings())
+        out, err = stack.enter_context(_standard_streams(stdin))
+        try:
+            code = run(list(args))
+        except Exception:  # the interpreter prints it and exits 1
+            traceback.print_exc()
+            code = 1
+        status, message = _exit_status(code)
+        sys.stderr.write(message)
+    out.seek(0)
+    err.seek(0)
+    stdout, stderr = out.read(), err.read()
+    out.close()
+    err.close()
+    if text:
+        stdout, stderr = stdout.decode("utf-8"), stderr.decode("utf-8")
+    return subprocess.CompletedProcess(["feedtune", *args], status, stdout, stderr)
