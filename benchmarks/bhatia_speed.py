@@ -151,16 +151,19 @@ def all_specs() -> list[dict]:
 def tune_one(spec: dict, solver: dict | None = None) -> dict:
     """Tune ``spec`` (optionally with other solver settings) with the feedtune on sys.path."""
     from feedtune.problem import tune
-    from feedtune.schema.spec import parse_spec
+    try:
+        from feedtune.schema.spec import parse_spec
+    except ImportError:  # a baseline from before the package layout of 6c1ee9d
+        from feedtune.spec import parse_spec
 
     spec = copy.deepcopy(spec)
     if solver is not None:
         spec["solver"] = {**spec.get("solver", {}), **solver}
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     result = tune(parse_spec(spec))
-    seconds = time.perf_counter() - started
+    seconds, cpu = time.perf_counter() - started, time.process_time() - cpu
     bandwidth = result.metrics["bandwidth"].value if result.success else None
-    return {"name": spec["name"], "seconds": seconds, "bandwidth": bandwidth,
+    return {"name": spec["name"], "seconds": seconds, "cpu": cpu, "bandwidth": bandwidth,
             "status": result.status, "success": result.success,
             "validation_ok": result.validation.get("ok"),
             "starts": len(result.solver.starts),
@@ -256,9 +259,9 @@ def main(argv=None) -> int:
           f"{'none' if baseline is None else baseline.rev + ' (child process, same specs)'}")
     print(f"load average at start {load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f} on "
           f"{os.cpu_count()} CPUs; time = parse + build + solve + evaluation + validation")
-    header = (f"{'spec':<36} {'new s':>6} {'bandwidth':>10} {'best':>10} {'reached':>7} "
-              f"{'valid':>5} {'starts':>6} {'iters':>6} | {'old s':>6} {'reached':>7} "
-              f"{'new/old':>7}")
+    header = (f"{'spec':<36} {'new s':>6} {'cpu s':>6} {'bandwidth':>10} {'best':>10} "
+              f"{'reached':>7} {'valid':>5} {'starts':>6} {'iters':>6} | {'old s':>6} "
+              f"{'cpu s':>6} {'reached':>7} {'new/old':>7}")
     print(header)
     print("-" * len(header))
     rows = []
@@ -275,13 +278,14 @@ def main(argv=None) -> int:
                 max(b for b in (reference_value, new["bandwidth"], old and old["bandwidth"])
                     if b is not None))
         rows.append((spec["name"], new, old, best))
-        ratio = f"{new['seconds'] / old['seconds']:7.3f}" if old else f"{'-':>7}"
-        print(f"{spec['name']:<36} {new['seconds']:6.2f} "
+        ratio = f"{new['cpu'] / old['cpu']:7.3f}" if old else f"{'-':>7}"
+        print(f"{spec['name']:<36} {new['seconds']:6.2f} {new['cpu']:6.2f} "
               f"{new['bandwidth'] if new['bandwidth'] is not None else float('nan'):10.4f} "
               f"{best if best is not None else float('nan'):10.4f} {reached(new, best):>7} "
               f"{'yes' if new['validation_ok'] else 'NO':>5} {new['starts']:6d} "
               f"{new['iterations']:6d} | "
-              f"{old['seconds'] if old else float('nan'):6.2f} {reached(old, best):>7} {ratio}",
+              f"{old['seconds'] if old else float('nan'):6.2f} "
+              f"{old['cpu'] if old else float('nan'):6.2f} {reached(old, best):>7} {ratio}",
               flush=True)
     print()
     for name in SPECS:
@@ -290,18 +294,23 @@ def main(argv=None) -> int:
                  and new["validation_ok"] for _, new, _, best in group)
         found = sum(reached(new, best) == "yes" for _, new, _, best in group)
         known = sum(best is not None for _, _, _, best in group)
+        ok_cpu = sum(reached(new, best) == "yes" and new["cpu"] <= TARGET_SECONDS
+                     and new["validation_ok"] for _, new, _, best in group)
         times = [new["seconds"] for _, new, _, _ in group]
+        cpus = [new["cpu"] for _, new, _, _ in group]
         if not group:  # --only left none of them
             continue
         print(f"{name} variants: {found} of {known} with a reference reach the best-known "
               f"optimum, {ok} of them in ≤ {TARGET_SECONDS:g} s with validation ok (target: "
-              f"≥ 10 of 12); time median {np.median(times):.2f} s, max {max(times):.2f} s")
+              f"≥ 10 of 12), {ok_cpu} in ≤ {TARGET_SECONDS:g} s of CPU; time median "
+              f"{np.median(times):.2f} s, max {max(times):.2f} s; CPU median {np.median(cpus):.2f} "
+              f"s, max {max(cpus):.2f} s")
     for name, new, old, best in rows:
         if name in SPECS:
-            print(f"{name}: new {new['seconds']:.2f} s ({reached(new, best)}, validation "
-                  f"{new['validation_ok']}), old "
-                  + (f"{old['seconds']:.2f} s ({reached(old, best)}); new/old "
-                     f"{new['seconds'] / old['seconds']:.3f}" if old else "not run"))
+            print(f"{name}: new {new['seconds']:.2f} s, {new['cpu']:.2f} s CPU "
+                  f"({reached(new, best)}, validation {new['validation_ok']}), old "
+                  + (f"{old['seconds']:.2f} s, {old['cpu']:.2f} s CPU ({reached(old, best)}); "
+                     f"new/old CPU {new['cpu'] / old['cpu']:.3f}" if old else "not run"))
     end = os.getloadavg()
     print(f"load average at end {end[0]:.2f} {end[1]:.2f} {end[2]:.2f}")
     return 0
