@@ -171,9 +171,15 @@ def tune_one(spec: dict, solver: dict | None = None) -> dict:
             "tuned": {k: v.value for k, v in result.tuned.items()}}
 
 
+def warm_up() -> None:
+    """Imports and IPOPT's first load, paid before any timing (one tiny solve)."""
+    tune_one(load(SPECS[1]), {"multistart": 1, "max_iter": 1})
+
+
 def _child(argv) -> int:
     """``--child``: tune the specs given as JSON on stdin, one JSON line per result."""
     specs = json.load(sys.stdin)
+    warm_up()
     for spec in specs:
         print(json.dumps(tune_one(spec)), flush=True)
     return 0
@@ -253,7 +259,7 @@ def main(argv=None) -> int:
 
     baseline = None if args.no_old else Baseline(args.baseline)
     load_start = os.getloadavg()
-    tune_one(load(SPECS[1]), {"multistart": 1, "max_iter": 1})  # imports and IPOPT's load
+    warm_up()
     print(f"feedtune {feedtune.__file__}; casadi {casadi.__version__}; python "
           f"{sys.version.split()[0]}; baseline: "
           f"{'none' if baseline is None else baseline.rev + ' (child process, same specs)'}")
