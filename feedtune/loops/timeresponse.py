@@ -356,8 +356,8 @@ class Transient:
     def _scalar(self, kind: str):
         """``t ↦ float(self._sum(kind, [t]))`` to the last bit, for Brent's method: the same
         :func:`_series` of a one-element array per living cluster, added in the same order,
-        without the masks and ``np.any`` of the array path (≈ 3× cheaper a call; the roots
-        of a lightly damped Bhatia response take ≈ 1,400 calls)."""
+        without the masks and ``np.any`` of the array path (measured on a Bhatia variant's
+        reports: 1,333 calls 0.27 → 0.20 s of CPU; what is left is :func:`_series`)."""
         parts = [(getattr(cl, kind), cl.mu, cl.cutoff) for cl in self.clusters]
 
         def value(t) -> float:
