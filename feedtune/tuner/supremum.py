@@ -28,8 +28,16 @@ from feedtune.expr import Crossing, PoleRegion, Supremum
 from feedtune.tuner.builder import NlpBuilder
 from feedtune.tuner.poles import PoleScan
 
-#: frequencies the exchange method may add to one peak or crossing, per start
-EXCHANGE_POINTS = 16
+#: frequencies the exchange method may add to one peak or crossing, per start. Every slot is
+#: a row of the NLP whether switched on or not, and a tracked row (:func:`tracked`) is dear:
+#: with 16 slots per group the 32 exchange rows were 57 % of the Jacobian's 520k SX
+#: instructions on Bhatia's spec (1.0 of 2.1 ms a call; 50 % on Ward-Leonard's). Measured
+#: (2026-11-27, bhatia_speed.py's 26 tunings): at most 7 points a start on Bhatia's spec and
+#: variants, 15 (both groups) on Ward-Leonard variant 01; with 10 every tuning reaches what
+#: it reached with 16, in fewer iterations on 13 of them (Ward-Leonard's bundled spec 271 →
+#: 166 to the same 25.5627 rad/s); 6 or 8 sent the bundled Ward-Leonard spec to its other
+#: local optimum (25.5571 rad/s), 4 ran out on five Bhatia variants
+EXCHANGE_POINTS = 10
 #: NLP rows on every ROW_STRIDE-th point of a metric's frequency grid (40 per decade): the
 #: exchange method adds the points that matter, so the NLP stays small
 ROW_STRIDE = 2
