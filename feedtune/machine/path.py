@@ -28,7 +28,8 @@ def _point(p) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Line:
-    """A straight segment from ``start`` to ``end`` [m] at ``feed`` [m/s] (G0/G1)."""
+    """A straight segment from ``start`` to ``end`` [m] at ``feed`` [m/s] (G0/G1); a rapid
+    (G0) move has ``rapid`` set and the interpolator stops at its end."""
 
     start: np.ndarray
     end: np.ndarray
@@ -36,6 +37,8 @@ class Line:
     rapid: bool = False
     #: the program line it came from (1-based), or 0 for a built-in path
     source_line: int = 0
+    #: the tool stops at the end of this segment (G9, G61, or a built-in path's sharp corner)
+    exact_stop: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "start", _point(self.start))
@@ -84,7 +87,10 @@ class Arc:
     center: np.ndarray
     ccw: bool
     feed: float
+    #: the program line it came from (1-based), or 0 for a built-in path
     source_line: int = 0
+    #: the tool stops at the end of this arc (G9, G61)
+    exact_stop: bool = False
 
     def __post_init__(self):
         object.__setattr__(self, "start", _point(self.start))
