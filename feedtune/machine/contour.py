@@ -1,0 +1,272 @@
+"""Contour metrics of a simulated program: how far the tool is from the programmed path.
+
+The contour error at a sample is the distance of the actual tool point from the nearest
+point of the programmed path (:meth:`Path.distance`, nearest point of line or arc), here
+computed for all samples at once over the segments near the commanded point: those whose
+arc-length span meets [s − 4|E|, s + 4|E|], s the commanded arc length and |E| the
+following error's length. The nearest point lies within 2|E| of the commanded point
+(|p − q| ≤ |p − r| = |E|), so the window holds it wherever the path between them is at
+most twice as long as the straight line; a path that comes back within 2|E| of itself
+further along (adjacent passes of a pocket closer than the lag) is measured against the
+part being cut. ``tests/unit/machine/test_contour.py`` holds it equal to
+:meth:`Path.distance` on the test paths.
+
+Reported (SI units): the largest and RMS contour error over the cutting moves (rapids
+left out), the largest error near each corner, the overshoot at each stop, each axis'
+following error, the cycle time, and at each programmed feed reduction the deceleration
+block: the path length over which the tool's speed goes from the old feed to within 2 %
+of the new one (Bhatia 1971, ch. 5: CC' of Fig 38, set by the least responsive slide),
+beside his estimate from the slowest axis, V₁·t_s with t_s its 2 % settling time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from feedtune.machine.path import Arc, Line, Path
+
+#: a junction whose tangent turns by more than this is a corner [rad] (0.1°)
+CORNER_ANGLE = math.radians(0.1)
+#: window half-width in multiples of the following error's length [1] (see the module)
+WINDOW_ERRORS = 4.0
+#: a speed within this fraction of a feed has reached it [1] (Bhatia's 2 % settling)
+SETTLED = 0.02
+
+
+@dataclass(frozen=True)
+class SegmentTable:
+    """A path's segments as arrays (M segments), for vectorised distances."""
+
+    arc: np.ndarray  # bool (M,)
+    start: np.ndarray  # (M, 3) [m]
+    end: np.ndarray  # (M, 3) [m]
+    center: np.ndarray  # (M, 3) [m]
+    radius: np.ndarray  # (M,) [m], 0 for a line
+    angle: np.ndarray  # (M,) start angle [rad]
+    sweep: np.ndarray  # (M,) signed sweep [rad]
+    length: np.ndarray  # (M,) [m]
+    begin: np.ndarray  # (M,) arc length at the segment's start [m]
+    rapid: np.ndarray  # bool (M,)
+    feed: np.ndarray  # (M,) [m/s]
+
+    @classmethod
+    def of(cls, path: Path) -> SegmentTable:
+        segs = path.segments
+        arc = np.array([isinstance(s, Arc) for s in segs], dtype=bool)
+        length = np.array([s.length for s in segs])
+        zero3 = np.zeros(3)
+        return cls(
+            arc=arc,
+            start=np.array([s.start for s in segs]).reshape(-1, 3),
+            end=np.array([s.end for s in segs]).reshape(-1, 3),
+            center=np.array([s.center if a else zero3 for s, a in zip(segs, arc)]).reshape(-1, 3),
+            radius=np.array([s.radius if a else 0.0 for s, a in zip(segs, arc)]),
+            angle=np.array([math.atan2(*(s.start - s.center)[1::-1]) if a else 0.0
+                            for s, a in zip(segs, arc)]),
+            sweep=np.array([s.sweep if a else 0.0 for s, a in zip(segs, arc)]),
+            length=length,
+            begin=np.concatenate([[0.0], np.cumsum(length)[:-1]]),
+            rapid=np.array([isinstance(s, Line) and s.rapid for s in segs], dtype=bool),
+            feed=np.array([s.feed for s in segs]),
+        )
+
+    def distance(self, index: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(distance [m], arc length of the nearest point [m]) of each point (n, 3) from
+        segment ``index`` (n,), as :meth:`Line.distance` and :meth:`Arc.distance`."""
+        start, end = self.start[index], self.end[index]
+        # lines
+        d = end - start
+        dd = np.einsum("ij,ij->i", d, d)
+        safe = np.where(dd > 0, dd, 1.0)
+        u_line = np.where(dd > 0, np.clip(np.einsum("ij,ij->i", points - start, d) / safe,
+                                          0.0, 1.0), 0.0)
+        line = np.linalg.norm(points - (start + u_line[:, None] * d), axis=1)
+        # arcs
+        rel = points[:, :2] - self.center[index, :2]
+        sweep = self.sweep[index]
+        ang = np.arctan2(rel[:, 1], rel[:, 0])
+        a0 = self.angle[index]
+        travelled = np.where(sweep > 0, ang - a0, a0 - ang) % (2 * math.pi)
+        span = np.where(sweep != 0, np.abs(sweep), 1.0)
+        inside = travelled <= np.abs(sweep)
+        u_arc = np.clip(travelled / span, 0.0, 1.0)
+        z = start[:, 2] + u_arc * (end[:, 2] - start[:, 2])
+        radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius[index]),
+                          points[:, 2] - z)
+        to_start = np.linalg.norm(points - start, axis=1)
+        to_end = np.linalg.norm(points - end, axis=1)
+        arc_u = np.where(inside, u_arc, np.where(to_start <= to_end, 0.0, 1.0))
+        arc = np.where(inside, radial, np.minimum(to_start, to_end))
+        is_arc = self.arc[index]
+        dist = np.where(is_arc, arc, line)
+        u = np.where(is_arc, arc_u, u_line)
+        return dist, self.begin[index] + u * self.length[index]
+
+
+def contour_distance(table: SegmentTable, points: np.ndarray, commanded: np.ndarray,
+                     reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Contour error [m] of each point (N, 3) and the arc length of its nearest path
+    point [m], over the segments whose span meets ``commanded`` ± ``reach`` [m] (N,)."""
+    ends = table.begin + table.length
+    lo = np.searchsorted(ends, commanded - reach, side="left")
+    hi = np.searchsorted(table.begin, commanded + reach, side="right") - 1
+    last = len(table.length) - 1
+    lo = np.clip(lo, 0, last)
+    hi = np.clip(np.maximum(hi, lo), 0, last)
+    best = np.full(len(points), np.inf)
+    where = np.zeros(len(points))
+    for offset in range(int(np.max(hi - lo)) + 1 if len(points) else 0):
+        active = np.flatnonzero(lo + offset <= hi)
+        dist, s = table.distance(lo[active] + offset, points[active])
+        closer = dist < best[active]
+        best[active[closer]] = dist[closer]
+        where[active[closer]] = s[closer]
+    return best, where
+
+
+def _junction_turn(path: Path) -> np.ndarray:
+    """Angle [rad] between the end tangent of segment i and the start tangent of i + 1."""
+    segs = path.segments
+    turns = np.zeros(max(len(segs) - 1, 0))
+    for i in range(len(segs) - 1):
+        a = segs[i].tangent_at(segs[i].length)[0]
+        b = segs[i + 1].tangent_at(0.0)[0]
+        turns[i] = math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b))
+    return turns
+
+
+def step_settling_time(model, samples: int) -> float:
+    """2 % settling time [s] of an axis' unit step response (its speed's response to a
+    step in commanded speed, the loop being linear), over ``samples`` samples."""
+    from feedtune.machine.simulate import simulate_lti
+
+    u = np.ones((samples, 2))
+    y = simulate_lti(model.phi, model.gamma[:, :2], model.c, np.array([model.d, 0.0]), u)
+    outside = np.flatnonzero(np.abs(y - 1.0) > SETTLED)
+    return float((outside[-1] + 1) * model.period) if outside.size else 0.0
+
+
+def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
+                    position: np.ndarray, arc_length: np.ndarray, segment: np.ndarray,
+                    program_end: float, settling_times: list[float],
+                    axes: tuple[str, ...]) -> dict:
+    """Every contour metric of one simulated program, as a JSON-ready dict (SI units).
+
+    Parameters
+    ----------
+    path : Path
+    time : ndarray (N,)
+        Sample times [s], the program and its run-out.
+    reference, position : ndarray (N, 3)
+        Commanded and actual x, y, z [m].
+    arc_length : ndarray (N,)
+        Commanded arc length [m].
+    segment : ndarray of int (N,)
+        Commanded segment.
+    program_end : float
+        Time the reference reaches the end of the program [s] (the cycle time).
+    settling_times : list of float
+        Each axis' 2 % step settling time [s] (:func:`step_settling_time`).
+    axes : tuple of str
+        The axes' names, e.g. ``("x", "y")``.
+    """
+    table = SegmentTable.of(path)
+    error = reference - position
+    size = np.linalg.norm(error, axis=1)
+    distance, nearest = contour_distance(table, position, arc_length,
+                                         WINDOW_ERRORS * size + 1e-12)
+    cutting = ~table.rapid[segment]
+    cut = distance[cutting] if cutting.any() else np.zeros(1)
+    k_max = int(np.flatnonzero(cutting)[np.argmax(cut)]) if cutting.any() else 0
+    slowest = max(settling_times) if settling_times else 0.0
+    result = {
+        "max_contour_error": float(np.max(cut)),
+        "rms_contour_error": float(np.sqrt(np.mean(cut**2))),
+        "max_contour_error_at": {"time": float(time[k_max]),
+                                 "arc_length": float(nearest[k_max]),
+                                 "position": position[k_max].tolist()},
+        "cycle_time": float(program_end),
+        "following_error": {name: {"max": float(np.max(np.abs(error[:, i]))),
+                                   "rms": float(np.sqrt(np.mean(error[:, i] ** 2)))}
+                            for i, name in enumerate(axes)},
+        "slowest_axis_settling_time": slowest,
+    }
+    result["corners"] = _corners(path, table, distance, nearest, cutting)
+    result["stops"] = _stops(path, table, time, reference, position, arc_length, slowest)
+    result["deceleration_blocks"] = _decelerations(table, time, nearest, slowest)
+    return result
+
+
+def _corners(path, table, distance, nearest, cutting) -> list[dict]:
+    """Largest contour error near each corner: over the samples whose nearest path point
+    lies closer (in arc length) to this corner than to any other corner or the ends."""
+    turns = _junction_turn(path)
+    corner = np.flatnonzero(turns > CORNER_ANGLE)
+    if corner.size == 0:
+        return []
+    at = table.begin[corner + 1]
+    bounds = np.concatenate([[-np.inf], (at[1:] + at[:-1]) / 2, [np.inf]])
+    owner = np.searchsorted(bounds, nearest, side="right") - 1
+    out = []
+    for j, i in enumerate(corner):
+        mine = (owner == j) & cutting
+        out.append({"segment": int(i + 1), "line": int(path.segments[i + 1].source_line),
+                    "position": table.start[i + 1].tolist(), "arc_length": float(at[j]),
+                    "turn": float(turns[i]),
+                    "max_contour_error": float(np.max(distance[mine])) if mine.any() else 0.0})
+    return out
+
+
+def _stops(path, table, time, reference, position, arc_length, slowest) -> list[dict]:
+    """Overshoot at each stop (an exact stop, a rapid's end, the program's end): the
+    largest distance the tool goes past the stop point along the arriving direction,
+    beyond what the reference itself commands there, within the slowest axis' settling
+    time after the reference arrives."""
+    segs = path.segments
+    out = []
+    ends = table.begin + table.length
+    for i, seg in enumerate(segs):
+        last = i == len(segs) - 1
+        if not (last or seg.exact_stop or table.rapid[i]):
+            continue
+        arrived = np.flatnonzero(arc_length >= ends[i] - 1e-12)
+        if arrived.size == 0:
+            continue
+        k0 = int(arrived[0])
+        window = (time >= time[k0]) & (time <= time[k0] + max(slowest, time[1] - time[0]))
+        direction = seg.tangent_at(seg.length)[0]
+        stop = table.end[i]
+        past = (position[window] - stop) @ direction
+        commanded = np.maximum(0.0, (reference[window] - stop) @ direction)
+        out.append({"segment": int(i), "line": int(seg.source_line), "position": stop.tolist(),
+                    "time": float(time[k0]),
+                    "overshoot": float(max(0.0, np.max(past - commanded)))})
+    return out
+
+
+def _decelerations(table, time, nearest, slowest) -> list[dict]:
+    """At each junction where the programmed feed drops: the path length the tool needs
+    to slow from within 2 % of the old feed to within 2 % of the new one (measured on the
+    tool's nearest-point arc length), and Bhatia's estimate V₁·t_s."""
+    out = []
+    if len(time) < 3:
+        return out
+    speed = np.gradient(nearest, time)
+    for i in range(len(table.feed) - 1):
+        v1, v2 = table.feed[i], table.feed[i + 1]
+        if table.rapid[i] or table.rapid[i + 1] or not v2 < v1 * (1 - SETTLED):
+            continue
+        s_c = table.begin[i + 1]
+        span = (nearest > table.begin[i]) & (nearest < s_c + table.length[i + 1])
+        fast = np.flatnonzero(span & (nearest < s_c) & (speed >= v1 * (1 - SETTLED)))
+        after = np.flatnonzero(span & (np.abs(speed - v2) > SETTLED * v2))
+        if fast.size == 0 or after.size == 0:
+            measured = None
+        else:
+            measured = float(nearest[min(after[-1] + 1, len(nearest) - 1)] - nearest[fast[-1]])
+        out.append({"segment": int(i + 1), "feed_before": float(v1), "feed_after": float(v2),
+                    "length": measured, "estimate": float(v1 * slowest)})
+    return out
