@@ -100,6 +100,21 @@ class InterpolatorSpec(SpecModel):
     max_acceleration: PositiveFloat | None = Field(
         None, description="Largest path acceleration and deceleration [m/s²]; omitted: "
                           "feed changes are steps")
+    corner_tolerance: PositiveFloat | None = Field(
+        None, description="Corner slow-down: the speed through a corner that turns by θ is "
+                          "at most ε/(2τ sin(θ/2)), ε this [m] (Bhatia ch. 5); needs "
+                          "max_acceleration; omitted: no corner slow-down")
+    time_constant: PositiveFloat | None = Field(
+        None, description="τ of the corner rule [s]; omitted: the least responsive axis' own "
+                          "(the time its step response takes to reach 1 − 1/e)")
+
+    @model_validator(mode="after")
+    def _corner_rule(self):
+        if self.corner_tolerance is not None and self.max_acceleration is None:
+            raise ValueError("corner_tolerance needs max_acceleration [m/s²] to slow down with")
+        if self.time_constant is not None and self.corner_tolerance is None:
+            raise ValueError("time_constant is the corner rule's: give corner_tolerance [m]")
+        return self
 
 
 class CrossCouplingSpec(SpecModel):
