@@ -20,7 +20,7 @@ import click
 
 from feedtune import __version__, interrupts
 from feedtune.cli import (batch, chart, examples, metrics, plants, report, schema, select,
-                          tune, validate)
+                          simulate, tune, validate)
 from feedtune.cli.common import EPILOG
 
 
@@ -48,5 +48,6 @@ main.add_command(plants.plants)
 main.add_command(report.report)
 main.add_command(schema.schema)
 main.add_command(select.select_command)
+main.add_command(simulate.simulate)
 main.add_command(tune.tune)
 main.add_command(validate.validate)

@@ -216,3 +216,25 @@ def _direction(table: SegmentTable, arc: np.ndarray, segment: np.ndarray):
                                        np.zeros_like(angle)])[is_arc]
     radius = np.where(is_arc, table.radius[segment], np.inf)
     return tangent, np.where(is_arc, turn / radius, 0.0)
+
+
+def builtin_path(spec) -> Path:
+    """The path of a spec's built-in ``path`` section (lengths [m], feeds [m/s])."""
+    from feedtune.machine.path import Arc
+
+    kind = spec.type
+    if kind == "line":
+        end = spec.length * np.array([math.cos(spec.angle), math.sin(spec.angle), 0.0])
+        return Path((Line(np.zeros(3), end, spec.feed),))
+    if kind == "circle":
+        start = np.array([spec.radius, 0.0, 0.0])
+        return Path(tuple(Arc(start, start, np.zeros(3), True, spec.feed)
+                          for _ in range(spec.turns)))
+    if kind == "corner":
+        corner = np.array([spec.length, 0.0, 0.0])
+        end = corner + spec.length * np.array([math.cos(spec.angle), math.sin(spec.angle), 0])
+        return Path((Line(np.zeros(3), corner, spec.feed, exact_stop=spec.exact_stop),
+                     Line(corner, end, spec.feed)))
+    from feedtune.machine import paths  # Bhatia's profile: the interpolator helper's
+
+    return paths.bhatia_fig38()

@@ -210,13 +210,22 @@ def axis_inputs(reference: np.ndarray) -> np.ndarray:
     return np.column_stack([reference, ahead])
 
 
+def rest_state(model: AxisModel, position: float) -> np.ndarray:
+    """The state at rest with the reference held at ``position`` [m]: the tool starts
+    at the path's first point, (I − Φ) x = (Γ_r(k) + Γ_r(k+1)) r."""
+    return np.linalg.solve(np.eye(len(model.phi)) - model.phi,
+                           (model.gamma[:, 0] + model.gamma[:, 1]) * position)
+
+
 def simulate_independent(models, reference: np.ndarray) -> np.ndarray:
-    """Positions [m] (N, axes) of independent axes following ``reference`` [m] (N, axes)."""
+    """Positions [m] (N, axes) of independent axes following ``reference`` [m] (N, axes),
+    each starting at rest at the reference's first point."""
     out = np.empty_like(reference)
     for i, model in enumerate(models):
         u = axis_inputs(reference[:, i])
         out[:, i] = simulate_lti(model.phi, model.gamma[:, :2], model.c,
-                                 np.array([model.d, 0.0]), u)
+                                 np.array([model.d, 0.0]), u,
+                                 x0=rest_state(model, reference[0, i]))
     return out
 
 
@@ -285,7 +294,7 @@ def simulate_coupled(models, reference: np.ndarray, tangent: np.ndarray,
     length = np.hypot(planar[:, 0], planar[:, 1])
     planar[length > 0] /= length[length > 0, None]
     normal = np.column_stack([-planar[:, 1], planar[:, 0]])  # the left normal n in XY
-    x = np.zeros(n)
+    x = np.concatenate([rest_state(m, reference[0, i]) for i, m in enumerate(models)])
     integral = 0.0
     out = np.empty((total, count))
     correction = np.zeros(count)
