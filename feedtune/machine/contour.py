@@ -7,8 +7,9 @@ arc-length span meets [s − 4|E|, s + 4|E|], s the commanded arc length and |E|
 following error's length. The nearest point lies within 2|E| of the commanded point
 (|p − q| ≤ |p − r| = |E|), so the window holds it wherever the path between them is at
 most twice as long as the straight line; a path that comes back within 2|E| of itself
-further along (adjacent passes of a pocket closer than the lag) is measured against the
-part being cut. ``tests/unit/machine/test_contour.py`` holds it equal to
+further along (adjacent passes of a pocket closer than the lag, a closed contour's
+overshoot past its end near its start) is measured against the part being cut, not the
+nearest pass. ``tests/unit/machine/test_contour.py`` holds it equal to
 :meth:`Path.distance` on the test paths.
 
 Reported (SI units): the largest and RMS contour error over the cutting moves (rapids
