@@ -95,3 +95,28 @@ def simulate(machine: str, program: str | None, output: str | None,
         for written in write_machine_report(result, report_path):
             err(f"wrote {written}")
     raise SystemExit(EXIT_OK)
+
+
+def tune_machine_command(machine: str, program: str | None, target, report_path) -> None:
+    """``feedtune tune MACHINE.json``: search the gains, sampling period and feed override
+    (feedtune.machine.tune), write the result JSON; exit 0, or 1 when infeasible."""
+    spec = load_machine(machine)
+    path, _ = load_path(spec, program)
+    from feedtune.machine.run import run
+    from feedtune.machine.tune import MachineTuner
+
+    with computing():
+        tuner = MachineTuner(spec, path)
+        document = tuner.solve()
+    emit((json.dumps(document, indent=2) + "\n").encode("utf-8"), target)
+    err(f"{document['status']}: max contour error "
+        f"{(document['metrics'] or {}).get('max_contour_error')} m, cycle time "
+        f"{(document['metrics'] or {}).get('cycle_time')} s, {document['evaluations']} "
+        "simulations")
+    if report_path is not None and document["metrics"] is not None:
+        from feedtune.report.machine import write_machine_report
+
+        for written in write_machine_report(run(spec, path, tuner.answer),
+                                            report_path):
+            err(f"wrote {written}")
+    raise SystemExit(EXIT_OK if document["success"] else 1)

@@ -238,3 +238,8 @@ def builtin_path(spec) -> Path:
     from feedtune.machine import paths  # Bhatia's profile: the interpolator helper's
 
     return paths.bhatia_fig38()
+
+
+def tangents(table: SegmentTable, arc: np.ndarray, segment: np.ndarray) -> np.ndarray:
+    """Unit tangent (N, 3) of the path at each commanded sample."""
+    return _direction(table, arc, segment)[0]
