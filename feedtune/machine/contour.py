@@ -22,6 +22,8 @@ beside his estimate from the slowest axis, V₁·t_s with t_s its 2 % settling t
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -55,6 +57,12 @@ class SegmentTable:
 
     @classmethod
     def of(cls, path: Path) -> SegmentTable:
+        """The table of ``path`` (the last few paths' tables are kept: a tuner runs one
+        path many times)."""
+        return _table(path)
+
+    @classmethod
+    def build(cls, path: Path) -> SegmentTable:
         segs = path.segments
         arc = np.array([isinstance(s, Arc) for s in segs], dtype=bool)
         length = np.array([s.length for s in segs])
@@ -74,37 +82,60 @@ class SegmentTable:
             feed=np.array([s.feed for s in segs]),
         )
 
+    def spheres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centre (M, 3) and radius (M,) [m] of a sphere holding each segment."""
+        centre = 0.5 * (self.start + self.end)
+        centre[self.arc, :2] = self.center[self.arc, :2]
+        half = 0.5 * np.linalg.norm(self.end - self.start, axis=1)
+        radius = np.where(self.arc, np.hypot(self.radius, 0.5 * np.abs(self.end[:, 2]
+                                                                      - self.start[:, 2])),
+                          half)
+        return centre, radius * (1 + 1e-12) + 1e-15
+
     def distance(self, index: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(distance [m], arc length of the nearest point [m]) of each point (n, 3) from
         segment ``index`` (n,), as :meth:`Line.distance` and :meth:`Arc.distance`."""
+        dist = np.empty(len(index))
+        where = np.empty(len(index))
+        is_arc = self.arc[index]
+        for pick, formula in ((~is_arc, self._line), (is_arc, self._arc)):
+            if pick.any():
+                k = index[pick]
+                d, u = formula(k, points[pick])
+                dist[pick] = d
+                where[pick] = self.begin[k] + u * self.length[k]
+        return dist, where
+
+    def _line(self, index, points):
         start, end = self.start[index], self.end[index]
-        # lines
         d = end - start
         dd = np.einsum("ij,ij->i", d, d)
         safe = np.where(dd > 0, dd, 1.0)
-        u_line = np.where(dd > 0, np.clip(np.einsum("ij,ij->i", points - start, d) / safe,
-                                          0.0, 1.0), 0.0)
-        line = np.linalg.norm(points - (start + u_line[:, None] * d), axis=1)
-        # arcs
+        u = np.where(dd > 0, np.clip(np.einsum("ij,ij->i", points - start, d) / safe,
+                                     0.0, 1.0), 0.0)
+        return np.linalg.norm(points - (start + u[:, None] * d), axis=1), u
+
+    def _arc(self, index, points):
+        start, end = self.start[index], self.end[index]
         rel = points[:, :2] - self.center[index, :2]
         sweep = self.sweep[index]
         ang = np.arctan2(rel[:, 1], rel[:, 0])
         a0 = self.angle[index]
         travelled = np.where(sweep > 0, ang - a0, a0 - ang) % (2 * math.pi)
-        span = np.where(sweep != 0, np.abs(sweep), 1.0)
         inside = travelled <= np.abs(sweep)
-        u_arc = np.clip(travelled / span, 0.0, 1.0)
-        z = start[:, 2] + u_arc * (end[:, 2] - start[:, 2])
+        u = np.clip(travelled / np.abs(sweep), 0.0, 1.0)
+        z = start[:, 2] + u * (end[:, 2] - start[:, 2])
         radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius[index]),
                           points[:, 2] - z)
         to_start = np.linalg.norm(points - start, axis=1)
         to_end = np.linalg.norm(points - end, axis=1)
-        arc_u = np.where(inside, u_arc, np.where(to_start <= to_end, 0.0, 1.0))
-        arc = np.where(inside, radial, np.minimum(to_start, to_end))
-        is_arc = self.arc[index]
-        dist = np.where(is_arc, arc, line)
-        u = np.where(is_arc, arc_u, u_line)
-        return dist, self.begin[index] + u * self.length[index]
+        u = np.where(inside, u, np.where(to_start <= to_end, 0.0, 1.0))
+        return np.where(inside, radial, np.minimum(to_start, to_end)), u
+
+
+@functools.lru_cache(maxsize=8)
+def _table(path: Path) -> SegmentTable:
+    return SegmentTable.build(path)  # a Path hashes by identity (eq=False)
 
 
 def contour_distance(table: SegmentTable, points: np.ndarray, commanded: np.ndarray,
@@ -119,24 +150,59 @@ def contour_distance(table: SegmentTable, points: np.ndarray, commanded: np.ndar
     hi = np.clip(np.maximum(hi, lo), 0, last)
     best = np.full(len(points), np.inf)
     where = np.zeros(len(points))
-    for offset in range(int(np.max(hi - lo)) + 1 if len(points) else 0):
-        active = np.flatnonzero(lo + offset <= hi)
-        dist, s = table.distance(lo[active] + offset, points[active])
-        closer = dist < best[active]
-        best[active[closer]] = dist[closer]
-        where[active[closer]] = s[closer]
+    centre, radius = table.spheres()
+    # from the commanded segment outwards: the near segments set a small best distance
+    # early, and a segment whose bounding sphere is farther than it is skipped
+    base = np.clip(np.searchsorted(ends, commanded, side="left"), lo, hi)
+    reach_segments = int(max(np.max(base - lo), np.max(hi - base))) if len(points) else -1
+    alive = np.arange(len(points))
+    for r in range(reach_segments + 1):
+        alive = alive[(base[alive] - r >= lo[alive]) | (base[alive] + r <= hi[alive])]
+        for offset in ((r, -r) if r else (0,)):
+            _nearer(table, points, centre, radius, alive, base[alive] + offset, lo, hi,
+                    best, where)
     return best, where
 
 
-def _junction_turn(path: Path) -> np.ndarray:
+def _nearer(table, points, centre, radius, alive, j, lo, hi, best, where) -> None:
+    """Update ``best`` and ``where`` of the samples ``alive`` with segments ``j`` (one per
+    sample) where j is in the sample's window and its bounding sphere is nearer than best."""
+    inside = (j >= lo[alive]) & (j <= hi[alive])
+    active, j = alive[inside], j[inside]
+    bound = np.linalg.norm(points[active] - centre[j], axis=1) - radius[j]
+    near = bound < best[active]
+    active, j = active[near], j[near]
+    dist, s = table.distance(j, points[active])
+    closer = dist < best[active]
+    best[active[closer]] = dist[closer]
+    where[active[closer]] = s[closer]
+
+
+def _end_tangents(table: SegmentTable) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents (M, 3) at every segment's start and end, as ``tangent_at``."""
+    d = table.end - table.start
+    norm = np.linalg.norm(d, axis=1)
+    line = d / np.where(norm > 0, norm, 1.0)[:, None]
+    turn = np.sign(table.sweep)
+    planar = table.radius * np.abs(table.sweep)
+    dz = d[:, 2]
+    scale = np.hypot(planar, dz)
+    scale = np.where(scale > 0, scale, 1.0)
+
+    def arc_tangent(angle):
+        return np.column_stack([-turn * np.sin(angle) * planar, turn * np.cos(angle) * planar,
+                                dz]) / scale[:, None]
+
+    first = np.where(table.arc[:, None], arc_tangent(table.angle), line)
+    last = np.where(table.arc[:, None], arc_tangent(table.angle + table.sweep), line)
+    return first, last
+
+
+def _junction_turn(table: SegmentTable) -> np.ndarray:
     """Angle [rad] between the end tangent of segment i and the start tangent of i + 1."""
-    segs = path.segments
-    turns = np.zeros(max(len(segs) - 1, 0))
-    for i in range(len(segs) - 1):
-        a = segs[i].tangent_at(segs[i].length)[0]
-        b = segs[i + 1].tangent_at(0.0)[0]
-        turns[i] = math.atan2(np.linalg.norm(np.cross(a, b)), float(a @ b))
-    return turns
+    first, last = _end_tangents(table)
+    a, b = last[:-1], first[1:]
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
 
 
 def step_settling_time(model, samples: int) -> float:
@@ -153,7 +219,8 @@ def step_settling_time(model, samples: int) -> float:
 def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
                     position: np.ndarray, arc_length: np.ndarray, segment: np.ndarray,
                     program_end: float, settling_times: list[float],
-                    axes: tuple[str, ...]) -> dict:
+                    axes: tuple[str, ...], feed_override: float = 1.0,
+                    detail: bool = True) -> dict:
     """Every contour metric of one simulated program, as a JSON-ready dict (SI units).
 
     Parameters
@@ -173,8 +240,15 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
         Each axis' 2 % step settling time [s] (:func:`step_settling_time`).
     axes : tuple of str
         The axes' names, e.g. ``("x", "y")``.
+    feed_override : float
+        Factor on the path's cutting feeds [1] the reference was made with.
+    detail : bool
+        False: only the largest and RMS contour error, the cycle time and the following
+        errors (what a tuner reads).
     """
     table = SegmentTable.of(path)
+    table = dataclasses.replace(table, feed=np.where(table.rapid, table.feed,
+                                                     table.feed * feed_override))
     error = reference - position
     size = np.linalg.norm(error, axis=1)
     distance, nearest = contour_distance(table, position, arc_length,
@@ -195,6 +269,8 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
                             for i, name in enumerate(axes)},
         "slowest_axis_settling_time": slowest,
     }
+    if not detail:
+        return result
     result["corners"] = _corners(path, table, distance, nearest, cutting)
     result["stops"] = _stops(path, table, time, reference, position, arc_length, slowest)
     result["deceleration_blocks"] = _decelerations(table, time, nearest, slowest)
@@ -204,21 +280,19 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
 def _corners(path, table, distance, nearest, cutting) -> list[dict]:
     """Largest contour error near each corner: over the samples whose nearest path point
     lies closer (in arc length) to this corner than to any other corner or the ends."""
-    turns = _junction_turn(path)
+    turns = _junction_turn(table)
     corner = np.flatnonzero(turns > CORNER_ANGLE)
     if corner.size == 0:
         return []
     at = table.begin[corner + 1]
     bounds = np.concatenate([[-np.inf], (at[1:] + at[:-1]) / 2, [np.inf]])
     owner = np.searchsorted(bounds, nearest, side="right") - 1
-    out = []
-    for j, i in enumerate(corner):
-        mine = (owner == j) & cutting
-        out.append({"segment": int(i + 1), "line": int(path.segments[i + 1].source_line),
-                    "position": table.start[i + 1].tolist(), "arc_length": float(at[j]),
-                    "turn": float(turns[i]),
-                    "max_contour_error": float(np.max(distance[mine])) if mine.any() else 0.0})
-    return out
+    largest = np.zeros(corner.size)
+    np.maximum.at(largest, owner[cutting], distance[cutting])
+    lines = [path.segments[i + 1].source_line for i in corner]
+    return [{"segment": int(i + 1), "line": int(line), "position": table.start[i + 1].tolist(),
+             "arc_length": float(s), "turn": float(turns[i]), "max_contour_error": float(e)}
+            for i, line, s, e in zip(corner, lines, at, largest)]
 
 
 def _stops(path, table, time, reference, position, arc_length, slowest) -> list[dict]:

@@ -138,8 +138,10 @@ def rise_time(model: AxisModel, samples: int) -> float:
     return float(reached[0] * model.period) if reached.size else float(samples * model.period)
 
 
-def run(spec: MachineSpec, path: Path, setting: Setting | None = None) -> MachineRun:
-    """Simulate ``path`` on the machine at ``setting`` (default :func:`nominal_setting`).
+def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
+        detail: bool = True) -> MachineRun:
+    """Simulate ``path`` on the machine at ``setting`` (default :func:`nominal_setting`);
+    ``detail`` False leaves out the corners, stops and deceleration blocks.
 
     Raises
     ------
@@ -183,7 +185,7 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None) -> Machin
     if len(names) < 3:
         full[:, 2] = position[:, 2]
     metrics = contour_metrics(path, time, position, full, arc, segment, program_end,
-                              settling, names)
+                              settling, names, setting.feed_override, detail)
     return MachineRun(path, names, time, position, full, arc, segment, metrics)
 
 
