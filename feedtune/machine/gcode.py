@@ -43,7 +43,7 @@ Untrusted input: the text is read, never executed; nothing names a file; at most
 decimals (no exponents), finite and within ``MAX_COORDINATE`` program units.
 
 Library choice (see docs/design.md, "Part programs"): pygcode 0.2.1 (last release 2017)
-and nc-gcode-interpreter (Sinumerik dialect; polars and pyarrow) both read G41 and G81
+and nc-gcode-interpreter 0.1.9 (Sinumerik dialect; polars and pyarrow) both read G41 and G81
 without complaint and produce a wrong path; gcodeparser 0.3.0 drops the words after a
 ``( )`` comment and has no modal groups. This module is our own.
 """
@@ -155,47 +155,55 @@ def _name(letter: str, code: int) -> str:
     return f"{letter}{code // 10}" + (f".{code % 10}" if code % 10 else "")
 
 
+_COMMENT = re.compile(r"\([^()]*\)|;.*|[()]")
+_LINE = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*")
+
+
 def _strip_comments(raw: str, fail) -> str:
     """The line without comments and blanks (RS274 ignores spaces), upper case."""
-    out = []
-    i = 0
-    while i < len(raw):
-        ch = raw[i]
-        if ch == ";":
-            break
-        if ch == "(":
-            close = raw.find(")", i + 1)
-            if close < 0:
-                fail("(", "comment not closed on its line")
-            if "(" in raw[i + 1:close]:
-                fail("(", "nested comment")
-            i = close + 1
-            continue
-        if ch == ")":
+
+    def drop(m: re.Match) -> str:
+        text = m.group(0)
+        if text == "(":
+            rest = raw[m.end():]
+            fail("(", "nested comment" if ")" in rest and "(" in rest.split(")")[0]
+                 else "comment not closed on its line")
+        if text == ")":
             fail(")", "')' without '('")
-        if not ch.isspace():
-            out.append(ch)
-        i += 1
-    return "".join(out).upper()
+        return ""
+
+    if "(" in raw or ")" in raw or ";" in raw:
+        raw = _COMMENT.sub(drop, raw)
+    return "".join(raw.split()).upper()
 
 
 def _words(text: str, fail) -> list[tuple[str, float, str]]:
     """(letter, value, as written) for every word of a comment-free line."""
+    if _LINE.fullmatch(text):
+        matches = _WORD.finditer(text)
+    else:
+        matches = []
+        pos = 0
+        while pos < len(text):
+            m = _WORD.match(text, pos)
+            if m is None:
+                bad = re.match(r".[^A-Z]*", text[pos:]).group(0)[:24]
+                what = ("parameters and expressions are not read" if bad[0] in "#[]="
+                        else "block delete is not read" if bad[0] == "/"
+                        else "not a word (a letter and a plain decimal number)")
+                fail(bad, what)
+            matches.append(m)
+            if m.group(1) == "O":
+                break  # refused below, before the text that follows it
+            pos = m.end()
     words = []
-    pos = 0
-    while pos < len(text):
-        m = _WORD.match(text, pos)
-        if m is None:
-            bad = text[pos:pos + 12]
-            what = ("parameters and expressions are not read" if bad[0] in "#[]="
-                    else "block delete is not read" if bad[0] == "/"
-                    else "not a word (a letter and a plain decimal number)")
-            fail(bad, what)
+    for m in matches:
+        if m.group(1) == "O":
+            fail(m.group(0), "subroutines and program numbers (O words) are not read")
         value = float(m.group(2))
         if not abs(value) <= MAX_COORDINATE:
             fail(m.group(0), f"|value| above {MAX_COORDINATE:g}")
         words.append((m.group(1), value, m.group(0)))
-        pos = m.end()
     return words
 
 
@@ -232,7 +240,7 @@ def parse_program(text: str, *, source: str, units: str | None = None,
         raise ValueError(f"units must be 'mm' or 'inch', got {units!r}")
     if not (math.isfinite(rapid_feed) and rapid_feed > 0):
         raise ValueError(f"rapid_feed must be a positive speed [m/s], got {rapid_feed!r}")
-    position = np.array(start, dtype=float).reshape(3)
+    position = tuple(float(v) for v in np.asarray(start, dtype=float).reshape(3))
     unit = units
     first_units = None
     absolute = True
@@ -298,8 +306,6 @@ def parse_program(text: str, *, source: str, units: str | None = None,
                                                   "move the tool"))
             elif letter == "K":
                 fail(written, "K is an arc centre offset of G18/G19: only G17 is read")
-            elif letter == "O":
-                fail(written, "subroutines and program numbers (O words) are not read")
             elif letter != "P":  # P: a G4 dwell's time, checked below
                 fail(written, "word not read")
 
@@ -339,10 +345,9 @@ def parse_program(text: str, *, source: str, units: str | None = None,
                 fail(_MOTION[motion], "a move before G20/G21: its unit is unknown")
             first_units = first_units or unit
             scale = UNIT_METRES[unit]
-            target = position.copy()
-            for k, axis in zip("XYZ", range(3)):
-                if k in moves:
-                    target[axis] = moves[k] * scale + (0.0 if absolute else position[axis])
+            target = tuple(position[axis] if k not in moves
+                           else moves[k] * scale + (0.0 if absolute else position[axis])
+                           for axis, k in enumerate("XYZ"))
             name = _MOTION[motion]
             if motion in (0, 10):
                 for k in "IJR":
@@ -356,7 +361,7 @@ def parse_program(text: str, *, source: str, units: str | None = None,
                 speed = feed
             stop = exact_block or exact_mode
             if motion in (0, 10):
-                if np.array_equal(target, position):
+                if target == position:
                     skips.append(Skip(number, name, "zero-length move"))
                 else:
                     segments.append(Line(position, target, speed, rapid=motion == 0,
@@ -393,18 +398,21 @@ def _with_stop(seg: Line | Arc) -> Line | Arc:
                source_line=seg.source_line, exact_stop=True)
 
 
-def _arc_centre(start: np.ndarray, end: np.ndarray, moves: dict, seen: dict, ccw: bool,
-                unit: str, fail) -> np.ndarray:
+def _arc_centre(start: tuple, end: tuple, moves: dict, seen: dict, ccw: bool,
+                unit: str, fail) -> tuple[float, float, float]:
     """The arc's centre [m] from I/J (incremental from the start) or R.
 
     With I/J the end may lie off the start's circle by ``ARC_RADIUS_TOLERANCE`` (program
     rounding); the centre is then moved to the nearest point of the chord's perpendicular
-    bisector, at most that tolerance, so that start and end share one circle.
+    bisector when that is at most the same tolerance away, so that start and end share
+    one circle.
     """
     scale = UNIT_METRES[unit]
+    tolerance = ARC_RADIUS_TOLERANCE[unit] * scale
     name = "G3" if ccw else "G2"
-    chord = end[:2] - start[:2]
-    half = 0.5 * math.hypot(*chord)
+    dx, dy = end[0] - start[0], end[1] - start[1]
+    half = 0.5 * math.hypot(dx, dy)
+    mx, my = 0.5 * (start[0] + end[0]), 0.5 * (start[1] + end[1])
     if "R" in moves:
         if "I" in moves or "J" in moves:
             fail(seen["R"], "an arc takes R or I/J, not both")
@@ -412,29 +420,33 @@ def _arc_centre(start: np.ndarray, end: np.ndarray, moves: dict, seen: dict, ccw
         if half == 0:
             fail(seen["R"], "a full circle cannot be given by R (use I/J)")
         if abs(radius) < half:
-            if half - abs(radius) > ARC_RADIUS_TOLERANCE[unit] * scale:
+            if half - abs(radius) > tolerance:
                 fail(seen["R"], f"radius {abs(radius):.6g} m is less than half the chord "
                                 f"{half:.6g} m")
             radius = math.copysign(half, radius)
         h = math.sqrt(max(radius * radius - half * half, 0.0))
-        normal = np.array([-chord[1], chord[0]]) / (2 * half)  # left of start → end
-        # the short arc (R > 0) turns about a centre on its own side of the chord:
-        # left for G3, right for G2; R < 0 takes the other side
+        # the short arc (R > 0) turns about a centre on its own side of the chord: left
+        # of start → end for G3, right for G2; R < 0 takes the other side
         side = (1.0 if ccw else -1.0) * (1.0 if radius > 0 else -1.0)
-        mid = 0.5 * (start[:2] + end[:2])
-        c = mid + side * h * normal
-        return np.array([c[0], c[1], 0.0])
+        k = side * h / (2 * half)
+        return (mx - k * dy, my + k * dx, 0.0)
     if "I" not in moves and "J" not in moves:
         fail(name, "an arc needs I/J or R")
-    c = start[:2] + np.array([moves.get("I", 0.0), moves.get("J", 0.0)]) * scale
-    r0 = math.hypot(*(start[:2] - c))
-    r1 = math.hypot(*(end[:2] - c))
+    cx = start[0] + moves.get("I", 0.0) * scale
+    cy = start[1] + moves.get("J", 0.0) * scale
+    r0 = math.hypot(start[0] - cx, start[1] - cy)
+    r1 = math.hypot(end[0] - cx, end[1] - cy)
     if r0 == 0:
         fail(name, "arc centre at its start point")
-    if abs(r1 - r0) > ARC_RADIUS_TOLERANCE[unit] * scale:
+    if abs(r1 - r0) > tolerance:
         fail(name, f"end is {r1:.9g} m from the centre, start {r0:.9g} m: not one circle")
     if half > 0 and r1 != r0:
-        mid = 0.5 * (start[:2] + end[:2])
-        u = chord / (2 * half)
-        c = c - u * float((c - mid) @ u)
-    return np.array([c[0], c[1], 0.0])
+        # onto the chord's perpendicular bisector, if that moves the centre within the
+        # rounding; a chord far shorter than the radius (a full circle whose end is off
+        # its start by float rounding) would send it far, so it stays, and the arc's
+        # own check (radii within 1e-9 m + 1e-6 R) decides
+        ux, uy = dx / (2 * half), dy / (2 * half)
+        shift = (cx - mx) * ux + (cy - my) * uy
+        if abs(shift) <= tolerance:
+            cx, cy = cx - ux * shift, cy - uy * shift
+    return (cx, cy, 0.0)

@@ -1,7 +1,8 @@
 """The interpolator: a :class:`Path` → per-axis position references sampled every T.
 
 ``interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
-corner_tolerance: float | None = None, time_constant: float | None = None) -> Reference``
+corner_tolerance: float | None = None, time_constant: float | None = None,
+feed_override: float = 1.0) -> Reference``
 
 Feed profile
 ------------
@@ -21,18 +22,22 @@ Junction speeds v_j (j = 0 … n, v_0 = v_n = 0, the exact stop at the end):
   of a rapid (G0) move (Bhatia §III: rapid traverse is a positioning move, executed from
   rest to rest by its own controller, Fig 5);
 - the **corner rule** (with ``corner_tolerance`` ε [m] and ``time_constant`` τ [s]):
-  where the direction turns by θ, the axes' velocity vector jumps by
-  |Δv| = 2 v sin(θ/2). Bhatia (§IV.H, the corner at B) states that the deviation "depends
-  (for a given servo) entirely on how drastic a change is entailed" in the axis feed
-  rates, and models each slide's response to a change of ramp by a first-order
-  velocity response V_i + ΔV(1 − e^{−t/τ}) with τ that of the least responsive slide. A
-  slide following so drifts τ|Δv| from an ideal one by the time its velocity has
-  changed; the rule holds that drift within ε: v_j ≤ ε / (2 τ sin(θ_j/2)). For the same
-  first-order slide the contour error of a sharp corner cut at constant speed v is
-  exactly v τ sin θ / e (the tool is e^{−s} sin θ·vτ from the new line and
-  (s − 1 + e^{−s}) sin θ·vτ from the old one, s = t/τ; both equal at s = 1), below the
-  drift for every θ, so ε bounds the corner error; a reversal (θ = π) stops, which the
-  first-order model alone would not ask for (it has no overshoot);
+  Bhatia (§IV.H, the corner at B) says the deviation "depends (for a given servo)
+  entirely on how drastic a change is entailed" in the axis feed rates, and models each
+  slide's response to a change of ramp by a first-order velocity response
+  V_i + ΔV(1 − e^{−t/τ}), τ that of the least responsive slide. Such a slide runs
+  behind the reference by its lag ℓ = τv + τ²a along the path (velocity lag, plus what
+  a deceleration at a adds: p = r − τṙ + τ²r̈ for a piecewise-quadratic r). At a
+  corner that turns the path by θ the lag vector turns with it and changes by
+  2 sin(θ/2)·ℓ; the rule holds that change within ε:
+  v_j ≤ ε / (2 τ sin(θ_j/2)) − τ a (0 where this is negative: the tool stops; ε is then
+  below what the acceleration alone leaves, ≈ τ²a sin θ / e, and a smaller a is needed).
+  For the first-order slide itself the contour error of the corner is at most
+  ℓ sin θ / e, exactly v τ sin θ / e at constant speed (the tool is e^{−s} sin θ·vτ from
+  the new line and (s − 1 + e^{−s}) sin θ·vτ from the old one, s = t/τ; both equal at
+  s = 1), and sin θ / e < 2 sin(θ/2): ε bounds it with margin. A reversal (θ = π) slows
+  to ε/(2τ) − τa although the first-order model would retrace without error: real
+  slides overshoot (Bhatia's B, Fig 38), and the rule keeps them slow there;
 - what the acceleration allows: v_{j+1}² ≤ v_j² + 2 a L_j and v_j² ≤ v_{j+1}² + 2 a L_j,
   solved exactly by two cumulative minima in v² (no loop over blocks).
 
@@ -85,7 +90,7 @@ def _positive(value, name: str, unit: str) -> float:
 class _Segments:
     """The path's segments as columns (n,) / (n, 3), read once."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, feed_override: float = 1.0):
         segs = path.segments
         if not segs:
             raise ValueError("an empty path has nothing to interpolate")
@@ -99,6 +104,7 @@ class _Segments:
         self.end = np.array([s.end for s in segs])
         self.is_arc = np.array([isinstance(s, Arc) for s in segs])
         self.rapid = np.array([isinstance(s, Line) and s.rapid for s in segs])
+        self.feed = np.where(self.rapid, self.feed, self.feed * feed_override)
         self.exact_stop = np.array([bool(s.exact_stop) for s in segs])
         self.center = np.zeros((n, 3))
         self.radius = np.zeros(n)
@@ -148,14 +154,18 @@ class _Segments:
         return out
 
 
-def corner_speed(turn: np.ndarray, corner_tolerance: float, time_constant: float) -> np.ndarray:
+def corner_speed(turn, corner_tolerance: float, time_constant: float,
+                 max_acceleration: float = 0.0) -> np.ndarray:
     """Highest speed [m/s] through a corner that turns the path by ``turn`` [rad] (0 = no
-    turn, π = reversal): ε / (2 τ sin(θ/2)), the velocity step |Δv| = 2 v sin(θ/2) times
-    the slowest slide's time constant τ [s] held within ``corner_tolerance`` ε [m]
-    (module docstring; Bhatia 1971 §IV.H). Infinite where the path does not turn."""
+    turn, π = reversal): v = ε / (2 τ sin(θ/2)) − τ a, at least 0, so that the lag
+    τv + τ²a of a first-order slide with time constant τ [s], decelerating at
+    ``max_acceleration`` a [m/s²], changes by at most ``corner_tolerance`` ε [m] as the
+    path turns (module docstring; Bhatia 1971 §IV.H). Infinite where the path does not
+    turn."""
     jump = 2.0 * np.sin(0.5 * np.asarray(turn, dtype=float))
     with np.errstate(divide="ignore"):
-        return np.where(jump > 0, corner_tolerance / (time_constant * jump), np.inf)
+        v = corner_tolerance / (time_constant * jump) - time_constant * max_acceleration
+    return np.where(jump > 0, np.maximum(v, 0.0), np.inf)
 
 
 def transition_length(initial_speed, final_speed, time_constant: float):
@@ -172,11 +182,14 @@ def transition_length(initial_speed, final_speed, time_constant: float):
 
 def junction_speeds(path: Path, *, max_acceleration: float | None = None,
                     corner_tolerance: float | None = None,
-                    time_constant: float | None = None) -> np.ndarray:
+                    time_constant: float | None = None,
+                    feed_override: float = 1.0) -> np.ndarray:
     """Speeds [m/s] at the n + 1 block junctions of ``path`` (start, between blocks, end)
-    by the rules of the module docstring; without ``max_acceleration`` the feed jumps at
-    junctions and this returns the limits before acceleration (0 at exact stops)."""
-    return _junctions(_Segments(path), max_acceleration, corner_tolerance, time_constant)
+    by the rules of the module docstring (arguments as :func:`interpolate`'s); without
+    ``max_acceleration`` the feed jumps at junctions and this returns the limits before
+    acceleration (0 at exact stops)."""
+    return _junctions(_Segments(path, feed_override), max_acceleration, corner_tolerance,
+                      time_constant)
 
 
 def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
@@ -190,7 +203,7 @@ def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
     if tolerance is not None:
         t_start, t_end = seg.tangents()
         cosine = np.clip(np.einsum("ij,ij->i", t_end[:-1], t_start[1:]), -1.0, 1.0)
-        cap[1:n] = np.minimum(cap[1:n], corner_speed(np.arccos(cosine), tolerance, tau))
+        cap[1:n] = np.minimum(cap[1:n], corner_speed(np.arccos(cosine), tolerance, tau, accel or 0.0))
     if accel is None:
         return cap
     # v² ≤ cap², forward: w_{j+1} ≤ w_j + 2aL_j; backward: w_j ≤ w_{j+1} + 2aL_j. With
@@ -204,7 +217,8 @@ def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
 
 def interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
                 corner_tolerance: float | None = None,
-                time_constant: float | None = None) -> Reference:
+                time_constant: float | None = None,
+                feed_override: float = 1.0) -> Reference:
     """Sample the path's motion every ``period``.
 
     Parameters
@@ -221,6 +235,9 @@ def interpolate(path: Path, *, period: float, max_acceleration: float | None = N
         None: no corner slow-down.
     time_constant : float or None
         τ [s] of the least responsive slide, for the corner rule.
+    feed_override : float
+        Factor [1] on every programmed feed except rapids (a control's feed override; a
+        tuner varies it to trade cycle time against contour error).
 
     Returns
     -------
@@ -238,7 +255,7 @@ def interpolate(path: Path, *, period: float, max_acceleration: float | None = N
         time_constant = _positive(time_constant, "time_constant", "s")
         if accel is None:
             raise ValueError("a corner slow-down needs max_acceleration [m/s²] to slow down with")
-    seg = _Segments(path)
+    seg = _Segments(path, _positive(feed_override, "feed_override", "1"))
     length = seg.length
     if accel is None:
         peak = seg.feed
@@ -295,7 +312,9 @@ def pulse_reference(reference: Reference, *, pulse_equivalent: float,
     The interpolated position is rounded to whole pulses (BLUs) each period and fed to
     ``feedtune.loops.pulse_train``'s V-F recursion (error limit, optional acceleration
     law |e_i − e_{i−1}| ≤ value/k, accumulator); the returned positions are the pulse
-    counters times ``pulse_equivalent`` [m], on the BLU grid.
+    counters times ``pulse_equivalent`` [m], on the BLU grid. The generators lag the
+    command; the reference is extended, holding the last command, until every counter has
+    reached the end point (``arc_length`` and ``segment`` stay those of the command).
 
     Parameters
     ----------
@@ -326,11 +345,26 @@ def pulse_reference(reference: Reference, *, pulse_equivalent: float,
         raise ValueError(
             f"an axis moves {fastest} BLU in one period: faster than the V-F generator's one "
             f"pulse per period (δ/T = {delta / reference.period:.6g} m/s); use a shorter period")
-    out = np.empty_like(counts)
-    for axis in range(3):
-        base = counts[0, axis]
-        pulses, _ = _track(counts[:, axis] - base, value, step_limit)
-        out[:, axis] = base + np.cumsum(pulses, dtype=np.int64)
-    return Reference(period=reference.period, time=reference.time,
-                     position=out * delta, arc_length=reference.arc_length,
-                     segment=reference.segment)
+    # the generators lag; hold the last command until every counter has reached it
+    extra = 16 + int(math.ceil(4 * value * (1 if acceleration_ratio is None else acceleration_ratio)))
+    while True:
+        command = np.concatenate([counts, np.repeat(counts[-1:], extra, axis=0)])
+        out = np.empty_like(command)
+        for axis in range(3):
+            base = command[0, axis]
+            pulses, _ = _track(command[:, axis] - base, value, step_limit)
+            out[:, axis] = base + np.cumsum(pulses, dtype=np.int64)
+        settled = np.flatnonzero(np.any(out != command[-1], axis=1))
+        last = len(counts) - 1 if settled.size == 0 else max(len(counts) - 1, int(settled[-1]) + 1)
+        if last < len(command) - 1 or len(command) > MAX_SAMPLES:
+            break
+        extra *= 4
+    if np.any(out[last] != counts[-1]):
+        raise ValueError("the V-F generators did not settle on the path's end")
+    n = last + 1
+    time = np.arange(n) * reference.period
+    hold = n - len(counts)
+    arc_length = np.concatenate([reference.arc_length, np.repeat(reference.arc_length[-1:], hold)])
+    segment = np.concatenate([reference.segment, np.repeat(reference.segment[-1:], hold)])
+    return Reference(period=reference.period, time=time, position=out[:n] * delta,
+                     arc_length=arc_length[:n], segment=segment[:n])
