@@ -12,7 +12,6 @@ closed loop is the axis' in metres.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -21,7 +20,7 @@ import numpy as np
 from feedtune.loops.export import closed_loop_state_space
 from feedtune.machine.contour import SegmentTable, contour_metrics, step_settling_time
 from feedtune.machine.interpolate import interpolate
-from feedtune.machine.path import Line, Path
+from feedtune.machine.path import Path
 from feedtune.machine.simulate import (AxisModel, CrossCoupling, discretise, run_out_samples,
                                        simulate_coupled, simulate_independent)
 from feedtune.machine.spec import SAMPLING_PERIOD, MachineSpec, nominal
@@ -118,15 +117,6 @@ def axis_models(spec: MachineSpec, setting: Setting) -> list[AxisModel]:
     return models
 
 
-def overridden(path: Path, factor: float) -> Path:
-    """The path with every cutting feed times ``factor`` (rapids unchanged)."""
-    if factor == 1.0:
-        return path
-    return Path(tuple(seg if isinstance(seg, Line) and seg.rapid
-                      else dataclasses.replace(seg, feed=seg.feed * factor)
-                      for seg in path.segments))
-
-
 def rise_time(model: AxisModel, samples: int) -> float:
     """The time [s] an axis' step response first reaches 1 − 1/e (its first-order time
     constant, Bhatia's τ of a slide)."""
@@ -160,10 +150,10 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     if interp.corner_tolerance is not None:
         tau = interp.time_constant or max(rise_time(m, probe) for m in models)
     ratio = round(interp.period / setting.period) if interp.period else 1
-    reference = interpolate(overridden(path, setting.feed_override),
-                            period=ratio * setting.period,
+    reference = interpolate(path, period=ratio * setting.period,
                             max_acceleration=interp.max_acceleration,
-                            corner_tolerance=interp.corner_tolerance, time_constant=tau)
+                            corner_tolerance=interp.corner_tolerance, time_constant=tau,
+                            feed_override=setting.feed_override)
     if "z" not in names and np.any(reference.position[:, 2] != reference.position[0, 2]):
         raise ValueError("the path moves z; the machine has no z axis")
     time, position, arc, segment = _resampled(reference, ratio)
@@ -221,25 +211,19 @@ def _direction(table: SegmentTable, arc: np.ndarray, segment: np.ndarray):
 
 
 def builtin_path(spec) -> Path:
-    """The path of a spec's built-in ``path`` section (lengths [m], feeds [m/s])."""
-    from feedtune.machine.path import Arc
+    """The path of a spec's built-in ``path`` section (lengths [m], feeds [m/s]), from
+    :mod:`feedtune.machine.paths`."""
+    from feedtune.machine import paths
 
     kind = spec.type
     if kind == "line":
-        end = spec.length * np.array([math.cos(spec.angle), math.sin(spec.angle), 0.0])
-        return Path((Line(np.zeros(3), end, spec.feed),))
+        return paths.line(spec.length, spec.angle, feed=spec.feed)
     if kind == "circle":
-        start = np.array([spec.radius, 0.0, 0.0])
-        return Path(tuple(Arc(start, start, np.zeros(3), True, spec.feed)
-                          for _ in range(spec.turns)))
+        return Path(paths.circle(spec.radius, feed=spec.feed).segments * spec.turns)
     if kind == "corner":
-        corner = np.array([spec.length, 0.0, 0.0])
-        end = corner + spec.length * np.array([math.cos(spec.angle), math.sin(spec.angle), 0])
-        return Path((Line(np.zeros(3), corner, spec.feed, exact_stop=spec.exact_stop),
-                     Line(corner, end, spec.feed)))
-    from feedtune.machine import paths  # Bhatia's profile: the interpolator helper's
-
-    return paths.bhatia_fig38()
+        return paths.corner(spec.length, spec.angle, feed=spec.feed, turn=spec.turn,
+                            exact_stop=spec.exact_stop)
+    return paths.bhatia_profile(exact_stop_at_b=spec.exact_stop_at_b)
 
 
 def tangents(table: SegmentTable, arc: np.ndarray, segment: np.ndarray) -> np.ndarray:

@@ -69,21 +69,27 @@ class CirclePath(SpecModel):
 
 
 class CornerPath(SpecModel):
-    """Two lines of equal length meeting at a corner."""
+    """Two lines of equal length from the origin meeting at a corner."""
 
     type: Literal["corner"]
     length: PositiveFloat = Field(description="Length of each leg [m]")
-    angle: float = Field(math.pi / 2, gt=0, lt=math.pi,
-                         description="Turn at the corner [rad] (π/2: a right angle)")
+    angle: float = Field(0.0, ge=-2 * math.pi, le=2 * math.pi,
+                         description="Direction of the first leg from the x axis [rad]")
+    turn: float = Field(math.pi / 2, gt=-math.pi, lt=math.pi,
+                        description="Turn at the corner, counter-clockwise positive [rad] "
+                                    "(π/2: a right angle to the left)")
     feed: PositiveFloat = Field(description="Programmed feed [m/s]")
     exact_stop: bool = Field(False, description="Stop at the corner (G9) [true/false]")
 
 
 class BhatiaPath(SpecModel):
-    """Bhatia 1971, Fig 38: the profile with the rounded corner at B and the deceleration
-    block CC'."""
+    """Bhatia 1971, Fig 38 (feedtune.machine.paths.bhatia_profile): the rapid traverse to
+    A, the corner at B, the deceleration block CC' and the slow contouring blocks."""
 
     type: Literal["bhatia_fig38"]
+    exact_stop_at_b: bool = Field(
+        False, description="Stop at B (his 'special code' for a sharp corner: the overshoot "
+                           "at B); false: the rounded corner [true/false]")
 
 
 PathSpec = Annotated[Union[LinePath, CirclePath, CornerPath, BhatiaPath],
