@@ -17,7 +17,10 @@ left out), the largest error near each corner, the overshoot at each stop, each 
 following error, the cycle time, and at each programmed feed reduction the deceleration
 block: the path length over which the tool's speed goes from the old feed to within 2 %
 of the new one (Bhatia 1971, ch. 5: CC' of Fig 38, set by the least responsive slide),
-beside his estimate from the slowest axis, V₁·t_s with t_s its 2 % settling time.
+beside his estimate from the least responsive slide: his block length
+S = 4τV₁ + (V₂ − V₁)τ(3 + e⁻⁴) (:func:`~feedtune.machine.interpolate.transition_length`)
+with τ = 1/C_v of the slowest axis, the time constant of the first-order response whose
+ramp lag is that axis' (V/C_v).
 """
 
 from __future__ import annotations
@@ -218,7 +221,7 @@ def step_settling_time(model, samples: int) -> float:
 
 def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
                     position: np.ndarray, arc_length: np.ndarray, segment: np.ndarray,
-                    program_end: float, settling_times: list[float],
+                    program_end: float, settling_times: list[float], lag: float,
                     axes: tuple[str, ...], feed_override: float = 1.0,
                     detail: bool = True) -> dict:
     """Every contour metric of one simulated program, as a JSON-ready dict (SI units).
@@ -238,6 +241,8 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
         Time the reference reaches the end of the program [s] (the cycle time).
     settling_times : list of float
         Each axis' 2 % step settling time [s] (:func:`step_settling_time`).
+    lag : float
+        The slowest axis' velocity lag 1/C_v [s].
     axes : tuple of str
         The axes' names, e.g. ``("x", "y")``.
     feed_override : float
@@ -268,12 +273,13 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
                                    "rms": float(np.sqrt(np.mean(error[:, i] ** 2)))}
                             for i, name in enumerate(axes)},
         "slowest_axis_settling_time": slowest,
+        "slowest_axis_lag": float(lag),
     }
     if not detail:
         return result
     result["corners"] = _corners(path, table, distance, nearest, cutting)
     result["stops"] = _stops(path, table, time, reference, position, arc_length, slowest)
-    result["deceleration_blocks"] = _decelerations(table, time, nearest, slowest)
+    result["deceleration_blocks"] = _decelerations(table, time, nearest, lag)
     return result
 
 
@@ -322,10 +328,12 @@ def _stops(path, table, time, reference, position, arc_length, slowest) -> list[
     return out
 
 
-def _decelerations(table, time, nearest, slowest) -> list[dict]:
+def _decelerations(table, time, nearest, lag) -> list[dict]:
     """At each junction where the programmed feed drops: the path length the tool needs
     to slow from within 2 % of the old feed to within 2 % of the new one (measured on the
-    tool's nearest-point arc length), and Bhatia's estimate V₁·t_s."""
+    tool's nearest-point arc length), and Bhatia's estimate with τ = ``lag`` [s]."""
+    from feedtune.machine.interpolate import transition_length
+
     out = []
     if len(time) < 3:
         return out
@@ -343,5 +351,5 @@ def _decelerations(table, time, nearest, slowest) -> list[dict]:
         else:
             measured = float(nearest[min(after[-1] + 1, len(nearest) - 1)] - nearest[fast[-1]])
         out.append({"segment": int(i + 1), "feed_before": float(v1), "feed_after": float(v2),
-                    "length": measured, "estimate": float(v1 * slowest)})
+                    "length": measured, "estimate": float(transition_length(v1, v2, lag))})
     return out

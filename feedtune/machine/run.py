@@ -17,7 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feedtune.expr import to_float
 from feedtune.loops.export import closed_loop_state_space
+from feedtune.loops.protocols import Capability
 from feedtune.machine.contour import SegmentTable, contour_metrics, step_settling_time
 from feedtune.machine.interpolate import interpolate
 from feedtune.machine.path import Path
@@ -109,12 +111,20 @@ def axis_loop(spec: MachineSpec, name: str, values: dict[str, float], period: fl
 
 def axis_models(spec: MachineSpec, setting: Setting) -> list[AxisModel]:
     """Every axis' discrete closed loop at the setting's sampling period."""
-    models = []
+    return [model for model, _ in _axes(spec, setting)]
+
+
+def _axes(spec: MachineSpec, setting: Setting) -> list[tuple[AxisModel, float]]:
+    """(discrete closed loop, velocity lag 1/C_v [s], 0 where the loop has no C_v) of
+    every axis."""
+    out = []
     for name in spec.axes.named():
         loop = axis_loop(spec, name, setting.values[name], setting.period)
         a, b, c, d, dt = closed_loop_state_space(loop)
-        models.append(discretise(a, b, c, d, dt, setting.period))
-    return models
+        lag = (1 / to_float(loop.velocity_constant)
+               if loop.offers(Capability.VELOCITY_CONSTANT) else 0.0)
+        out.append((discretise(a, b, c, d, dt, setting.period), lag))
+    return out
 
 
 def rise_time(model: AxisModel, samples: int) -> float:
@@ -142,7 +152,8 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     """
     setting = setting or nominal_setting(spec)
     names = tuple(spec.axes.named())
-    models = axis_models(spec, setting)
+    axes = _axes(spec, setting)
+    models = [model for model, _ in axes]
     probe = run_out_samples(models, 10**6)
     settling = [step_settling_time(m, probe) for m in models]
     interp = spec.interpolator
@@ -175,7 +186,8 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     if len(names) < 3:
         full[:, 2] = position[:, 2]
     metrics = contour_metrics(path, time, position, full, arc, segment, program_end,
-                              settling, names, setting.feed_override, detail)
+                              settling, max(lag for _, lag in axes), names,
+                              setting.feed_override, detail)
     return MachineRun(path, names, time, position, full, arc, segment, metrics)
 
 
