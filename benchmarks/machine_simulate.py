@@ -3,19 +3,23 @@
 of the same discrete loops, in one process; and tuning 3 axes (matched) on a 1 000-block
 program. Prints CPU and wall times and the ratio.
 
-    .venv/bin/python benchmarks/machine_simulate.py
+    .venv/bin/python benchmarks/machine_simulate.py [--ccc] [--no-tune]
+
+``--ccc`` also times Koren's cross-coupled controller on the 10 000-block program (the
+coupled axes stepped sample by sample); ``--no-tune`` leaves the tuning out.
 """
 
 from __future__ import annotations
 
-import math
+import sys
 import time
 
 import numpy as np
 
 from feedtune.machine.path import Line, Path
-from feedtune.machine.run import axis_models, nominal_setting, run
-from feedtune.machine.simulate import simulate_independent
+from feedtune.machine.contour import SegmentTable
+from feedtune.machine.run import axis_models, nominal_setting, path_direction, run
+from feedtune.machine.simulate import CrossCoupling, simulate_coupled, simulate_independent
 from feedtune.machine.spec import parse_machine
 from feedtune.machine.tune import tune_machine
 
@@ -71,6 +75,15 @@ def main():
     print(f"simulation only: vectorised {c1:.3f} s CPU ({w1:.3f} wall), naive per-sample "
           f"{c2:.3f} s CPU ({w2:.3f} wall): {c2 / c1:.0f}x; largest difference "
           f"{np.max(np.abs(fast - slow)):.2e} m")
+    if "--ccc" in sys.argv:
+        tangent, curvature = path_direction(SegmentTable.of(path), result.arc_length,
+                                        result.segment)
+        _, c3, w3 = timed(simulate_coupled, models, reference, tangent, curvature,
+                          CrossCoupling(5.0, 0.05))
+        print(f"cross-coupled (3 axes, x-y coupled), per-sample stepping: {c3:.3f} s CPU "
+              f"({w3:.3f} wall)")
+    if "--no-tune" in sys.argv:
+        return
     tuned, cpu, wall = timed(tune_machine, machine(True), zigzag(1_000))
     print(f"tuning 3 matched axes + feed on 1 000 blocks: {cpu:.1f} s CPU, {wall:.1f} s wall, "
           f"{tuned['evaluations']} simulations, status {tuned['status']}, "

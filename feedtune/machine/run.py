@@ -178,7 +178,7 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     if setting.cross_coupling is None or setting.cross_coupling.gain == 0:
         actual = simulate_independent(models, commanded)
     else:
-        tangent, curvature = _direction(SegmentTable.of(path), arc, segment)
+        tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
         actual = simulate_coupled(models, commanded, tangent, curvature,
                                   setting.cross_coupling)
     full = np.zeros_like(position)
@@ -206,7 +206,7 @@ def _resampled(reference, ratio: int):
     return time, position, arc, segment
 
 
-def _direction(table: SegmentTable, arc: np.ndarray, segment: np.ndarray):
+def path_direction(table: SegmentTable, arc: np.ndarray, segment: np.ndarray):
     """Unit tangent (N, 3) and signed curvature [1/m] (N,) of the path at each sample."""
     u = np.clip((arc - table.begin[segment]) / np.where(table.length[segment] > 0,
                                                          table.length[segment], 1.0), 0, 1)
@@ -237,7 +237,3 @@ def builtin_path(spec) -> Path:
                             exact_stop=spec.exact_stop)
     return paths.bhatia_profile(exact_stop_at_b=spec.exact_stop_at_b)
 
-
-def tangents(table: SegmentTable, arc: np.ndarray, segment: np.ndarray) -> np.ndarray:
-    """Unit tangent (N, 3) of the path at each commanded sample."""
-    return _direction(table, arc, segment)[0]

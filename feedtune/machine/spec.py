@@ -15,7 +15,8 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal, Union
 
-from pydantic import Field, NonNegativeFloat, PositiveFloat, ValidationError, model_validator
+from pydantic import (Field, NonNegativeFloat, PositiveFloat, ValidationError, field_validator,
+                      model_validator)
 
 from feedtune.schema.model import SpecModel
 from feedtune.schema.spec import (_PLANT, PlantSpec, SpecError, TunableSpec, _schema_errors,
@@ -170,6 +171,14 @@ class MachineSpec(SpecModel):
     cross_coupling: CrossCouplingSpec | None = Field(
         None, description="Koren's cross-coupled controller; omitted: independent axes")
     tuning: TuningSpec = Field(default_factory=TuningSpec)
+
+    @field_validator("sampling_period", "feed_override")
+    @classmethod
+    def _bounded(cls, tunable: TunableSpec) -> TunableSpec:
+        if tunable.value is None and (tunable.min is None or tunable.max is None):
+            raise ValueError("give 'value', or 'min' and 'max' (no plant supplies defaults "
+                             "for the machine's own tunables)")
+        return tunable
 
     @model_validator(mode="after")
     def _consistent(self):

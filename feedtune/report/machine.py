@@ -28,11 +28,12 @@ def write_machine_report(result, directory: Path, magnify: float | None = None) 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     from feedtune.machine.contour import SegmentTable
-    from feedtune.machine.run import tangents
+    from feedtune.machine.run import path_direction
 
     error = result.path.distance(result.actual)
     deviation = result.actual - result.commanded
-    tangent = tangents(SegmentTable.of(result.path), result.arc_length, result.segment)
+    tangent, _ = path_direction(SegmentTable.of(result.path), result.arc_length,
+                                result.segment)
     # the part of the deviation across the path (the contour error to first order); the
     # lag along the path is not magnified
     deviation = deviation - np.einsum("ij,ij->i", deviation, tangent)[:, None] * tangent
