@@ -15,7 +15,7 @@ from feedtune.machine.spec import MachineSpec, parse_machine
 from feedtune.schema.spec import SpecError
 
 REPO = Path(__file__).resolve().parents[3]
-EXAMPLE = json.loads((REPO / "examples" / "machine-two-axes.json").read_text())
+EXAMPLE = json.loads((REPO / "examples" / "machine" / "two-axes.json").read_text())
 
 TIAN = json.loads((REPO / "examples" / "tian-vf-pulse.json").read_text())
 TIAN_AXIS = {"plant": TIAN["plant"], "tunables": TIAN["tunables"]}
