@@ -223,8 +223,9 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
                     position: np.ndarray, arc_length: np.ndarray, segment: np.ndarray,
                     program_end: float, settling_times: list[float], lag: float,
                     axes: tuple[str, ...], feed_override: float = 1.0,
-                    detail: bool = True) -> dict:
-    """Every contour metric of one simulated program, as a JSON-ready dict (SI units).
+                    detail: bool = True) -> tuple[dict, np.ndarray]:
+    """Every contour metric of one simulated program, as a JSON-ready dict (SI units), and
+    the contour error [m] at every sample (N,).
 
     Parameters
     ----------
@@ -276,11 +277,11 @@ def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
         "slowest_axis_lag": float(lag),
     }
     if not detail:
-        return result
+        return result, distance
     result["corners"] = _corners(path, table, distance, nearest, cutting)
     result["stops"] = _stops(path, table, time, reference, position, arc_length, slowest)
     result["deceleration_blocks"] = _decelerations(table, time, nearest, lag)
-    return result
+    return result, distance
 
 
 def _corners(path, table, distance, nearest, cutting) -> list[dict]:

@@ -55,6 +55,10 @@ class MachineRun:
     commanded, actual : ndarray (N, 3) [m]
     arc_length : ndarray (N,) [m], the commanded arc length
     segment : ndarray of int (N,)
+    tangent : ndarray (N, 3)
+        The path's unit tangent at the commanded point.
+    contour_error : ndarray (N,) [m]
+        The tool's distance from the path at each sample.
     metrics : dict
         :func:`~feedtune.machine.contour.contour_metrics`, plus ``stable`` true.
     """
@@ -66,6 +70,8 @@ class MachineRun:
     actual: np.ndarray
     arc_length: np.ndarray
     segment: np.ndarray
+    tangent: np.ndarray
+    contour_error: np.ndarray
     metrics: dict
 
 
@@ -175,20 +181,21 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     arc = np.concatenate([arc, np.full(extra, arc[-1])])
     segment = np.concatenate([segment, np.full(extra, segment[-1])])
     commanded = position[:, :len(names)]
+    tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
     if setting.cross_coupling is None or setting.cross_coupling.gain == 0:
         actual = simulate_independent(models, commanded)
     else:
-        tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
         actual = simulate_coupled(models, commanded, tangent, curvature,
                                   setting.cross_coupling)
     full = np.zeros_like(position)
     full[:, :len(names)] = actual
     if len(names) < 3:
         full[:, 2] = position[:, 2]
-    metrics = contour_metrics(path, time, position, full, arc, segment, program_end,
+    metrics, error = contour_metrics(path, time, position, full, arc, segment, program_end,
                               settling, max(lag for _, lag in axes), names,
                               setting.feed_override, detail)
-    return MachineRun(path, names, time, position, full, arc, segment, metrics)
+    return MachineRun(path, names, time, position, full, arc, segment, tangent, error,
+                      metrics)
 
 
 def _resampled(reference, ratio: int):

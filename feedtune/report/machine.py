@@ -1,5 +1,8 @@
 """Figures of a simulated machine program: the programmed and actual path with the
-contour error magnified and coloured, and the contour error against path length."""
+contour error magnified and coloured, and the contour error against path length.
+
+Drawn from a :class:`~feedtune.machine.run.MachineRun`'s arrays alone (the report imports
+nothing of the tuner side, tests/architecture)."""
 
 from __future__ import annotations
 
@@ -27,13 +30,9 @@ def write_machine_report(result, directory: Path, magnify: float | None = None) 
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    from feedtune.machine.contour import SegmentTable
-    from feedtune.machine.run import path_direction
-
-    error = result.path.distance(result.actual)
+    error = result.contour_error
     deviation = result.actual - result.commanded
-    tangent, _ = path_direction(SegmentTable.of(result.path), result.arc_length,
-                                result.segment)
+    tangent = result.tangent
     # the part of the deviation across the path (the contour error to first order); the
     # lag along the path is not magnified
     deviation = deviation - np.einsum("ij,ij->i", deviation, tangent)[:, None] * tangent
