@@ -19,8 +19,8 @@ from pydantic import (Field, NonNegativeFloat, PositiveFloat, ValidationError, f
                       model_validator)
 
 from feedtune.schema.model import SpecModel
-from feedtune.schema.spec import (_PLANT, PlantSpec, SpecError, TunableSpec, _schema_errors,
-                                  _semantic_errors, _valid, json_type, load_json, tunable_box)
+from feedtune.schema.spec import (_PLANT, PlantSpec, SpecError, TunableSpec, _merged,
+                                  _schema_errors, _semantic_errors, _valid, json_type, load_json, tunable_box)
 
 #: the shared tunable every sampled axis takes from the machine
 SAMPLING_PERIOD = "sampling_period"
@@ -219,7 +219,7 @@ def parse_machine(data: bytes | str | dict) -> MachineSpec:
         spec = MachineSpec.model_validate(raw, strict=True)
     except ValidationError as exc:
         errors = _schema_errors(exc, raw)
-    errors += _axis_errors(raw)
+    errors = _merged(errors, _axis_errors(raw))
     if spec is not None and not errors:
         errors += _machine_errors(spec)
     if errors:
