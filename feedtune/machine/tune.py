@@ -23,6 +23,7 @@ from feedtune.expr import to_float
 from feedtune.machine.run import Setting, axis_box, axis_loop, nominal_setting, run
 from feedtune.machine.simulate import UnstableAxis
 from feedtune.machine.spec import SAMPLING_PERIOD, MachineSpec
+from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL
 
 #: a point that misses the tolerance at the lowest feed scores this plus its excess [1]
 INFEASIBLE = 1e6
@@ -177,7 +178,7 @@ class MachineTuner:
     def solve(self) -> dict:
         """Search, then the result document (JSON-ready, SI units)."""
         bounds = self.bounds()
-        status = "optimal"
+        status = OPTIMAL
         best = {"z": self.initial(), "f": math.inf}
 
         def objective(z):
@@ -197,9 +198,9 @@ class MachineTuner:
             else:
                 objective([])
         except _Budget:
-            status = "evaluation_limit"
+            status = ITERATION_LIMIT  # the evaluation budget is spent
         if best["f"] >= INFEASIBLE:
-            status = "infeasible"
+            status = INFEASIBLE
         setting = self.setting(best["z"])
         self.budget = math.inf  # the answer's own runs are outside the budget
         if self.feed_box is not None:
@@ -207,7 +208,7 @@ class MachineTuner:
         self.answer = setting
         final = self.simulate(setting)
         return {"name": self.spec.name, "kind": "machine", "status": status,
-                "success": status != "infeasible" and final is not None,
+                "success": status != INFEASIBLE and final is not None,
                 "tuned": {axis: values for axis, values in setting.values.items()},
                 "sampling_period": setting.period, "feed_override": setting.feed_override,
                 "velocity_constants": {axis: self._cv(axis, values, setting.period)
