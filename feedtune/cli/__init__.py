@@ -20,7 +20,7 @@ import click
 
 from feedtune import __version__, interrupts
 from feedtune.cli import (batch, chart, examples, identify, metrics, plants, report, schema,
-                          select, tune, validate)
+                          select, simulate, tune, validate)
 from feedtune.cli.common import EPILOG
 
 
@@ -49,5 +49,6 @@ main.add_command(plants.plants)
 main.add_command(report.report)
 main.add_command(schema.schema)
 main.add_command(select.select_command)
+main.add_command(simulate.simulate)
 main.add_command(tune.tune)
 main.add_command(validate.validate)

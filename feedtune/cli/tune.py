@@ -31,6 +31,21 @@ def _start_text(start) -> str:
             f"{start.solve_time:.3f} s")
 
 
+def _is_machine(spec: str) -> bool:
+    """A machine spec (an object with ``axes``) rather than a tuning spec."""
+    import json
+
+    from feedtune.cli.common import read_spec
+
+    if spec == "-":
+        return False
+    try:
+        raw = json.loads(read_spec(spec))
+    except ValueError:
+        return False
+    return isinstance(raw, dict) and "axes" in raw
+
+
 @click.command(epilog=EPILOG)
 @click.argument("spec", metavar="SPEC")
 @click.option("-o", "--output", metavar="RESULT",
@@ -40,7 +55,10 @@ def _start_text(start) -> str:
               help="Also write the report (report.html and PNG figures, as `feedtune report`) "
                    "into DIR, created if missing; checked before solving, exit 2 if DIR holds "
                    "a file of the report's names that an earlier report did not write.")
-def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> None:
+@click.option("--program", metavar="PART.ngc",
+              help="A machine spec's part program (see `feedtune simulate`).")
+def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None,
+         program: str | None) -> None:
     """Solve the tuning problem in SPEC (a JSON file, or '-' for stdin).
 
     The result (tuned values with their units, every metric, constraints, stability,
@@ -51,6 +69,10 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None) -> 
 
     target = check_output(output)
     report_path = check_report_dir(report_dir)
+    if _is_machine(spec):
+        from feedtune.cli.simulate import tune_machine_command
+
+        tune_machine_command(spec, program, target, report_path)
     try:
         with stdout_to_stderr():
             parsed = parse(spec)

@@ -184,6 +184,44 @@ def loop_to_control(loop, position_unit: str = "m") -> ControlSystems:
     raise TypeError(f"no python-control export for a {type(loop).__name__}")
 
 
+def closed_loop_state_space(loop) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                             float]:
+    """The closed loop T (reference → position) of a Loop of numbers as float matrices,
+    without python-control: ``(A, B, C, D, dt)``, the same system as
+    :func:`loop_to_control`'s ``closed_loop`` (``dt`` = the sampling period [s] of a sampled
+    loop, 0 for a continuous one; B a column, C a row, D 1×1).
+
+    A polynomial loop (``TransferLoop``) is put in controllable canonical form
+    (``scipy.signal.tf2ss``) and balanced by a diagonal power-of-two similarity
+    (``scipy.linalg.matrix_balance``, exact), so its exponential keeps its digits at
+    Bhatia's coefficients (1e11 beside 1).
+
+    Raises
+    ------
+    TypeError
+        A loop kind with no linear model (a pulse simulation).
+    """
+    from scipy.linalg import matrix_balance
+    from scipy.signal import tf2ss
+
+    if isinstance(loop, TransferLoop):
+        num, den = (np.trim_zeros(p, "f") for p in loop.numeric_transfer("position",
+                                                                         "reference"))
+        a, b, c, d = tf2ss(num, den)
+        _, (scale, _) = matrix_balance(a, permute=False, separate=True)
+        return (a * (1 / scale)[:, None] * scale[None, :], b / scale[:, None],
+                c * scale[None, :], np.atleast_2d(d).astype(float), 0.0)
+    if isinstance(loop, (SampledLTILoop, ContinuousLoop, SampledLoop)):
+        a, b = _matrix(loop.state_matrix), _matrix(loop.input_matrix).reshape(-1, 1)
+        c = _matrix(loop.position_row).reshape(1, -1)
+        dt = 0.0 if isinstance(loop, ContinuousLoop) else _scalar(loop.period)
+        return a, b, c, np.zeros((1, 1)), dt
+    if isinstance(loop, PulseLoop):
+        raise TypeError(f"a {type(loop).__name__} is a discrete pulse simulation, not a linear "
+                        "system")
+    raise TypeError(f"no state-space closed loop for a {type(loop).__name__}")
+
+
 def _check_open_loop(a, b, c, dt, velocity_constant, kind) -> None:
     """The rebuilt open loop must be type 1 with the loop's own C_v [1/s].
 

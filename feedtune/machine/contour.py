@@ -1,0 +1,356 @@
+"""Contour metrics of a simulated program: how far the tool is from the programmed path.
+
+The contour error at a sample is the distance of the actual tool point from the nearest
+point of the programmed path (:meth:`Path.distance`, nearest point of line or arc), here
+computed for all samples at once over the segments near the commanded point: those whose
+arc-length span meets [s − 4|E|, s + 4|E|], s the commanded arc length and |E| the
+following error's length. The nearest point lies within 2|E| of the commanded point
+(|p − q| ≤ |p − r| = |E|), so the window holds it wherever the path between them is at
+most twice as long as the straight line; a path that comes back within 2|E| of itself
+further along (adjacent passes of a pocket closer than the lag, a closed contour's
+overshoot past its end near its start) is measured against the part being cut, not the
+nearest pass. ``tests/unit/machine/test_contour.py`` holds it equal to
+:meth:`Path.distance` on the test paths.
+
+Reported (SI units): the largest and RMS contour error over the cutting moves (rapids
+left out), the largest error near each corner, the overshoot at each stop, each axis'
+following error, the cycle time, and at each programmed feed reduction the deceleration
+block: the path length over which the tool's speed goes from the old feed to within 2 %
+of the new one (Bhatia 1971, ch. 5: CC' of Fig 38, set by the least responsive slide),
+beside his estimate from the least responsive slide: his block length
+S = 4τV₁ + (V₂ − V₁)τ(3 + e⁻⁴) (:func:`~feedtune.machine.interpolate.transition_length`)
+with τ = 1/C_v of the slowest axis, the time constant of the first-order response whose
+ramp lag is that axis' (V/C_v).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from feedtune.machine.path import Arc, Line, Path
+
+#: a junction whose tangent turns by more than this is a corner [rad] (0.1°)
+CORNER_ANGLE = math.radians(0.1)
+#: window half-width in multiples of the following error's length [1] (see the module)
+WINDOW_ERRORS = 4.0
+#: a speed within this fraction of a feed has reached it [1] (Bhatia's 2 % settling)
+SETTLED = 0.02
+
+
+@dataclass(frozen=True)
+class SegmentTable:
+    """A path's segments as arrays (M segments), for vectorised distances."""
+
+    arc: np.ndarray  # bool (M,)
+    start: np.ndarray  # (M, 3) [m]
+    end: np.ndarray  # (M, 3) [m]
+    center: np.ndarray  # (M, 3) [m]
+    radius: np.ndarray  # (M,) [m], 0 for a line
+    angle: np.ndarray  # (M,) start angle [rad]
+    sweep: np.ndarray  # (M,) signed sweep [rad]
+    length: np.ndarray  # (M,) [m]
+    begin: np.ndarray  # (M,) arc length at the segment's start [m]
+    rapid: np.ndarray  # bool (M,)
+    feed: np.ndarray  # (M,) [m/s]
+
+    @classmethod
+    def of(cls, path: Path) -> SegmentTable:
+        """The table of ``path`` (the last few paths' tables are kept: a tuner runs one
+        path many times)."""
+        return _table(path)
+
+    @classmethod
+    def build(cls, path: Path) -> SegmentTable:
+        segs = path.segments
+        arc = np.array([isinstance(s, Arc) for s in segs], dtype=bool)
+        length = np.array([s.length for s in segs])
+        zero3 = np.zeros(3)
+        return cls(
+            arc=arc,
+            start=np.array([s.start for s in segs]).reshape(-1, 3),
+            end=np.array([s.end for s in segs]).reshape(-1, 3),
+            center=np.array([s.center if a else zero3 for s, a in zip(segs, arc)]).reshape(-1, 3),
+            radius=np.array([s.radius if a else 0.0 for s, a in zip(segs, arc)]),
+            angle=np.array([math.atan2(*(s.start - s.center)[1::-1]) if a else 0.0
+                            for s, a in zip(segs, arc)]),
+            sweep=np.array([s.sweep if a else 0.0 for s, a in zip(segs, arc)]),
+            length=length,
+            begin=np.concatenate([[0.0], np.cumsum(length)[:-1]]),
+            rapid=np.array([isinstance(s, Line) and s.rapid for s in segs], dtype=bool),
+            feed=np.array([s.feed for s in segs]),
+        )
+
+    def spheres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centre (M, 3) and radius (M,) [m] of a sphere holding each segment."""
+        centre = 0.5 * (self.start + self.end)
+        centre[self.arc, :2] = self.center[self.arc, :2]
+        half = 0.5 * np.linalg.norm(self.end - self.start, axis=1)
+        radius = np.where(self.arc, np.hypot(self.radius, 0.5 * np.abs(self.end[:, 2]
+                                                                      - self.start[:, 2])),
+                          half)
+        return centre, radius * (1 + 1e-12) + 1e-15
+
+    def distance(self, index: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(distance [m], arc length of the nearest point [m]) of each point (n, 3) from
+        segment ``index`` (n,), as :meth:`Line.distance` and :meth:`Arc.distance`."""
+        dist = np.empty(len(index))
+        where = np.empty(len(index))
+        is_arc = self.arc[index]
+        for pick, formula in ((~is_arc, self._line), (is_arc, self._arc)):
+            if pick.any():
+                k = index[pick]
+                d, u = formula(k, points[pick])
+                dist[pick] = d
+                where[pick] = self.begin[k] + u * self.length[k]
+        return dist, where
+
+    def _line(self, index, points):
+        start, end = self.start[index], self.end[index]
+        d = end - start
+        dd = np.einsum("ij,ij->i", d, d)
+        safe = np.where(dd > 0, dd, 1.0)
+        u = np.where(dd > 0, np.clip(np.einsum("ij,ij->i", points - start, d) / safe,
+                                     0.0, 1.0), 0.0)
+        return np.linalg.norm(points - (start + u[:, None] * d), axis=1), u
+
+    def _arc(self, index, points):
+        start, end = self.start[index], self.end[index]
+        rel = points[:, :2] - self.center[index, :2]
+        sweep = self.sweep[index]
+        ang = np.arctan2(rel[:, 1], rel[:, 0])
+        a0 = self.angle[index]
+        travelled = np.where(sweep > 0, ang - a0, a0 - ang) % (2 * math.pi)
+        inside = travelled <= np.abs(sweep)
+        u = np.clip(travelled / np.abs(sweep), 0.0, 1.0)
+        z = start[:, 2] + u * (end[:, 2] - start[:, 2])
+        radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius[index]),
+                          points[:, 2] - z)
+        to_start = np.linalg.norm(points - start, axis=1)
+        to_end = np.linalg.norm(points - end, axis=1)
+        u = np.where(inside, u, np.where(to_start <= to_end, 0.0, 1.0))
+        return np.where(inside, radial, np.minimum(to_start, to_end)), u
+
+
+@functools.lru_cache(maxsize=8)
+def _table(path: Path) -> SegmentTable:
+    return SegmentTable.build(path)  # a Path hashes by identity (eq=False)
+
+
+def contour_distance(table: SegmentTable, points: np.ndarray, commanded: np.ndarray,
+                     reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Contour error [m] of each point (N, 3) and the arc length of its nearest path
+    point [m], over the segments whose span meets ``commanded`` ± ``reach`` [m] (N,)."""
+    ends = table.begin + table.length
+    lo = np.searchsorted(ends, commanded - reach, side="left")
+    hi = np.searchsorted(table.begin, commanded + reach, side="right") - 1
+    last = len(table.length) - 1
+    lo = np.clip(lo, 0, last)
+    hi = np.clip(np.maximum(hi, lo), 0, last)
+    best = np.full(len(points), np.inf)
+    where = np.zeros(len(points))
+    centre, radius = table.spheres()
+    # from the commanded segment outwards: the near segments set a small best distance
+    # early, and a segment whose bounding sphere is farther than it is skipped
+    base = np.clip(np.searchsorted(ends, commanded, side="left"), lo, hi)
+    reach_segments = int(max(np.max(base - lo), np.max(hi - base))) if len(points) else -1
+    alive = np.arange(len(points))
+    for r in range(reach_segments + 1):
+        alive = alive[(base[alive] - r >= lo[alive]) | (base[alive] + r <= hi[alive])]
+        for offset in ((r, -r) if r else (0,)):
+            _nearer(table, points, centre, radius, alive, base[alive] + offset, lo, hi,
+                    best, where)
+    return best, where
+
+
+def _nearer(table, points, centre, radius, alive, j, lo, hi, best, where) -> None:
+    """Update ``best`` and ``where`` of the samples ``alive`` with segments ``j`` (one per
+    sample) where j is in the sample's window and its bounding sphere is nearer than best."""
+    inside = (j >= lo[alive]) & (j <= hi[alive])
+    active, j = alive[inside], j[inside]
+    bound = np.linalg.norm(points[active] - centre[j], axis=1) - radius[j]
+    near = bound < best[active]
+    active, j = active[near], j[near]
+    dist, s = table.distance(j, points[active])
+    closer = dist < best[active]
+    best[active[closer]] = dist[closer]
+    where[active[closer]] = s[closer]
+
+
+def _end_tangents(table: SegmentTable) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents (M, 3) at every segment's start and end, as ``tangent_at``."""
+    d = table.end - table.start
+    norm = np.linalg.norm(d, axis=1)
+    line = d / np.where(norm > 0, norm, 1.0)[:, None]
+    turn = np.sign(table.sweep)
+    planar = table.radius * np.abs(table.sweep)
+    dz = d[:, 2]
+    scale = np.hypot(planar, dz)
+    scale = np.where(scale > 0, scale, 1.0)
+
+    def arc_tangent(angle):
+        return np.column_stack([-turn * np.sin(angle) * planar, turn * np.cos(angle) * planar,
+                                dz]) / scale[:, None]
+
+    first = np.where(table.arc[:, None], arc_tangent(table.angle), line)
+    last = np.where(table.arc[:, None], arc_tangent(table.angle + table.sweep), line)
+    return first, last
+
+
+def _junction_turn(table: SegmentTable) -> np.ndarray:
+    """Angle [rad] between the end tangent of segment i and the start tangent of i + 1."""
+    first, last = _end_tangents(table)
+    a, b = last[:-1], first[1:]
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+
+
+def step_settling_time(model, samples: int) -> float:
+    """2 % settling time [s] of an axis' unit step response (its speed's response to a
+    step in commanded speed, the loop being linear), over ``samples`` samples."""
+    from feedtune.machine.simulate import simulate_lti
+
+    u = np.ones((samples, 2))
+    y = simulate_lti(model.phi, model.gamma[:, :2], model.c, np.array([model.d, 0.0]), u)
+    outside = np.flatnonzero(np.abs(y - 1.0) > SETTLED)
+    return float((outside[-1] + 1) * model.period) if outside.size else 0.0
+
+
+def contour_metrics(path: Path, time: np.ndarray, reference: np.ndarray,
+                    position: np.ndarray, arc_length: np.ndarray, segment: np.ndarray,
+                    program_end: float, settling_times: list[float], lag: float,
+                    axes: tuple[str, ...], feed_override: float = 1.0,
+                    detail: bool = True) -> tuple[dict, np.ndarray]:
+    """Every contour metric of one simulated program, as a JSON-ready dict (SI units), and
+    the contour error [m] at every sample (N,).
+
+    Parameters
+    ----------
+    path : Path
+    time : ndarray (N,)
+        Sample times [s], the program and its run-out.
+    reference, position : ndarray (N, 3)
+        Commanded and actual x, y, z [m].
+    arc_length : ndarray (N,)
+        Commanded arc length [m].
+    segment : ndarray of int (N,)
+        Commanded segment.
+    program_end : float
+        Time the reference reaches the end of the program [s] (the cycle time).
+    settling_times : list of float
+        Each axis' 2 % step settling time [s] (:func:`step_settling_time`).
+    lag : float
+        The slowest axis' velocity lag 1/C_v [s].
+    axes : tuple of str
+        The axes' names, e.g. ``("x", "y")``.
+    feed_override : float
+        Factor on the path's cutting feeds [1] the reference was made with.
+    detail : bool
+        False: only the largest and RMS contour error, the cycle time and the following
+        errors (what a tuner reads).
+    """
+    table = SegmentTable.of(path)
+    table = dataclasses.replace(table, feed=np.where(table.rapid, table.feed,
+                                                     table.feed * feed_override))
+    error = reference - position
+    size = np.linalg.norm(error, axis=1)
+    distance, nearest = contour_distance(table, position, arc_length,
+                                         WINDOW_ERRORS * size + 1e-12)
+    cutting = ~table.rapid[segment]
+    cut = distance[cutting] if cutting.any() else np.zeros(1)
+    k_max = int(np.flatnonzero(cutting)[np.argmax(cut)]) if cutting.any() else 0
+    slowest = max(settling_times) if settling_times else 0.0
+    result = {
+        "max_contour_error": float(np.max(cut)),
+        "rms_contour_error": float(np.sqrt(np.mean(cut**2))),
+        "max_contour_error_at": {"time": float(time[k_max]),
+                                 "arc_length": float(nearest[k_max]),
+                                 "position": position[k_max].tolist()},
+        "cycle_time": float(program_end),
+        "following_error": {name: {"max": float(np.max(np.abs(error[:, i]))),
+                                   "rms": float(np.sqrt(np.mean(error[:, i] ** 2)))}
+                            for i, name in enumerate(axes)},
+        "slowest_axis_settling_time": slowest,
+        "slowest_axis_lag": float(lag),
+    }
+    if not detail:
+        return result, distance
+    result["corners"] = _corners(path, table, distance, nearest, cutting)
+    result["stops"] = _stops(path, table, time, reference, position, arc_length, slowest)
+    result["deceleration_blocks"] = _decelerations(table, time, nearest, lag)
+    return result, distance
+
+
+def _corners(path, table, distance, nearest, cutting) -> list[dict]:
+    """Largest contour error near each corner: over the samples whose nearest path point
+    lies closer (in arc length) to this corner than to any other corner or the ends."""
+    turns = _junction_turn(table)
+    corner = np.flatnonzero(turns > CORNER_ANGLE)
+    if corner.size == 0:
+        return []
+    at = table.begin[corner + 1]
+    bounds = np.concatenate([[-np.inf], (at[1:] + at[:-1]) / 2, [np.inf]])
+    owner = np.searchsorted(bounds, nearest, side="right") - 1
+    largest = np.zeros(corner.size)
+    np.maximum.at(largest, owner[cutting], distance[cutting])
+    lines = [path.segments[i + 1].source_line for i in corner]
+    return [{"segment": int(i + 1), "line": int(line), "position": table.start[i + 1].tolist(),
+             "arc_length": float(s), "turn": float(turns[i]), "max_contour_error": float(e)}
+            for i, line, s, e in zip(corner, lines, at, largest)]
+
+
+def _stops(path, table, time, reference, position, arc_length, slowest) -> list[dict]:
+    """Overshoot at each stop (an exact stop, a rapid's end, the program's end): the
+    largest distance the tool goes past the stop point along the arriving direction,
+    beyond what the reference itself commands there, within the slowest axis' settling
+    time after the reference arrives."""
+    segs = path.segments
+    out = []
+    ends = table.begin + table.length
+    for i, seg in enumerate(segs):
+        last = i == len(segs) - 1
+        if not (last or seg.exact_stop or table.rapid[i]):
+            continue
+        arrived = np.flatnonzero(arc_length >= ends[i] - 1e-12)
+        if arrived.size == 0:
+            continue
+        k0 = int(arrived[0])
+        window = (time >= time[k0]) & (time <= time[k0] + max(slowest, time[1] - time[0]))
+        direction = seg.tangent_at(seg.length)[0]
+        stop = table.end[i]
+        past = (position[window] - stop) @ direction
+        commanded = np.maximum(0.0, (reference[window] - stop) @ direction)
+        out.append({"segment": int(i), "line": int(seg.source_line), "position": stop.tolist(),
+                    "time": float(time[k0]),
+                    "overshoot": float(max(0.0, np.max(past - commanded)))})
+    return out
+
+
+def _decelerations(table, time, nearest, lag) -> list[dict]:
+    """At each junction where the programmed feed drops: the path length the tool needs
+    to slow from within 2 % of the old feed to within 2 % of the new one (measured on the
+    tool's nearest-point arc length), and Bhatia's estimate with τ = ``lag`` [s]."""
+    from feedtune.machine.interpolate import transition_length
+
+    out = []
+    if len(time) < 3:
+        return out
+    speed = np.gradient(nearest, time)
+    for i in range(len(table.feed) - 1):
+        v1, v2 = table.feed[i], table.feed[i + 1]
+        if table.rapid[i] or table.rapid[i + 1] or not v2 < v1 * (1 - SETTLED):
+            continue
+        s_c = table.begin[i + 1]
+        span = (nearest > table.begin[i]) & (nearest < s_c + table.length[i + 1])
+        fast = np.flatnonzero(span & (nearest < s_c) & (speed >= v1 * (1 - SETTLED)))
+        after = np.flatnonzero(span & (np.abs(speed - v2) > SETTLED * v2))
+        if fast.size == 0 or after.size == 0:
+            measured = None
+        else:
+            measured = float(nearest[min(after[-1] + 1, len(nearest) - 1)] - nearest[fast[-1]])
+        out.append({"segment": int(i + 1), "feed_before": float(v1), "feed_after": float(v2),
+                    "length": measured, "estimate": float(transition_length(v1, v2, lag))})
+    return out

@@ -1,0 +1,89 @@
+"""Contour metrics (feedtune/machine/contour.py): the windowed nearest-segment distance is
+Path.distance, corners and stops are found where the program has them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from feedtune.machine.contour import SegmentTable, contour_distance
+from feedtune.machine.gcode import parse_program
+from feedtune.machine.interpolate import transition_length
+from feedtune.machine.run import builtin_path, run
+from feedtune.machine.spec import parse_machine
+
+REPO = Path(__file__).resolve().parents[3]
+PROGRAM = """G21 G90
+G1 X10 Y0 F3000
+G1 X10 Y10
+G3 X0 Y10 I-5 J0
+G2 X-5 Y5 R5
+G1 X0 Y1 F600
+"""
+
+
+def machine(**extra):
+    axes = {name: {"plant": {"type": "software_servo", "technique": "sampled_data",
+                             "time_constant": 0.02},
+                   "tunables": {"position_gain": {"value": k}}}
+            for name, k in zip("xy", (20.0, 28.0))}
+    return parse_machine({"name": "t", "axes": axes, "sampling_period": {"value": 1e-3},
+                          "interpolator": {"max_acceleration": 2.0}, **extra})
+
+
+def test_windowed_distance_is_the_path_distance():
+    """Every sample of a simulated program with lines, arcs by I/J and R and a feed drop,
+    open (it does not come back within the lag of itself; a closed contour's overshoot past
+    its end is measured against the last block, not the first: contour.py's docstring):
+    the windowed distance equals Path.distance over all segments (the same formulas, so
+    to rounding: 1e-15 m)."""
+    path = parse_program(PROGRAM, source="t.ngc").path
+    result = run(machine(), path)
+    table = SegmentTable.of(path)
+    size = np.linalg.norm(result.commanded - result.actual, axis=1)
+    windowed, _ = contour_distance(table, result.actual, result.arc_length, 4 * size + 1e-12)
+    assert np.max(np.abs(windowed - path.distance(result.actual))) < 1e-15
+
+
+def test_corner_stop_and_feed_drop_are_reported():
+    """The corners are the right angle at (10, 0) mm and the join of the R arc and the last
+    line at (−5, 5) mm (the line, the I/J arc and the R arc join tangentially); the
+    program's end is a stop; the feed drop
+    from 50 to 10 mm/s gives one deceleration block whose estimate is Bhatia's block length
+    with τ = 1/C_v of the slower axis (K_x = 20 1/s against K_y = 28)."""
+    path = parse_program(PROGRAM, source="t.ngc").path
+    metrics = run(machine(), path).metrics
+    turns = [round(c["turn"], 6) for c in metrics["corners"]]
+    assert [c["position"][:2] for c in metrics["corners"]] == [[0.01, 0.0], [-0.005, 0.005]]
+    assert turns[0] == round(np.pi / 2, 6)
+    assert metrics["max_contour_error"] == max(c["max_contour_error"]
+                                               for c in metrics["corners"])
+    assert [s["position"][:2] for s in metrics["stops"]] == [[0.0, 0.001]]
+    (block,) = metrics["deceleration_blocks"]
+    assert block["feed_before"] == 0.05 and abs(block["feed_after"] - 0.01) < 1e-15
+    assert metrics["slowest_axis_lag"] == pytest.approx(1 / 20, rel=1e-12)  # C_v = K exactly
+    assert block["estimate"] == pytest.approx(
+        float(transition_length(0.05, 0.01, 1 / 20)), rel=1e-12)
+
+
+def test_bhatia_fig38_corner_b_against_the_slow_blocks():
+    """Bhatia 1971 ch. 5, Fig 38, his hydraulic drive (examples/bhatia-1971-hydraulic.json
+    at its initial, his design's, constants) on both axes: the corner at B, where 40 in/min
+    turns by 37°, is rounded by far more than the joins of the slow blocks 3–5 ("for blocks
+    5, 6 … the feed rates are small and the change in directions not so drastic: deviations
+    negligible"): over ten times each of them, and above his resolution of 0.0001 in."""
+    example = json.loads((REPO / "examples" / "bhatia-1971-hydraulic.json").read_text())
+    fixed = {k: {"value": v["initial"]} for k, v in example["tunables"].items()}
+    spec = parse_machine({"name": "fig38", "sampling_period": {"value": 1e-3},
+                          "axes": {a: {"plant": example["plant"], "tunables": fixed}
+                                   for a in "xy"},
+                          "path": {"type": "bhatia_fig38"}})
+    corners = run(spec, builtin_path(spec.path)).metrics["corners"]
+    at_b = next(c for c in corners if c["segment"] == 2)
+    slow = [c for c in corners if c["segment"] >= 5]
+    assert len(slow) == 2
+    assert at_b["max_contour_error"] > 0.0001 * 0.0254
+    assert all(at_b["max_contour_error"] > 10 * c["max_contour_error"] for c in slow)
