@@ -568,8 +568,8 @@ def _robust_lines(result: TuneResult) -> list[str]:
              f"({counts}), {robust.rounds} round(s), "
              f"{'converged' if robust.converged else 'NOT CONVERGED'}"]
     for case in robust.worst_cases:
-        metric = METRICS.get(case.metric)
-        unit = f" [{metric.unit}]" if metric is not None else ""
+        unit = next((f" [{m.unit}]" for m in result.metrics.values() if m.metric == case.metric),
+                    "")
         at = ", ".join(f"{name} = {_g(value)}" for name, value in case.parameters.items())
         lines.append(f"  worst {metric_label(case.metric, case.options)} = {_g(case.value)}{unit}"
                      f" at {at}, margin {_g(case.margin)}  "
