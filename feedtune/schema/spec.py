@@ -650,6 +650,9 @@ def _robust_errors(raw: dict, plant_params, plant, moved: set[str]) -> list[tupl
         return [("/robust/parameters", "no uncertain plant parameter: give one here or in "
                                        "'plant' as a list or a range")]
     errors = []
+    if getattr(plant_params, "integer_ratio", False):
+        errors.append(("/robust", "robust tuning and integer_ratio are not solved together "
+                                  "(each rounds its own way): give one of them"))
     numbers = plant.numbers()
     nominal = plant_params.model_dump()
     for name, uncertain in robust.parameters.items():

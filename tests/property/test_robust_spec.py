@@ -163,3 +163,11 @@ def test_an_empty_robust_section_and_a_nominal_outside_the_set_are_refused():
         parse_spec(outside)
     assert exc.value.errors[0][0] == "/robust/parameters/time_constant"
     assert "nominal value 0.02" in exc.value.errors[0][1]
+
+
+def test_robust_tuning_with_a_whole_interpolation_ratio_is_refused():
+    spec = json.loads((REPO / "examples" / "sato-finish.json").read_text())
+    spec["plant"].update(integer_ratio=True, time_constant=[0.01, 0.02])
+    with pytest.raises(SpecError) as exc:
+        parse_spec(spec)
+    assert exc.value.errors[0][0] == "/robust" and "integer_ratio" in exc.value.errors[0][1]
