@@ -6,9 +6,7 @@ largest scenario objective."""
 from __future__ import annotations
 
 import copy
-import json
 import math
-from pathlib import Path
 
 import pytest
 
@@ -20,7 +18,6 @@ from feedtune.schema.uncertainty import RobustSpec, scenario_count
 from feedtune.tuner import Bound, Term
 from feedtune.tuner.scenarios import objective_value
 
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _robust(**parameters) -> RobustSpec:
