@@ -19,7 +19,6 @@ from feedtune.tuner import Bound, Term
 from feedtune.tuner.scenarios import objective_value
 
 
-
 def _robust(**parameters) -> RobustSpec:
     return RobustSpec.model_validate({"parameters": parameters})
 
