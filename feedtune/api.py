@@ -540,6 +540,7 @@ def summary_lines(result: TuneResult) -> list[str]:
                        "NOT MET (loop unstable)" if c.value is None and not stable else "VIOLATED")
             lines.append(f"  {metric_label(c.metric, c.options)} = {_g(c.value)}{unit}"
                          f"  ({', '.join(bounds)})  {verdict}")
+    lines += _robust_lines(result)
     stability = result.stability or {}
     text = "stable" if stable else ("UNSTABLE" if stable is not None else "unknown")
     if "spectral_radius" in stability:
@@ -552,6 +553,30 @@ def summary_lines(result: TuneResult) -> list[str]:
     unit = "generations" if s.method == "differential_evolution" else "iterations"
     lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
                  f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
+    return lines
+
+
+def _robust_lines(result: TuneResult) -> list[str]:
+    """The summary's robust part: the scenarios held, and each constraint's worst case over
+    the uncertain numbers with its margin (feedtune.robust)."""
+    robust = result.robust
+    if robust is None:
+        return []
+    origins = [s.origin for s in robust.scenarios]
+    counts = ", ".join(f"{origins.count(o)} {o}" for o in dict.fromkeys(origins))
+    lines = [f"robust ({robust.objective} objective): {len(robust.scenarios)} scenarios "
+             f"({counts}), {robust.rounds} round(s), "
+             f"{'converged' if robust.converged else 'NOT CONVERGED'}"]
+    for case in robust.worst_cases:
+        unit = next((f" [{m.unit}]" for m in result.metrics.values() if m.metric == case.metric),
+                    "")
+        at = ", ".join(f"{name} = {_g(value)}" for name, value in case.parameters.items())
+        lines.append(f"  worst {metric_label(case.metric, case.options)} = {_g(case.value)}{unit}"
+                     f" at {at}, margin {_g(case.margin)}  "
+                     f"{'OK' if case.satisfied else 'VIOLATED'}")
+    if robust.unstable_parameters:
+        at = ", ".join(f"{n} = {_g(v)}" for n, v in robust.unstable_parameters.items())
+        lines.append(f"  UNSTABLE at {at}")
     return lines
 
 

@@ -116,7 +116,8 @@ class LiftedOptions:
 
 
 def structure_key(spec: Spec, plant, box: Mapping[str, tuple[float, float]],
-                  lifted: Mapping[str, float], horizon_scale: float) -> str:
+                  lifted: Mapping[str, float], horizon_scale: float,
+                  scenarios: list | None = None) -> str:
     """A key equal for two specs whose NLPs are the same graph (feedtune.tuner.structure),
     from the spec alone, before anything is built.
 
@@ -127,7 +128,8 @@ def structure_key(spec: Spec, plant, box: Mapping[str, tuple[float, float]],
     the plant's :meth:`~feedtune.plants.base.Plant.structure` (horizon, frequency band) at
     ``box`` and ``horizon_scale``, each weight's and bound's sign, which bounds are given,
     which tunables are free, and the solver settings but the number of starts (which
-    only moves the starts).
+    only moves the starts), and ``scenarios`` (:meth:`feedtune.robust.ScenarioSet.key`:
+    how many loops, which numbers are uncertain, the objective's form).
     """
     def term_shape(prefix: str, term, sides: tuple[str, ...]) -> dict:
         data = term.model_dump(mode="json")
@@ -146,6 +148,7 @@ def structure_key(spec: Spec, plant, box: Mapping[str, tuple[float, float]],
         "constraints": [term_shape(f"constraint{i}", c, ("min", "max"))
                         for i, c in enumerate(spec.constraints)],
         "solver": spec.solver.model_dump(mode="json", exclude={"multistart"}),
+        **({"scenarios": scenarios} if scenarios is not None else {}),
     }, sort_keys=True)
 
 
@@ -275,6 +278,10 @@ def tune(spec: Spec, progress: Callable | None = None,
     A plant that asks for a whole-number ratio of its interpolator (``integer_ratio``) is
     solved as :func:`_tune_integer_ratio` describes; otherwise see :func:`_tune_once`.
     """
+    if spec.robust is not None:  # uncertain plant numbers: feedtune.robust's rounds
+        from feedtune.robust import tune_robust  # it solves each round with _tune_once
+
+        return tune_robust(spec, progress, notify)
     if getattr(spec.plant, "integer_ratio", False):
         return _tune_integer_ratio(spec, progress, notify)
     return _tune_once(spec, progress, notify)
@@ -318,8 +325,11 @@ def _tune_integer_ratio(spec: Spec, progress, notify) -> TuneResult:
 
 
 def _tune_once(spec: Spec, progress: Callable | None = None,
-               notify: Callable[[str], None] | None = None) -> TuneResult:
+               notify: Callable[[str], None] | None = None, scenarios=None) -> TuneResult:
     """Solve ``spec`` once; a failed solve is a result with ``success`` false.
+
+    ``scenarios`` (a :class:`feedtune.robust.ScenarioSet`): the NLP holds one loop per
+    scenario of the plant's uncertain numbers, every constraint on each.
 
     ``progress(start, total)`` is called after each multistart start (see
     :meth:`feedtune.tuner.Problem.solve`); ``notify(text)`` with a sentence for people when
@@ -353,6 +363,12 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                          c.min, c.max)
                    for i, c in enumerate(spec.constraints)]
     plant_numbers = plant.numbers()
+    robust_key = None
+    if scenarios is not None:
+        objective, constraints = scenarios.terms(objective), scenarios.bounds(constraints)
+        reports = scenarios.reports(reports)
+        plant_numbers = {**plant_numbers, **scenarios.numbers()}
+        robust_key = scenarios.key()
     s = spec.solver
     try:
         settings = Settings(multistart=s.multistart, max_iter=s.max_iter, tol=s.tol,
@@ -365,12 +381,16 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
                 return lifted.make_loop(
                     lambda own: plant.loop(own, box, horizon_scale=scale), values)
 
+            if scenarios is not None:
+                make_loop = scenarios.make_loop(make_loop)
+
             # an exact-only loop (a pulse simulation) is searched, not solved as an NLP
             try:
                 problem = problem_class(probe_loop)(
                     variables, fixed, make_loop, objective, constraints, reports, settings,
                     numbers={**plant_numbers, **lifted.numbers},
-                    structure_key=structure_key(spec, plant, box, lifted.numbers, scale))
+                    structure_key=structure_key(spec, plant, box, lifted.numbers, scale,
+                                                robust_key))
             except HorizonError as exc:
                 if refinement == 0:
                     raise

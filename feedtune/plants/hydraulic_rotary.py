@@ -24,7 +24,7 @@ K_ce/D_m², misprinted K_ce/D_m in Bhatia's App. A2; see docs/errata.md).
 
 from __future__ import annotations
 
-import math
+import json
 from typing import Literal, Mapping
 
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
@@ -97,21 +97,33 @@ class HydraulicRotaryParams(SpecModel):
 
     def natural_frequency(self) -> float:
         """ω_n [rad/s]: given, or √(4β_e D_m²/(V_t J_t)) (App. A2)."""
-        if self.hydraulic_natural_frequency is not None:
-            return self.hydraulic_natural_frequency
-        return math.sqrt(4 * self.bulk_modulus * self.displacement**2
-                         / (self.total_volume * self.inertia))
+        return natural_frequency(self.model_dump())
 
     def damping(self) -> float:
         """ξ [1]: given, or (K_ce/D_m)√(β_e J_t/V_t) + (B_m/(4D_m))√(V_t/(β_e J_t)) (App. A2)."""
-        if self.hydraulic_damping is not None:
-            return self.hydraulic_damping
-        be, vt, jt, dm = self.bulk_modulus, self.total_volume, self.inertia, self.displacement
-        return (self.leakage_coefficient / dm * math.sqrt(be * jt / vt)
-                + self.viscous_damping / (4 * dm) * math.sqrt(vt / (be * jt)))
+        return damping(self.model_dump())
 
     def has_load_path(self) -> bool:
         return None not in (self.leakage_coefficient, self.total_volume, self.bulk_modulus)
+
+
+def natural_frequency(n: Mapping[str, object]):
+    """ω_n [rad/s] of the plant numbers ``n`` (by field name; numbers or expressions):
+    ``hydraulic_natural_frequency`` when given, else √(4β_e D_m²/(V_t J_t)) (App. A2,
+    Merritt eq 6-59)."""
+    if n.get("hydraulic_natural_frequency") is not None:
+        return n["hydraulic_natural_frequency"]
+    return (4 * n["bulk_modulus"] * n["displacement"]**2 / (n["total_volume"] * n["inertia"]))**0.5
+
+
+def damping(n: Mapping[str, object]):
+    """ξ [1] of the plant numbers ``n``: ``hydraulic_damping`` when given, else
+    (K_ce/D_m)√(β_e J_t/V_t) + (B_m/(4D_m))√(V_t/(β_e J_t)) (App. A2)."""
+    if n.get("hydraulic_damping") is not None:
+        return n["hydraulic_damping"]
+    be, vt, jt, dm = n["bulk_modulus"], n["total_volume"], n["inertia"], n["displacement"]
+    return (n["leakage_coefficient"] / dm * (be * jt / vt)**0.5
+            + n.get("viscous_damping", 0.0) / (4 * dm) * (vt / (be * jt))**0.5)
 
 
 def quadratic(natural_frequency, damping) -> list:
@@ -143,25 +155,59 @@ class HydraulicRotary(Plant):
                                              "position loop"))
         return tunables
 
-    def velocity_per_volt(self) -> tuple[list, list, list]:
-        """G(s) = θ̇/e_g [rad/(s·V)] as (numerator, torque-motor and hydraulic denominators)."""
+    def numbers(self) -> dict[str, float]:
+        """The parameters that enter the loop only through arithmetic, as the spec gives
+        them (each in its unit): :meth:`loop` also takes them in ``values`` (as NLP
+        parameters, or a robust scenario's values). Which ones are read depends on what is
+        given: the computed ω_n and ξ read β_e, V_t, J_t, K_ce, B_m; given ones do not."""
         p = self.params
-        torque_motor = [p.torque_motor_time_constant, 1]
+        names = ["torque_motor_gain", "torque_motor_time_constant", "flow_gain", "displacement"]
         if p.torque_motor_natural_frequency is not None:
-            torque_motor = linalg.poly_mul(
-                torque_motor, quadratic(p.torque_motor_natural_frequency, p.torque_motor_damping))
-        gain = p.torque_motor_gain * p.flow_gain / p.displacement
-        return [gain], torque_motor, quadratic(p.natural_frequency(), p.damping())
+            names += ["torque_motor_natural_frequency", "torque_motor_damping"]
+        names += (["hydraulic_natural_frequency"] if p.hydraulic_natural_frequency is not None
+                  else ["bulk_modulus", "total_volume", "inertia"])
+        names += (["hydraulic_damping"] if p.hydraulic_damping is not None
+                  else ["bulk_modulus", "total_volume", "inertia", "leakage_coefficient",
+                        "viscous_damping"])
+        if p.has_load_path():
+            names += ["leakage_coefficient", "total_volume", "bulk_modulus"]
+        return {name: getattr(p, name) for name in dict.fromkeys(names)}
+
+    def structure(self, box: Mapping[str, tuple[float, float]],
+                  horizon_scale: float = 1.0) -> str:
+        """The choices, which numbers are given, the box and the frequency band [rad/s]
+        the loop's graph embeds (see :meth:`feedtune.plants.base.Plant.structure`)."""
+        choices = self.params.model_dump(mode="json", exclude=set(self.numbers()))
+        return json.dumps([choices, sorted(self.numbers()),
+                           {name: list(bounds) for name, bounds in box.items()},
+                           list(self.frequency_band(box))], sort_keys=True)
+
+    def velocity_per_volt(self, numbers: Mapping[str, object] | None = None
+                          ) -> tuple[list, list, list]:
+        """G(s) = θ̇/e_g [rad/(s·V)] as (numerator, torque-motor and hydraulic denominators),
+        of the spec's numbers with each of ``numbers`` (name → number or expression) in its
+        place."""
+        p = self.params
+        n = {**p.model_dump(), **(numbers or {})}
+        torque_motor = [n["torque_motor_time_constant"], 1]
+        if p.torque_motor_natural_frequency is not None:
+            torque_motor = linalg.poly_mul(torque_motor, quadratic(
+                n["torque_motor_natural_frequency"], n["torque_motor_damping"]))
+        gain = n["torque_motor_gain"] * n["flow_gain"] / n["displacement"]
+        return [gain], torque_motor, quadratic(natural_frequency(n), damping(n))
 
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
              horizon_scale: float = 1.0) -> TransferLoop:
-        """The closed loop at ``values`` (expressions or numbers per tunable name)."""
+        """The closed loop at ``values`` (expressions or numbers per tunable name, and for
+        any of :meth:`numbers`, which then replace the spec's own in the arithmetic)."""
         p = self.params
-        n_g, d_t, d_h = self.velocity_per_volt()
+        numbers = {name: values[name] for name in self.numbers() if name in values}
+        n_g, d_t, d_h = self.velocity_per_volt(numbers)
         load = None
         if p.has_load_path():  # θ̇ per T_L = −n_l/d_h (App. A2, Merritt)
-            kce, dm = p.leakage_coefficient, p.displacement
-            load = [kce / dm**2 * p.total_volume / (4 * p.bulk_modulus * kce), kce / dm**2]
+            n = {**self.numbers(), **numbers}
+            kce, dm = n["leakage_coefficient"], n["displacement"]
+            load = [kce / dm**2 * n["total_volume"] / (4 * n["bulk_modulus"] * kce), kce / dm**2]
         return cascade_loop(n_g, d_t, d_h, load, values, p.velocity_compensator,
                             p.position_compensator, p.stable_velocity_loop, self.frequency_band(box))
 

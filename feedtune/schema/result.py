@@ -13,6 +13,7 @@ from pydantic import Field
 
 from feedtune.schema.model import SpecModel
 from feedtune.schema.status import Status
+from feedtune.schema.uncertainty import UncertainParameter
 
 
 ResultModel = SpecModel  # results are as strict as specs: frozen, no unknown keys, no NaN
@@ -102,6 +103,60 @@ class OptimumCheck(ResultModel):
     advice: str | None = Field(None, description="How to make the optimum unique")
 
 
+class ScenarioResult(ResultModel):
+    """One scenario of a robust tuning: the uncertain numbers, and the tuned design's
+    constraints and stability there (the tuner's exact evaluation)."""
+
+    parameters: dict[str, float] = Field(description="The uncertain numbers [each its unit]")
+    origin: Literal["nominal", "corner", "interior", "worst_case"] = Field(
+        description="nominal: the plant as given; corner: a combination of the sets' values "
+                    "and the ranges' ends; interior: a Latin-hypercube sample of the ranges; "
+                    "worst_case: added by the worst-case search")
+    round: int = Field(description="The solve that first held it [count, from 1]")
+    stable: bool
+    constraints: list[float | None] = Field(
+        description="Each constraint's value, in the spec's order [its unit]; null where the "
+                    "loop is unstable")
+    satisfied: bool = Field(description="Stable, and every constraint within its bound")
+
+
+class WorstCase(ResultModel):
+    """One constraint's worst value over the whole uncertainty (a dense sample refined
+    locally), after the last solve."""
+
+    metric: str
+    options: dict[str, Any] = Field(default_factory=dict)
+    min: float | None
+    max: float | None
+    parameters: dict[str, float] = Field(description="Where it is worst [each its unit]")
+    value: float | None = Field(description="Its value there [the metric's unit]")
+    margin: float | None = Field(
+        description="How far inside its bounds it is there, negative outside [the metric's "
+                    "unit]; null for an unstable loop")
+    tolerance: float = Field(description="The violation allowed: the robust tolerance times "
+                                         "the bound's size [the metric's unit]")
+    satisfied: bool
+
+
+class RobustResult(ResultModel):
+    """Robust tuning over uncertain plant numbers (feedtune.robust)."""
+
+    objective: Literal["nominal", "worst_case"]
+    parameters: dict[str, UncertainParameter] = Field(
+        description="The uncertain numbers as the spec gives them [each its unit]")
+    scenarios: list[ScenarioResult] = Field(description="Every scenario the last solve held")
+    worst_cases: list[WorstCase] = Field(description="Each constraint's worst case, in the "
+                                                     "spec's order")
+    rounds: int = Field(description="Solves of the NLP [count]")
+    converged: bool = Field(description="No constraint violated anywhere in the uncertainty "
+                                        "beyond its tolerance")
+    tolerance: float = Field(description="The violation allowed, as a fraction of each "
+                                         "constraint's bound [1]")
+    unstable_parameters: dict[str, float] | None = Field(
+        None, description="The most unstable numbers found by the last search; null: the "
+                          "loop is stable at every point searched [each its unit]")
+
+
 class Provenance(ResultModel):
     feedtune: str
     casadi: str
@@ -132,6 +187,9 @@ class TuneResult(ResultModel):
         default_factory=list, description="Ways the tuned design is implausible on its own "
                                           "terms (counter overflow, a unit slip, contradictory "
                                           "plant data); each is also printed on stderr")
+    robust: RobustResult | None = Field(
+        None, description="Robust tuning over the spec's uncertain plant numbers: scenarios, "
+                          "worst case per constraint; null when the plant is known exactly")
     validation: dict[str, Any] | None = Field(
         None, description="Independent numpy/scipy re-simulation of the tuned design "
                           "(feedtune.validate): each metric as reported and as re-measured, "

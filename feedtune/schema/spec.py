@@ -14,7 +14,7 @@ import re
 from typing import Annotated, Any, Literal, Union, get_origin
 
 from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
-                      create_model, field_validator, model_validator)
+                      create_model, field_validator, model_serializer, model_validator)
 from typing_extensions import TypedDict
 
 from feedtune.loops.loop import HorizonError
@@ -25,6 +25,8 @@ from feedtune.objectives.time.step_error import StepErrorMetric, has_exact_step
 from feedtune.plants import PLANTS, plant_for
 from feedtune.plants.linear import MODEL_TYPES
 from feedtune.schema.model import SpecModel
+from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
+                                         plant_pointer, scenario_count)
 
 MAX_SPEC_BYTES = 1_000_000
 MAX_JSON_DEPTH = 32
@@ -229,6 +231,8 @@ def _tagged_union(models: tuple, tag: str):
 
 
 PlantSpec = _tagged_union(tuple(plant.Params for plant in PLANTS.values()), "type")
+#: plant type → its Params model (where an uncertain form may stand for a number)
+PLANT_MODELS = {name: plant.Params for name, plant in PLANTS.items()}
 ObjectiveTerm = _tagged_union(tuple(_objective_model(n, m) for n, m in METRICS.items()), "metric")
 ConstraintSpec = _tagged_union(tuple(_constraint_model(n, m) for n, m in METRICS.items()), "metric")
 
@@ -284,6 +288,30 @@ class Spec(SpecModel):
         default_factory=list, max_length=MAX_CONSTRAINTS,
         description=f"Metric bounds that must hold [at most {MAX_CONSTRAINTS} constraints]")
     solver: SolverSpec = Field(default_factory=SolverSpec)
+    robust: RobustSpec | None = Field(
+        None, description="Robust tuning over uncertain plant parameters (given in 'plant' as "
+                          "a list or a range, or here under 'parameters'); omitted: the plant "
+                          "is known exactly")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _uncertain_plant_numbers(cls, data):
+        """Plant numbers written as a list or a range move to ``robust.parameters``, their
+        nominal value staying in ``plant`` (feedtune.schema.uncertainty)."""
+        data, _, problems = move_inline_forms(data, PLANT_MODELS)
+        if problems:
+            raise ValueError("; ".join(f"/{'/'.join(map(str, loc))}: {message}"
+                                       for loc, message in problems))
+        return data
+
+    @model_serializer(mode="wrap")
+    def _without_absent_robust(self, handler):
+        """A spec without uncertain parameters dumps as it did before robust tuning existed
+        (its canonical JSON and hash unchanged)."""
+        data = handler(self)
+        if data.get("robust", 0) is None:
+            del data["robust"]
+        return data
 
     @field_validator("name")
     @classmethod
@@ -489,10 +517,13 @@ def _message(error: dict) -> str:
     return error["msg"].removeprefix("Value error, ")
 
 
-def _schema_errors(exc: ValidationError, raw: Any) -> list[tuple[str, str]]:
+def _schema_errors(exc: ValidationError, raw: Any,
+                   moved: set[str] = frozenset()) -> list[tuple[str, str]]:
     """(pointer, message) for each error of the validation of ``raw``; alternatives of a
-    union at one pointer become 'a or b'."""
-    return _errors_by_pointer([(_pointer(e["loc"], raw), _message(e)) for e in exc.errors()])
+    union at one pointer become 'a or b'. ``moved``: the uncertain plant parameters that
+    ``raw`` wrote in ``plant`` (their errors are named there, not in ``robust``)."""
+    return _errors_by_pointer([(_pointer(plant_pointer(e["loc"], moved), raw), _message(e))
+                               for e in exc.errors()])
 
 
 def _merged(schema: list[tuple[str, str]], semantic: list[tuple[str, str]]) -> list[tuple[str, str]]:
@@ -598,14 +629,76 @@ def _optimisable_metrics(loop) -> list[str]:
             if METRICS[name]().optimisable(loop, _default_options(METRICS[name]()))]
 
 
-def _semantic_errors(raw: dict) -> list[tuple[str, str]]:
-    """Checks that need the registries, run on every part of ``raw`` that validates by
-    itself: tunable names and bounds, metric applicability, the step-response horizon."""
+_ROBUST = TypeAdapter(RobustSpec)
+
+
+def _robust_errors(raw: dict, plant_params, plant, moved: set[str]) -> list[tuple[str, str]]:
+    """The uncertain parameters (``raw["robust"]``, canonical) against the plant: each one a
+    number of its loop (:meth:`~feedtune.plants.base.Plant.numbers`), its nominal value one
+    of its values, each value one the plant accepts; and the first solve's scenarios within
+    :data:`~feedtune.schema.uncertainty.MAX_SCENARIOS`. Each named where the spec wrote it
+    (``moved``: in ``plant``)."""
+    robust = _valid(_ROBUST, raw.get("robust"))
+    if robust is None:
+        return []
+
+    def where(name: str, *inner) -> str:
+        base = ("plant",) if name in moved else ("robust", "parameters")
+        return "/" + "/".join(_escape(part) for part in (*base, name, *inner))
+
+    if not robust.parameters:
+        return [("/robust/parameters", "no uncertain plant parameter: give one here or in "
+                                       "'plant' as a list or a range")]
+    errors = []
+    if getattr(plant_params, "integer_ratio", False):
+        errors.append(("/robust", "robust tuning and integer_ratio are not solved together "
+                                  "(each rounds its own way): give one of them"))
+    numbers = plant.numbers()
+    nominal = plant_params.model_dump()
+    for name, uncertain in robust.parameters.items():
+        if name not in type(plant_params).model_fields or name == "type":
+            errors.append((where(name), f"unknown parameter of plant {plant_params.type!r}"))
+            continue
+        if name not in numbers:
+            errors.append((where(name), (
+                f"{name} cannot be uncertain in this plant configuration: it does not enter "
+                "the loop as a number (it is not given, unused, or it shapes the model); "
+                f"uncertain parameters here: {', '.join(sorted(numbers)) or 'none'}")))
+            continue
+        if not uncertain.contains(nominal[name]):
+            errors.append((where(name), f"the nominal value {nominal[name]} (in /plant/{name}) "
+                                        "is not one of its values"))
+        values = ({"min": uncertain.min, "max": uncertain.max} if uncertain.is_range()
+                  else {str(i): v for i, v in enumerate(uncertain.values)})
+        for inner, value in values.items():
+            try:
+                type(plant_params).model_validate({**nominal, name: value})
+            except ValidationError as exc:
+                message = "; ".join(e["msg"].removeprefix("Value error, ") for e in exc.errors())
+                if name in moved and not uncertain.is_range():
+                    errors.append((where(name, inner), f"{value}: {message}"))
+                else:
+                    errors.append((where(name, *(("values",) if not uncertain.is_range()
+                                                 else ()), inner), f"{value}: {message}"))
+    count = scenario_count(robust)
+    if not errors and count > MAX_SCENARIOS:
+        errors.append(("/robust" if not moved else "/plant", (
+            f"{count} scenarios (the nominal plant, every combination of the sets' values "
+            f"and the ranges' ends, and {robust.interior_samples} interior samples) exceed "
+            f"the limit of {MAX_SCENARIOS}: give fewer values or fewer uncertain parameters")))
+    return errors
+
+
+def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str, str]]:
+    """Checks that need the registries, run on every part of ``raw`` (the canonical spec:
+    uncertain forms in ``robust``; ``moved`` the ones written in ``plant``) that validates
+    by itself: tunable names and bounds, metric applicability, the step-response horizon,
+    the uncertain parameters."""
     plant_params = _valid(_PLANT, raw.get("plant"))
     if plant_params is None:
         return []
-    errors = []
     plant = plant_for(plant_params)
+    errors = _robust_errors(raw, plant_params, plant, moved)
     tunables = plant.tunables()
     raw_tunables = raw.get("tunables")
     fixed = plant.not_tunable()
@@ -689,13 +782,15 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     raw = data if isinstance(data, dict) else load_json(data)
     if not isinstance(raw, dict):
         raise SpecError([("", f"a spec is a JSON object, not {json_type(raw)}")])
+    canonical, moved, problems = move_inline_forms(raw, PLANT_MODELS)
     schema, spec = [], None
+    forms = [(_pointer(loc, raw), message) for loc, message in problems]
     try:
         # strict: a string is not a number, nor true a count (JSON has the types to say so)
-        spec = Spec.model_validate(raw, strict=True)
+        spec = Spec.model_validate(canonical, strict=True)
     except ValidationError as exc:
-        schema = _schema_errors(exc, raw)
-    errors = _merged(schema, _semantic_errors(raw))
+        schema = _schema_errors(exc, raw, moved)
+    errors = _merged(_merged(forms, schema), _semantic_errors(canonical, moved))
     if errors:
         raise SpecError(errors)
     return spec

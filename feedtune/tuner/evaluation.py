@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import Magnitude
+from feedtune.tuner.scenarios import objective_value
 from feedtune.tuner.terms import exact_value
 from feedtune.tuner.types import finite
 
@@ -24,7 +25,7 @@ from feedtune.tuner.types import finite
 class Seen:
     """Values at one point, each in its metric's unit (None: not a finite number).
 
-    ``objective`` is Σ weight·term; ``terms`` and ``bounds`` each metric value (|e| for a
+    ``objective`` is Σ weight·term (the largest such sum over the terms' groups); ``terms`` and ``bounds`` each metric value (|e| for a
     magnitude); ``stability`` and ``settling`` the loop's conditions (all > 0 when stable
     and settled); ``matrices`` the state matrices that must be stable, by name.
     """
@@ -43,12 +44,16 @@ class Evaluator:
 
     ``terms`` and ``bounds`` are the metric values of the objective terms and constraints
     (expressions, Magnitudes, Supremums or Crossings), ``weights`` the terms' signed
-    weights, ``scans`` the numeric scan of each value that has one (None otherwise).
+    weights, ``scans`` the numeric scan of each value that has one (None otherwise),
+    ``groups`` each term's group (the objective is the largest group sum,
+    :mod:`feedtune.tuner.scenarios`; default: one group).
     """
 
     def __init__(self, z, p, terms: list, weights: list[float], term_scans: list, bounds: list,
-                 bound_scans: list, stability: list, settling: list, matrices: dict):
+                 bound_scans: list, stability: list, settling: list, matrices: dict,
+                 groups: list[int] | None = None):
         self.weights = list(weights)
+        self.groups = list(groups) if groups is not None else [0] * len(self.weights)
         self.term_scans, self.bound_scans = list(term_scans), list(bound_scans)
         # not exact_value: a Supremum's or Crossing's exact graph is built only when read
         self.term_magnitude = [isinstance(v, Magnitude) for v in terms]
@@ -86,8 +91,7 @@ class Evaluator:
             return result
 
         terms = values(out["terms"], self.term_magnitude, self.term_scans)
-        objective = (None if any(t is None for t in terms)
-                     else sum(w * t for w, t in zip(self.weights, terms)))
+        objective = objective_value(self.weights, terms, self.groups)
         return Seen(objective=finite(objective) if objective is not None else None,
                     terms=terms,
                     bounds=values(out["bounds"], self.bound_magnitude, self.bound_scans),

@@ -37,6 +37,7 @@ from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build, cached_structure, store_structure
 from feedtune.tuner.evaluation import smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
+from feedtune.tuner.scenarios import objective_value, worst_group
 from feedtune.tuner.scalar import ScalarSearch
 from feedtune.tuner.scalar import applies as scalar_search_applies
 from feedtune.tuner.stability import (add_stability_rows, feasibility, nan_where_unstable,
@@ -113,11 +114,11 @@ class Problem:
         scales = smallest_magnitudes([self.evaluator(z0, self.param_values) for z0 in self.starts])
         self.f_scale = scale(scales.objective)
         groups: list[ExchangeGroup] = []
-        f = ca.MX(0)
-        for index, (value, scan, weight, term, reference) in enumerate(
-                zip(structure.term_values, structure.term_scans, structure.weights, objective,
-                    scales.terms)):
-            f += add_term(builder, index, value, scan, weight, term.weight, reference, groups)
+        shares = [add_term(builder, index, value, scan, weight, term.weight, reference, groups)
+                  for index, (value, scan, weight, term, reference) in enumerate(
+                      zip(structure.term_values, structure.term_scans, structure.weights,
+                          objective, scales.terms))]
+        f = worst_group(builder, shares, [t.group for t in objective], self.f_scale)
         for index, (value, scan, bound, reference) in enumerate(
                 zip(structure.bound_values, structure.bound_scans, constraints, scales.bounds)):
             add_bound(builder, index, value, scan, bound, reference, groups)
@@ -251,8 +252,8 @@ class Problem:
             return finite(ca.fabs(ca.evalf(expr)) if mag else ca.evalf(expr))
 
         terms = [number(t.value(loop)) for t in self.objective_terms]
-        objective = (None if any(v is None for v in terms)
-                     else sum(t.weight * v for t, v in zip(self.objective_terms, terms)))
+        objective = objective_value([t.weight for t in self.objective_terms], terms,
+                                    [t.group for t in self.objective_terms])
         bounds = [number(b.value(loop)) for b in self.bounds]
         conditions = np.array([to_float(c) for c in loop.stability_conditions()])
         matrices = {name: to_array(m)

@@ -104,7 +104,8 @@ def build_structure(variables: list[Variable], fixed: Mapping[str, float],
     term_scans = [make_scan(f"term{i}", v, z, p) for i, v in enumerate(term_values)]
     bound_scans = [make_scan(f"bound{i}", v, z, p) for i, v in enumerate(bound_values)]
     evaluator = Evaluator(z, p, term_values, [t.weight for t in objective], term_scans,
-                          bound_values, bound_scans, stability, settling, matrices)
+                          bound_values, bound_scans, stability, settling, matrices,
+                          [t.group for t in objective])
     names = [*(f"fixed_{name}" for name in fixed), *(f"number_{name}" for name in numbers),
              *(f"weight{i}" for i in range(len(weights)))]
     return Structure(z=z, leading=list(zip(names, builder.parameters)), discrete=loop.discrete,

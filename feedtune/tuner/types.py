@@ -47,11 +47,16 @@ class Variable:
 
 @dataclass(frozen=True)
 class Term:
-    """Objective term ``weight · value(loop)``; ``value`` may return a Magnitude."""
+    """Objective term ``weight · value(loop)``; ``value`` may return a Magnitude.
+
+    ``group``: the objective is the largest over groups of each group's weighted sum
+    (:mod:`feedtune.tuner.scenarios`); with one group, the sum of every term.
+    """
 
     label: str
     value: Callable
     weight: float = 1.0
+    group: int = 0
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,12 @@ def validate_result(result) -> dict:
             model = model_for(plant, tuned, data.get("stability"))
             block["entries"] = _measure(model, data)
             block["covered"] = True
-            block["ok"] = all(e["ok"] for e in block["entries"]) if block["entries"] else None
+            checked = list(block["entries"])
+            if data.get("robust"):
+                block["scenarios"], block["worst_cases"] = _robust_checks(data, plant, tuned)
+                checked += [e for check in block["scenarios"] + block["worst_cases"]
+                            for e in check["entries"]]
+            block["ok"] = all(e["ok"] for e in checked) if checked else None
     except NotCovered as exc:
         block["reason"] = str(exc)
     except Exception as exc:  # noqa: BLE001 — validation must never break a tuning
@@ -86,11 +91,52 @@ def validate_result(result) -> dict:
     return block
 
 
+def _constraint_records(constraints: list[dict], values: list, units: dict) -> dict:
+    """A result's ``metrics`` block for the spec's ``constraints`` with these ``values``
+    (the form :func:`_measure` reads), each with the unit the result reports for it."""
+    records = {}
+    for i, (constraint, value) in enumerate(zip(constraints, values)):
+        options = {k: v for k, v in constraint.items() if k not in ("metric", "min", "max")}
+        records[str(i)] = {"metric": constraint["metric"], "options": options, "value": value,
+                           "unit": units.get(constraint["metric"])}
+    return records
+
+
+def _robust_checks(data: dict, plant: dict, tuned: dict) -> tuple[list[dict], list[dict]]:
+    """Every scenario of a robust result, and every constraint's worst case, re-measured
+    on the validator's own model of the plant with those numbers: the constraints as the
+    tuner reported them there and the stability verdict (feedtune.robust)."""
+    robust, constraints = data["robust"], (data.get("spec") or {}).get("constraints") or []
+    units = {m["metric"]: m.get("unit") for m in (data.get("metrics") or {}).values()}
+    scenarios = []
+    for scenario in robust.get("scenarios") or []:
+        model = model_for({**plant, **scenario["parameters"]}, tuned)
+        view = {**data, "metrics": _constraint_records(constraints, scenario["constraints"], units),
+                "stability": {"stable": scenario["stable"]}}
+        entries = _measure(model, view)
+        scenarios.append({"parameters": scenario["parameters"], "entries": entries,
+                          "ok": all(e["ok"] for e in entries)})
+    worst = []
+    for i, case in enumerate(robust.get("worst_cases") or []):
+        model = model_for({**plant, **case["parameters"]}, tuned)
+        values = [None] * len(constraints)
+        values[i] = case["value"]
+        view = {**data, "metrics": _constraint_records(constraints, values, units),
+                "stability": {}}
+        entries = model.measure(view)
+        worst.append({"metric": case["metric"], "parameters": case["parameters"],
+                      "entries": entries, "ok": all(e["ok"] for e in entries)})
+    return scenarios, worst
+
+
 def failures(block: dict | None) -> list[dict]:
-    """The entries of ``block`` outside their tolerance."""
+    """The entries of ``block`` outside their tolerance, a robust result's scenarios and
+    worst cases included."""
     if not block:
         return []
-    return [e for e in block.get("entries", []) if e.get("ok") is False]
+    checks = block.get("scenarios", []) + block.get("worst_cases", [])
+    return [e for e in block.get("entries", []) + [e for c in checks for e in c["entries"]]
+            if e.get("ok") is False]
 
 
 def _fmt(value) -> str:

@@ -38,6 +38,15 @@ TUNED = {
         "position_compensator.tau1": 9.999999090636816e-05,
         "position_compensator.tau2": 9.999999090636816e-05,
         "position_compensator.tau12": 0.004350557048934217},
+    # the robust design over J_t ± 30 % (tests/reference/test_robust_tuning.py)
+    "bhatia-1971-robust-inertia": {
+        "position_gain": 217.31344359835865, "velocity_gain": 1000.0000660011096,
+        "velocity_compensator.tau1": 0.07936752692421944,
+        "velocity_compensator.tau2": 0.07936752692421885,
+        "velocity_compensator.tau12": 100.00000459947526,
+        "position_compensator.tau1": 9.999999080903111e-05,
+        "position_compensator.tau2": 9.999999080903111e-05,
+        "position_compensator.tau12": 0.004561186559678419},
     "ward-leonard-feed-drive": {
         "position_gain": 1000.000063749983, "velocity_gain": 905.325213845655,
         "velocity_compensator.tau1": 0.6016647294655322,

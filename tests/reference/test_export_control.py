@@ -38,7 +38,8 @@ EXAMPLES = sorted(TUNED)
 DISCRETE = {"koren-1979-encoder-limit", "koren-1979-min-iae-radius", "koren-1979-sampled-data",
             "sato-finish", "sato-throughput"}
 #: examples whose loop is given by polynomials (frequency-domain metrics reported)
-TRANSFER = {"bhatia-1971-hydraulic", "ward-leonard-feed-drive", "sato-table2-a", "sato-table2-b"}
+TRANSFER = {"bhatia-1971-hydraulic", "bhatia-1971-robust-inertia", "ward-leonard-feed-drive",
+            "sato-table2-a", "sato-table2-b"}
 
 
 def fixed_spec(name: str, **plant_changes) -> dict:
@@ -200,6 +201,7 @@ def test_export_kind_units_and_closed_loop(exported, name):
     loaded, systems = exported(name)
     assert loaded.data.success and loaded.data.stability["stable"]
     assert systems.position_unit == ("rad" if name in {"bhatia-1971-hydraulic",
+                                                       "bhatia-1971-robust-inertia",
                                                        "ward-leonard-feed-drive"} else "m")
     if name in DISCRETE:
         assert systems.dt == TUNED[name]["sampling_period"]

@@ -15,10 +15,13 @@ import pytest
 from feedtune.loops.loop import HorizonError
 from feedtune.loops.sampled_plants import SampledModelError
 from feedtune.plants import plant_for
-from feedtune.schema.spec import _PLANT, tunable_box
+from feedtune.schema.spec import _PLANT, PLANT_MODELS, tunable_box
+from feedtune.schema.uncertainty import move_inline_forms
 
 REPO = Path(__file__).resolve().parents[2]
-EXAMPLE_PLANTS = {path.stem: json.loads(path.read_text())["plant"]
+#: each example's plant at its nominal numbers (an uncertain one's set or range moved out,
+#: feedtune.schema.uncertainty)
+EXAMPLE_PLANTS = {path.stem: move_inline_forms(json.loads(path.read_text()), PLANT_MODELS)[0]["plant"]
                   for path in sorted((REPO / "examples").glob("*.json"))}
 SERVO = {"type": "software_servo", "technique": "sampled_data", "time_constant": 0.05,
          "blu": 1e-5, "max_velocity": 0.2}
