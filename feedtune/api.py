@@ -123,6 +123,10 @@ def as_spec(spec: Spec | Mapping[str, Any] | str | os.PathLike) -> Spec:
             raise SpecError([("", f"{os.fspath(spec)}: spec is larger than the limit of "
                                   f"{MAX_SPEC_BYTES} bytes")])
         return parse_spec(data)
+    from feedtune.measured.datadriven_spec import DataDrivenSpec  # loads numpy: asked last
+
+    if isinstance(spec, DataDrivenSpec):  # a spec of measured data (the convex technique)
+        return parse_spec(spec.model_dump(mode="json"))
     raise TypeError(f"a spec is a feedtune.Spec, a dict or the path of a JSON file, not "
                     f"{type(spec).__name__}")
 
@@ -374,6 +378,9 @@ class Result:
         ResultError
             The result has no tuned values (a failed build), or its spec is not valid.
         """
+        if not isinstance(self.spec, Spec):
+            raise ResultError(f"{self._where()}: a design on measured frequency responses has "
+                              "no model to build a loop from")
         plant = plant_for(self.spec.plant)
         tunables = plant.tunables()
         tuned = self.data.tuned
@@ -419,8 +426,8 @@ class Result:
         >>> systems = feedtune.load_result("result.json").to_control()   # doctest: +SKIP
         >>> control.stability_margins(systems.open_loop)                   # doctest: +SKIP
         """
-        unit = plant_for(self.spec.plant).position_unit
-        return loop_to_control(self.loop(), unit)
+        loop = self.loop()
+        return loop_to_control(loop, plant_for(self.spec.plant).position_unit)
 
     # -- for people --------------------------------------------------------------------------
 
