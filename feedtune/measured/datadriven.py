@@ -402,64 +402,157 @@ def _meets(metrics: Mapping, m_peak: float | None, sensitivity_peak: float | Non
 #: relative tolerance on the bounds when the design checks the solver's answer: Clarabel's
 #: feasibility tolerance (1e-8) on constraints scaled to O(1)
 BOUND_SLACK = 1e-6
+#: Clarabel's output on stderr (debugging)
+VERBOSE = False
+#: points the SOCP holds at once; the exchange adds violated ones (_Exchange)
+WORKING_SET = 240
+#: rounds of the exchange before the SOCP on all points is solved instead
+EXCHANGE_ROUNDS = 6
+#: a point's linearised constraint violated by more than this [1, relative to |X_c|]
+#: joins the working set (Clarabel's feasibility tolerance is 1e-8)
+EXCHANGE_TOL = 1e-7
 
 
 class _Socp:
-    """The SOCP of one linearisation, built once with cvxpy Parameters (DPP: re-solving at a
-    new ρ_c or a new ω_b only updates numbers)."""
+    """The SOCP of one linearisation on ``rows`` measured points, built once with cvxpy
+    Parameters (DPP: a new ρ_c, ω_b or set of points only updates numbers)."""
 
-    def __init__(self, loops: _Loops, scale: np.ndarray, z_box: tuple[np.ndarray, np.ndarray],
+    def __init__(self, rows: int, p: int, z_box: tuple[np.ndarray, np.ndarray],
                  m_peak: float | None, sensitivity_peak: float | None, objective: Objective):
         import cvxpy as cp
 
         self.cp = cp
-        a = loops.a * scale  # columns scaled: z = ρ/scale is O(1)
-        self.a = a
-        n, p = a.shape
         self.z = cp.Variable(p)
         self.s = cp.Variable()
-        self.x_dir = cp.Parameter((n, p))   # Re{X_c* a}/|X_c|
-        self.x_0 = cp.Parameter(n)          # Re{X_c}/|X_c|
-        self.l_dir = cp.Parameter((n, p))   # Re{L_c* a}/|L_c|
-        self.weight = cp.Parameter(n, nonneg=True)   # slack scale of each point
-        self.inactive = cp.Parameter(n, nonneg=True)  # 0 where ω ≤ ω_b, a slack-maker above
+        self.ar = cp.Parameter((rows, p))     # Re a, Im a: L = a z
+        self.ai = cp.Parameter((rows, p))
+        self.x_dir = cp.Parameter((rows, p))  # Re{X_c* a}/|X_c|
+        self.x_0 = cp.Parameter(rows)         # Re{X_c}/|X_c|
+        self.l_dir = cp.Parameter((rows, p))  # Re{L_c* a}/|L_c|, 0 above ω_b
+        self.weight = cp.Parameter(rows, nonneg=True)  # the slack's scale |L_c|, 0 above ω_b
+        self.active = cp.Parameter(rows, nonneg=True)  # 1 where ω ≤ ω_b, else 0
+        self.ar_active = cp.Parameter((rows, p))       # Re a, Im a there, else 0
+        self.ai_active = cp.Parameter((rows, p))
         z, s = self.z, self.s
         re_x = self.x_0 + self.x_dir @ z
-        constraints = [self.z >= z_box[0], self.z <= z_box[1], s <= 1.0, re_x >= 0]
-        ar, ai = a.real, a.imag
+        constraints = [z >= z_box[0], z <= z_box[1], re_x >= 0]
         if m_peak is not None:
-            constraints.append(cp.SOC(m_peak * re_x, cp.vstack([ar @ z, ai @ z]), axis=0))
+            constraints.append(cp.SOC(m_peak * re_x, cp.vstack([self.ar @ z, self.ai @ z]), axis=0))
         if sensitivity_peak is not None:
             constraints.append(sensitivity_peak * re_x >= 1.0)
-        lower = self.l_dir @ z - cp.multiply(self.weight, s) + self.inactive
+        # the objective's condition; above ω_b every coefficient is 0 (0 ≤ 0)
+        lower = self.l_dir @ z - cp.multiply(self.weight, s)
         if objective == "bandwidth":
-            constraints.append(cp.SOC(math.sqrt(2.0) * lower,
-                                      cp.vstack([1.0 + ar @ z, ai @ z]), axis=0))
+            constraints.append(cp.SOC(math.sqrt(2.0) * lower, cp.vstack([
+                self.active + self.ar_active @ z, self.ai_active @ z]), axis=0))
         else:
-            constraints.append(lower >= 1.0)
+            constraints.append(lower >= self.active)
         self.problem = cp.Problem(cp.Maximize(s), constraints)
-        # a bound on |1 + L| and |Re{L_c* L}|/|L_c| over the box: what makes a point inactive
-        self.big = 4.0 * (1.0 + np.abs(a) @ np.maximum(np.abs(z_box[0]), np.abs(z_box[1])))
 
-    def linearise(self, z_c: np.ndarray) -> None:
-        x_c = 1.0 + self.a @ z_c
-        l_c = self.a @ z_c
-        self.x_dir.value = (np.conj(x_c)[:, None] * self.a).real / np.abs(x_c)[:, None]
+    def solve(self, a: np.ndarray, x_c: np.ndarray, l_c: np.ndarray,
+              active: np.ndarray) -> tuple[float | None, np.ndarray | None]:
+        """(largest smallest slack s, z) on the points of ``a`` (rows: L = a z), linearised at
+        X_c = 1 + L_c, with the objective's condition where ``active``; (None, None) when
+        the solver fails."""
+        on = active.astype(float)
+        self.ar.value, self.ai.value = a.real, a.imag
+        self.x_dir.value = (np.conj(x_c)[:, None] * a).real / np.abs(x_c)[:, None]
         self.x_0.value = x_c.real / np.abs(x_c)
-        self.l_dir.value = (np.conj(l_c)[:, None] * self.a).real / np.abs(l_c)[:, None]
-        self.weight.value = np.abs(l_c)
-
-    def solve(self, active: np.ndarray) -> tuple[float | None, np.ndarray | None]:
-        """(largest smallest slack s, z) with the objective's condition on ``active``
-        points; (None, None) when the solver fails."""
-        self.inactive.value = np.where(active, 0.0, self.big)
+        self.l_dir.value = (np.conj(l_c)[:, None] * a).real / np.abs(l_c)[:, None] * on[:, None]
+        self.weight.value = np.abs(l_c) * on
+        self.active.value = on
+        self.ar_active.value, self.ai_active.value = a.real * on[:, None], a.imag * on[:, None]
         try:
-            self.problem.solve(solver=self.cp.CLARABEL)
+            self.problem.solve(solver=self.cp.CLARABEL, verbose=VERBOSE)
         except self.cp.error.SolverError:
             return None, None
         if self.problem.status not in ("optimal", "optimal_inaccurate") or self.z.value is None:
             return None, None
         return float(self.s.value), np.asarray(self.z.value, dtype=float)
+
+
+class _Exchange:
+    """Every measured point's constraints, solved on a working set of the tightest ones
+    (the exchange method): the SOCP holds ``WORKING_SET`` points; after each solve every
+    point's linearised constraints are checked in numpy, the violated ones join the set and
+    it is solved again, so the answer is that of the SOCP on all points. Most points are
+    far from every bound (|T| ≪ M above the resonances, |L| ≫ 1 far below ω_b): on 3 sets
+    × 500 points, Clarabel solved 3 000 cones in ≈ 130 ms of CPU a call."""
+
+    def __init__(self, a: np.ndarray, omega: np.ndarray, z_box, m_peak, sensitivity_peak,
+                 objective: Objective):
+        self.a, self.omega = a, omega
+        self.m_peak, self.sensitivity_peak, self.objective = m_peak, sensitivity_peak, objective
+        rows = min(WORKING_SET, len(a))
+        self.small = _Socp(rows, a.shape[1], z_box, m_peak, sensitivity_peak, objective)
+        self.full = None if rows == len(a) else (
+            lambda: _Socp(len(a), a.shape[1], z_box, m_peak, sensitivity_peak, objective))
+        self.z_box = z_box
+        self.solves = 0
+
+    def linearise(self, z_c: np.ndarray) -> None:
+        self.l_c = self.a @ z_c
+        self.x_c = 1.0 + self.l_c
+
+    def _violation(self, z: np.ndarray, s: float, active: np.ndarray) -> np.ndarray:
+        """Each point's largest violation of its linearised constraints at (z, s) [1,
+        relative to |X_c| or |L_c|]."""
+        l = self.a @ z
+        x_c, l_c = self.x_c, self.l_c
+        re_x = (np.conj(x_c) * (1.0 + l)).real / np.abs(x_c)
+        worst = np.maximum(-re_x, 0.0)
+        if self.m_peak is not None:
+            worst = np.maximum(worst, (np.abs(l) - self.m_peak * re_x) / np.abs(x_c))
+        if self.sensitivity_peak is not None:
+            worst = np.maximum(worst, (1.0 - self.sensitivity_peak * re_x) / np.abs(x_c))
+        lower = (np.conj(l_c) * l).real / np.abs(l_c) - np.abs(l_c) * s
+        need = np.abs(1.0 + l) / math.sqrt(2.0) if self.objective == "bandwidth" else 1.0
+        worst = np.maximum(worst, np.where(active, (need - lower) / np.abs(l_c), 0.0))
+        return worst
+
+    def _tightness(self, active: np.ndarray) -> np.ndarray:
+        """How near each point is to a bound at ρ_c [1; 1 = on it]."""
+        t = np.abs(self.l_c / self.x_c)
+        score = np.zeros(len(t))
+        if self.m_peak is not None:
+            score = np.maximum(score, t / self.m_peak)
+        if self.sensitivity_peak is not None:
+            score = np.maximum(score, 1.0 / (np.abs(self.x_c) * self.sensitivity_peak))
+        level = HALF_POWER if self.objective == "bandwidth" else 1.0
+        near = level / (t if self.objective == "bandwidth" else np.abs(self.l_c))
+        return np.maximum(score, np.where(active, near, 0.0))
+
+    def solve(self, active: np.ndarray) -> tuple[float | None, np.ndarray | None]:
+        """As :meth:`_Socp.solve`, every point's constraints held."""
+        rows = self.small.ar.shape[0]
+        if rows == len(self.a):
+            self.solves += 1
+            return self.small.solve(self.a, self.x_c, self.l_c, active)
+        tightness = self._tightness(active)
+        chosen = list(np.argsort(-tightness)[:rows])
+        kept: set[int] = set()  # positions of points the exchange brought in
+        for _ in range(EXCHANGE_ROUNDS):
+            index = np.array(chosen)
+            self.solves += 1
+            s, z = self.small.solve(self.a[index], self.x_c[index], self.l_c[index], active[index])
+            if z is None:
+                return None, None
+            violation = self._violation(z, s, active)
+            violation[index] = 0.0
+            worst = np.flatnonzero(violation > EXCHANGE_TOL)
+            if worst.size == 0:
+                return s, z
+            # the violated points replace the slackest of those chosen at the start
+            free = [i for i in np.argsort(tightness[index]) if i not in kept]
+            if len(free) < worst.size:
+                break
+            for position, point in zip(free, worst):
+                chosen[position] = int(point)
+                kept.add(position)
+        if callable(self.full):
+            self.full = self.full()
+        self.solves += 1
+        return self.full.solve(self.a, self.x_c, self.l_c, active)
 
 
 def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
@@ -529,7 +622,8 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
 
     scale = np.where(rho > 0, rho, np.sqrt(lo * hi))
     build = time.perf_counter()
-    socp = _Socp(loops, scale, (lo / scale, hi / scale), m_peak, sensitivity_peak, objective)
+    socp = _Exchange(loops.a * scale, loops.omega, (lo / scale, hi / scale), m_peak,
+                     sensitivity_peak, objective)
     build_time = time.perf_counter() - build
     candidates = np.unique(loops.omega)
 
@@ -540,7 +634,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             return len(candidates) - 1
         return max(int(np.searchsorted(candidates, value, side="right")) - 1, -1)
 
-    history, solves, status, message = [], 0, "iteration_limit", ""
+    history, status, message = [], "iteration_limit", ""
     z = rho / scale
     metrics = worst_case(per_set)
     solve_time = 0.0
@@ -551,8 +645,6 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
         tick = time.perf_counter()
 
         def feasible(index):
-            nonlocal solves
-            solves += 1
             s, z_new = socp.solve(loops.omega <= candidates[index])
             return (s is not None and s >= -1e-9), z_new
 
@@ -607,6 +699,6 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
     else:
         message = f"{max_iter} linearisations without converging; the last iterate is kept"
     return Design(values=dict(zip(names, (float(v) for v in rho))), status=status,
-                  message=message, iterations=iteration, solves=solves, per_set=per_set,
+                  message=message, iterations=iteration, solves=socp.solves, per_set=per_set,
                   metrics=metrics, certificates=certificates, history=history,
                   solve_time=solve_time, build_time=build_time)
