@@ -252,10 +252,12 @@ def tune_data_driven(spec: DataDrivenSpec):
         tuned[name] = TunedValue(value=value, unit=tunable.unit, fixed=lo == hi, min=lo, max=hi,
                                  at_bound=at_bound)
     stable = found.stable
-    metrics = {key: MetricValue(metric=key, value=value if stable else None, unit=UNITS[key])
-               for key, value in found.metrics.items()}
+    metrics = {key: MetricValue(metric=key, value=found.metrics[key] if stable else None,
+                                unit=unit) for key, unit in UNITS.items()}
     for data, per_set in zip(spec.plant.sets, found.per_set):
         for key, value in per_set.items():
+            if key not in UNITS:
+                continue  # the peaks at the measured points only: the design's inner bounds
             options = {"set": data.name}
             metrics[metric_label(key, options)] = MetricValue(
                 metric=key, value=value if stable else None, unit=UNITS[key], options=options)
