@@ -41,6 +41,11 @@ from feedtune.schema.status import ERROR, OPTIMAL
 #: the model metrics' units (feedtune metrics), for the metrics the data give
 UNITS = {"m_peak": "1", "sensitivity_peak": "1", "bandwidth": "rad/s",
          "crossover_frequency": "rad/s", "phase_margin": "deg"}
+#: what the technique does with each: widen it (objective), bound it (constraint), or
+#: report it; ``feedtune metrics`` lists them under TECHNIQUE
+ROLES = {"bandwidth": "objective", "crossover_frequency": "objective", "m_peak": "constraint",
+         "sensitivity_peak": "constraint", "phase_margin": "reported"}
+TECHNIQUE = "frequency_response_data(technique=convex)"
 
 
 class ConvexSolverSpec(SpecModel):

@@ -1,5 +1,7 @@
-"""A plant known only by measured frequency responses: one or several sets of G(jω) from
-the drive's command to the position, with the controller the data-driven design tunes.
+"""Measured frequency responses of an axis, tuned without a model by the convex technique.
+
+One or several sets of G(jω) from the drive's command to the position, with the
+controller the data-driven design tunes.
 
 The data are inline in the spec (a spec never names a file): each set gives its
 frequencies with their unit (``rad/s`` or ``Hz``, declared) and the real and imaginary

@@ -159,3 +159,20 @@ def test_plant_block_refuses_a_velocity_response(tmp_path):
     data = FrequencyResponseData(omega, 1 / (1j * omega + 1), None, "V", "rad/s", "v.csv")
     with pytest.raises(ValueError, match="position response"):
         frd_plant_block([data])
+
+
+def test_plants_and_metrics_document_the_technique():
+    """``feedtune plants`` lists the data plant with its tunables' units; ``feedtune
+    metrics`` says which metrics the convex technique widens, bounds or reports."""
+    plants = json.loads(run("plants", "--json").stdout)
+    frd = plants["frequency_response_data"]
+    assert frd["tunables"]["*"]["controller.kd"]["unit"] == "V·s/m"
+    assert {p["name"] for p in frd["parameters"]} >= {"sets", "integrators", "unstable_poles",
+                                                      "controller", "filter_time_constant"}
+    table = json.loads(run("metrics", "--json").stdout)
+    label = "frequency_response_data(technique=convex)"
+    held = {name for name, m in table.items() if label in m["supported"]}
+    assert held == {"bandwidth", "crossover_frequency", "m_peak", "sensitivity_peak",
+                    "phase_margin"}
+    assert label in table["phase_margin"]["reported_only"]
+    assert label not in table["m_peak"]["reported_only"]
