@@ -66,6 +66,9 @@ Objective = Literal["bandwidth", "crossover_frequency"]
 
 #: the −3 dB level of |T| that defines the bandwidth (feedtune's ``bandwidth``)
 HALF_POWER = 1.0 / math.sqrt(2.0)
+#: a dip of |T| (or |L|) counts as the crossing only below the level by more than this [1,
+#: relative]: Clarabel's feasibility tolerance is 1e-8 on constraints of order 1
+DIP_TOL = 1e-6
 #: a step of the phase of 1 + L between neighbouring measured points larger than this
 #: [rad] is not resolved by the data: the winding count there could be off by a turn
 MAX_PHASE_STEP = math.pi / 3
@@ -270,8 +273,10 @@ def nyquist_certificate(data: FrequencySet, controller, plant_integrators: int,
 def _first_crossing_below(omega: np.ndarray, value: np.ndarray, level: float) -> float | None:
     """The lowest ω [rad/s] where ``value`` falls below ``level`` (log-log interpolation
     between the neighbouring measured points); the first point if it starts below; None if
-    it never does on the band."""
-    below = np.flatnonzero(value < level)
+    it never does on the band. A point counts as below only under level·(1 − DIP_TOL): a
+    design that widens the bandwidth holds a dip exactly at the level, which the solver's
+    tolerance may leave a hair under (as feedtune's bandwidth on a model, README)."""
+    below = np.flatnonzero(value < level * (1 - DIP_TOL))
     if below.size == 0:
         return None
     i = int(below[0])
@@ -457,6 +462,8 @@ VERBOSE = False
 WORKING_SET = 240
 #: the largest slack the SOCP may report [1]: bounds it where no point is active
 SLACK_CAP = 1e3
+#: next points above ω_b, one per set, whose slack the last solve of a linearisation widens
+NEXT = 16
 #: rounds of the exchange before the SOCP on all points is solved instead
 EXCHANGE_ROUNDS = 6
 #: a point's linearised constraint violated by more than this [1, relative to |X_c|]
@@ -484,27 +491,56 @@ class _Socp:
         self.active = cp.Parameter(rows, nonneg=True)  # 1 where ω ≤ ω_b, else 0
         self.ar_active = cp.Parameter((rows, p))       # Re a, Im a there, else 0
         self.ai_active = cp.Parameter((rows, p))
-        z, s = self.z, self.s
+        # the next measured point of each set above ω_b, whose slack t the last solve of a
+        # linearisation widens (NEXT rows; 0 where unused), and which objective is maximised
+        self.t = cp.Variable()
+        self.next_dir = cp.Parameter((NEXT, p))
+        self.next_weight = cp.Parameter(NEXT, nonneg=True)
+        self.next_on = cp.Parameter(NEXT, nonneg=True)
+        self.next_ar = cp.Parameter((NEXT, p))
+        self.next_ai = cp.Parameter((NEXT, p))
+        self.s_floor = cp.Parameter()                  # −SLACK_CAP, or 0 when t is maximised
+        self.goal = cp.Parameter(2, nonneg=True)       # (1, 0): maximise s; (0, 1): t
+        z, s, t = self.z, self.s, self.t
         re_x = self.x_0 + self.x_dir @ z
-        constraints = [z >= z_box[0], z <= z_box[1], re_x >= 0, s <= SLACK_CAP]
+        constraints = [z >= z_box[0], z <= z_box[1], re_x >= 0, s <= SLACK_CAP, t <= SLACK_CAP,
+                       s >= self.s_floor]
         if m_peak is not None:
             constraints.append(cp.SOC(m_peak * re_x, cp.vstack([self.ar @ z, self.ai @ z]), axis=0))
         if sensitivity_peak is not None:
             constraints.append(sensitivity_peak * re_x >= 1.0)
         # the objective's condition; above ω_b every coefficient is 0 (0 ≤ 0)
         lower = self.l_dir @ z - cp.multiply(self.weight, s)
+        upper = self.next_dir @ z - cp.multiply(self.next_weight, t)
         if objective == "bandwidth":
             constraints.append(cp.SOC(math.sqrt(2.0) * lower, cp.vstack([
                 self.active + self.ar_active @ z, self.ai_active @ z]), axis=0))
+            constraints.append(cp.SOC(math.sqrt(2.0) * upper, cp.vstack([
+                self.next_on + self.next_ar @ z, self.next_ai @ z]), axis=0))
         else:
-            constraints.append(lower >= self.active)
-        self.problem = cp.Problem(cp.Maximize(s), constraints)
+            constraints += [lower >= self.active, upper >= self.next_on]
+        self.problem = cp.Problem(cp.Maximize(self.goal[0] * s + self.goal[1] * t), constraints)
 
-    def solve(self, a: np.ndarray, x_c: np.ndarray, l_c: np.ndarray,
-              active: np.ndarray) -> tuple[float | None, np.ndarray | None]:
+    def solve(self, a: np.ndarray, x_c: np.ndarray, l_c: np.ndarray, active: np.ndarray,
+              following: tuple[np.ndarray, np.ndarray] | None = None
+              ) -> tuple[float | None, np.ndarray | None]:
         """(largest smallest slack s, z) on the points of ``a`` (rows: L = a z), linearised at
-        X_c = 1 + L_c, with the objective's condition where ``active``; (None, None) when
-        the solver fails."""
+        X_c = 1 + L_c, with the objective's condition where ``active``; with ``following``
+        (a, L_c of the next points above ω_b) the z that keeps every active slack ≥ 0 and
+        widens the next points' smallest slack most. (None, None) when the solver fails."""
+        rows = np.zeros((NEXT, a.shape[1]), dtype=complex), np.ones(NEXT, dtype=complex)
+        on_next = np.zeros(NEXT)
+        if following is not None:
+            n = len(following[0])
+            rows[0][:n], rows[1][:n] = following
+            on_next[:n] = 1.0
+        a_n, l_n = rows
+        self.next_dir.value = (np.conj(l_n)[:, None] * a_n).real / np.abs(l_n)[:, None] * on_next[:, None]
+        self.next_weight.value = np.abs(l_n) * on_next
+        self.next_on.value = on_next
+        self.next_ar.value, self.next_ai.value = a_n.real, a_n.imag
+        self.s_floor.value = 0.0 if following is not None else -SLACK_CAP
+        self.goal.value = np.array([0.0, 1.0] if following is not None else [1.0, 0.0])
         on = active.astype(float)
         self.ar.value, self.ai.value = a.real, a.imag
         self.x_dir.value = (np.conj(x_c)[:, None] * a).real / np.abs(x_c)[:, None]
@@ -575,19 +611,23 @@ class _Exchange:
         near = level / (t if self.objective == "bandwidth" else np.abs(self.l_c))
         return np.maximum(score, np.where(active, near, 0.0))
 
-    def solve(self, active: np.ndarray) -> tuple[float | None, np.ndarray | None]:
-        """As :meth:`_Socp.solve`, every point's constraints held."""
+    def solve(self, active: np.ndarray, following: np.ndarray | None = None
+              ) -> tuple[float | None, np.ndarray | None]:
+        """As :meth:`_Socp.solve`, every point's constraints held; ``following``: the
+        indices of the next points above ω_b, whose slack is then widened."""
         rows = self.small.ar.shape[0]
+        nxt = None if following is None else (self.a[following], self.l_c[following])
         if rows == len(self.a):
             self.solves += 1
-            return self.small.solve(self.a, self.x_c, self.l_c, active)
+            return self.small.solve(self.a, self.x_c, self.l_c, active, nxt)
         tightness = self._tightness(active)
         chosen = list(np.argsort(-tightness)[:rows])
         kept: set[int] = set()  # positions of points the exchange brought in
         for _ in range(EXCHANGE_ROUNDS):
             index = np.array(chosen)
             self.solves += 1
-            s, z = self.small.solve(self.a[index], self.x_c[index], self.l_c[index], active[index])
+            s, z = self.small.solve(self.a[index], self.x_c[index], self.l_c[index],
+                                    active[index], nxt)
             if z is None:
                 return None, None
             violation = self._violation(z, s, active)
@@ -605,7 +645,7 @@ class _Exchange:
         if callable(self.full):
             self.full = self.full()
         self.solves += 1
-        return self.full.solve(self.a, self.x_c, self.l_c, active)
+        return self.full.solve(self.a, self.x_c, self.l_c, active, nxt)
 
 
 def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
@@ -744,6 +784,16 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
                     else:
                         upper = mid
                 best_k = low
+            if best_k + 1 < len(candidates):  # widen towards the next point of each set
+                following = np.array([sl.start + int(np.searchsorted(
+                    loops.omega[sl], candidates[best_k], side="right"))
+                    for sl in loops.slices])
+                following = following[following < [sl.stop for sl in loops.slices]][:NEXT]
+                active = (loops.omega <= candidates[best_k] if best_k >= 0
+                          else np.zeros(len(loops.omega), dtype=bool))
+                s_final, z_final = socp.solve(active, following)
+                if z_final is not None and s_final >= -1e-9:
+                    best_z = z_final
             solve_time += time.perf_counter() - tick
             if best_z is None:
                 status, message = "optimal", (f"no controller widens the {objective} beyond "
