@@ -19,8 +19,8 @@ import sys
 import click
 
 from feedtune import __version__, interrupts
-from feedtune.cli import (batch, chart, examples, metrics, plants, report, schema, select,
-                          tune, validate)
+from feedtune.cli import (batch, chart, examples, identify, metrics, plants, report, schema,
+                          select, tune, validate)
 from feedtune.cli.common import EPILOG
 
 
@@ -43,6 +43,7 @@ def main() -> None:
 main.add_command(batch.batch)
 main.add_command(chart.chart)
 main.add_command(examples.examples)
+main.add_command(identify.identify)
 main.add_command(metrics.metrics)
 main.add_command(plants.plants)
 main.add_command(report.report)

@@ -13,7 +13,7 @@ A file holds one data set. Its columns are named with their units, ``name[unit]`
 
 CSV: one header row with the column names, then one row of numbers per point; lines
 starting with ``#`` and blank lines are skipped. JSON: an object with ``units`` (column name
-→ unit) and one array of numbers per column, e.g. ``{"units": {"time": "s", "command": "V",
+→ unit), one array of numbers per column and optionally a ``description`` string, e.g. ``{"units": {"time": "s", "command": "V",
 "position": "m"}, "time": [...], "command": [...], "position": [...]}``. Several files may
 describe the same axis (other table positions, loads or excitations).
 
@@ -359,8 +359,11 @@ def _json_columns(reader: _Reader, text: str) -> list[_Column]:
                     "{\"time\": \"s\", \"command\": \"V\", \"position\": \"m\"}")
     columns = []
     end = _line_column(text, len(text.rstrip()))
+    description = document.get("description")
+    if description is not None and not isinstance(description, str):
+        reader.fail(where("description"), "'description' must be a string")
     for key, values in document.items():
-        if key == "units":
+        if key in ("units", "description"):
             continue
         unit = units.get(key)
         if not isinstance(unit, str) or not unit.strip():

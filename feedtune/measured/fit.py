@@ -11,7 +11,8 @@ Two stages (docs/design.md, "Identification"):
    Constraints: a_i ≥ 0 (necessary for a stable a(s), sufficient up to second order) and,
    for the physical drives, a positive gain b_0 ≥ 0. The least-squares problem is
    compressed by a QR factorisation to its p×p triangle first, so its size in cvxpy does
-   not grow with the number of points. A dead time is found on a grid (phase steps of
+   not grow with the number of points; cvxpy solves it when a constraint is active (the
+   unconstrained minimiser is the answer otherwise). A dead time is found on a grid (phase steps of
    0.3 rad at the highest frequency; whole samples for time data), each point one fit.
 2. **Output error, scipy.optimize.least_squares.** The equation error is biased by noise on
    the output (it multiplies the noise by a(s)); the output error (the model's response
@@ -36,7 +37,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, signal
+from scipy import linalg, optimize, signal
 
 from feedtune.measured.data import FrequencyResponseData, MeasuredData, TimeSeriesData
 from feedtune.measured.rational import Rational
@@ -149,19 +150,28 @@ def _problem(size: int, nonnegative: tuple[int, ...]):
 
 
 def _constrained_lstsq(phi: np.ndarray, target: np.ndarray, structure: Structure) -> np.ndarray:
-    """argmin ‖Φx − y‖² with the sign constraints, in cvxpy (Clarabel), after scaling Φ's
-    columns to unit norm and reducing Φ to the triangle R of its QR factorisation
-    (‖Φx − y‖² = ‖Rx − Qᵀy‖² + const)."""
+    """argmin ‖Φx − y‖² with the sign constraints, after scaling Φ's columns to unit norm
+    and reducing Φ to the triangle R of its QR factorisation (‖Φx − y‖² = ‖Rx − Qᵀy‖² +
+    const). The unconstrained minimiser R⁻¹Qᵀy is the answer when it meets the sign
+    constraints (the problem is convex: zero multipliers satisfy its KKT conditions);
+    otherwise cvxpy (Clarabel) solves the constrained problem."""
     import cvxpy as cp
 
     norms = np.linalg.norm(phi, axis=0)
     if np.any(norms == 0) or not np.all(np.isfinite(phi)):
         raise FitError("the data do not excite every parameter of the model")
     q_mat, r_mat = np.linalg.qr(phi / norms)
+    rhs = q_mat.T @ target
     n = structure.poles
     nonnegative = tuple(range(n)) + ((n,) if structure.positive_gain else ())
+    try:
+        free = linalg.solve_triangular(r_mat, rhs)
+    except np.linalg.LinAlgError:
+        free = None
+    if free is not None and np.all(np.isfinite(free)) and np.all(free[list(nonnegative)] >= 0):
+        return free / norms
     problem, z, r, q = _problem(phi.shape[1], nonnegative)
-    r.value, q.value = r_mat, q_mat.T @ target
+    r.value, q.value = r_mat, rhs
     problem.solve(solver=cp.CLARABEL)
     if z.value is None or problem.status not in ("optimal", "optimal_inaccurate"):
         raise FitError(f"the linear least-squares fit failed ({problem.status})")

@@ -131,8 +131,8 @@ def _units(data: list[MeasuredData], model: Model) -> dict:
     return {"position": position, "input": first.input_unit}
 
 
-def identify(data: list[MeasuredData], model: Model,
-             max_dead_time: float | None = None) -> Identification:
+def identify(data: list[MeasuredData], model: Model, max_dead_time: float | None = None,
+             template: dict | None = None) -> Identification:
     """Fit ``model`` to every data set of one axis.
 
     Parameters
@@ -143,13 +143,17 @@ def identify(data: list[MeasuredData], model: Model,
     max_dead_time : float, optional
         Largest dead time searched [s] (models with a dead time); default: two turns of
         phase at the highest measured frequency, or 20 samples of a time series.
+    template : dict, optional
+        A plant block whose other fields (technique, compensators, controllers, …) the
+        identified block keeps (:meth:`Model.block`).
 
     Raises
     ------
     DataError
         Data sets in different units, or not in the model's.
     FitError
-        Too few points, unidentifiable parameters, or an unstable fitted model.
+        Too few points, unidentifiable parameters, an unstable fitted model, or a block
+        (with the template's fields) the plant does not accept.
     """
     from feedtune.plants import PLANTS
 
@@ -176,11 +180,11 @@ def identify(data: list[MeasuredData], model: Model,
     errors = np.sqrt(np.maximum(np.diag(jacobian @ result.covariance @ jacobian.T), 0.0))
     names = list(model.parameters(units))
     value_map = {n: float(v) for n, v in zip(names, values)}
-    plant = model.plant(value_map, units)
     try:
+        plant = model.block(value_map, units, template)
         PLANTS[plant["type"]].Params.model_validate(plant)
     except ValueError as exc:
-        raise FitError(f"the identified plant block is not a valid {plant['type']} plant: "
+        raise FitError(f"the identified plant block is not a valid {model.name} plant: "
                        f"{exc}") from None
     return Identification(model, result, list(data), units, value_map,
                           {n: float(e) for n, e in zip(names, errors)}, plant)

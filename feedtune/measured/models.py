@@ -20,10 +20,6 @@ import numpy as np
 
 from feedtune.measured.fit import Structure
 
-#: the velocity-loop and position-loop controllers the ``linear`` plant block may name
-CONTROLLERS = ("none", "p", "pi", "pid")
-
-
 @dataclass(frozen=True)
 class Parameter:
     """A named quantity read from the fitted coefficients."""
@@ -51,6 +47,9 @@ class Model:
         (named values, units) → the plant block.
     lumped : str
         What the data cannot separate, and how the block writes it.
+    replaced : tuple of str
+        Fields of a template plant block (``--like``) that the identified constants make
+        meaningless, left out beside the fields the block writes.
     """
 
     name: str
@@ -62,10 +61,34 @@ class Model:
     plant: Callable[[dict[str, float], dict], dict]
     lumped: str
     options: dict = field(default_factory=dict)
+    replaced: tuple[str, ...] = ()
+
+    def block(self, values: dict[str, float], units: dict, template: dict | None) -> dict:
+        """The plant block: the identified constants over ``template``'s other fields
+        (its choices: technique, compensators, controllers, BLU, …) when one is given."""
+        identified = self.plant(values, units)
+        if template is None:
+            return identified
+        if template.get("type") != identified["type"]:
+            raise ValueError(f"the template plant is {template.get('type')!r}, the model "
+                             f"{identified['type']!r}")
+        kept = {k: v for k, v in template.items() if k not in self.replaced}
+        return {**kept, **identified}
 
 
 def _gain_unit(units: dict) -> str:
     return f"{units['position']}/(s·{units['input']})"
+
+
+def _coefficient_unit(units: dict, power: int) -> str:
+    """Unit of b_j: position/input × s^(j − k)."""
+    inp = units["input"]
+    inp = f"({inp})" if any(c in inp for c in "·/*") else inp
+    if power == 0:
+        return f"{units['position']}/{inp}"
+    if power > 0:
+        return f"{units['position']}·s{'' if power == 1 else f'^{power}'}/{inp}"
+    return f"{units['position']}/({inp}·s{'' if power == -1 else f'^{-power}'})"
 
 
 def _real_and_pair(a: np.ndarray) -> tuple[float, float, float]:
@@ -84,7 +107,7 @@ def _real_and_pair(a: np.ndarray) -> tuple[float, float, float]:
     return float(-1 / roots[lone].real), c1, c2
 
 
-def software_servo(technique: str = "reference_pulse") -> Model:
+def software_servo() -> Model:
     """Koren's drive K_m/(s(1 + τs)): velocity gain and time constant."""
     return Model(
         "software_servo", Structure(0, 1, 1, False, True), "m", None,
@@ -95,12 +118,11 @@ def software_servo(technique: str = "reference_pulse") -> Model:
             "time_constant": Parameter("s", "Mechanical time constant τ of the loaded drive "
                                             "(Koren eq 3)")},
         lambda b, a, theta: np.array([b[0], a[1]]),
-        lambda v, units: {"type": "software_servo", "technique": technique,
+        lambda v, units: {"type": "software_servo", "technique": "reference_pulse",
                           "time_constant": v["time_constant"]},
         "The plant block has only τ: the loop gain K = K_c·K_m·K_e is the tunable "
         "position_gain, so the controller gain to set is K_c = K/(K_m·K_e) with the "
-        "velocity_gain K_m identified here.",
-        {"technique": technique})
+        "velocity_gain K_m identified here. Without --like the technique is reference_pulse.")
 
 
 def hydraulic_rotary() -> Model:
@@ -133,7 +155,9 @@ def hydraulic_rotary() -> Model:
         "torque_motor_gain with flow_gain 1 m²/s and displacement 1 m³/rad. β_e, V_t, J_t, "
         "K_ce and B_m enter only through ω_n and ξ, which the block gives directly; the "
         "load-torque path they would define is not identified (no load-torque data). If "
-        "all three poles are real, the fastest is taken as the torque motor.")
+        "all three poles are real, the fastest is taken as the torque motor.",
+        replaced=("torque_motor_natural_frequency", "torque_motor_damping", "bulk_modulus",
+                  "total_volume", "inertia", "leakage_coefficient", "viscous_damping"))
 
 
 def ward_leonard() -> Model:
@@ -173,21 +197,18 @@ def ward_leonard() -> Model:
         "all three poles are real, the fastest is taken as the field.")
 
 
-def linear(poles: int, zeros: int, integrators: int, dead_time: bool,
-           velocity_controller: str = "none", position_controller: str = "p") -> Model:
+def linear(poles: int, zeros: int, integrators: int, dead_time: bool) -> Model:
     """The ``linear`` plant: b(s)/(s^k a(s)) e^{−θs} of the orders given."""
     n, m, k = poles, zeros, integrators
 
     def parameters(units):
         out = {}
         for j in range(m + 1):
-            out[f"numerator_s{j}"] = Parameter(
-                f"{units['position']}·s^{j - k}/{units['input']}" if j != k
-                else f"{units['position']}/{units['input']}", f"b_{j}, coefficient of s^{j} "
-                                                              "in b(s)")
+            out[f"numerator_s{j}"] = Parameter(_coefficient_unit(units, j - k),
+                                               f"b_{j}, coefficient of s^{j} in b(s)")
         for i in range(1, n + 1):
-            out[f"denominator_s{i}"] = Parameter(f"s^{i}", f"a_{i}, coefficient of s^{i} "
-                                                           "in a(s) (a_0 = 1)")
+            out[f"denominator_s{i}"] = Parameter("s" if i == 1 else f"s^{i}",
+                                                 f"a_{i}, coefficient of s^{i} in a(s) (a_0 = 1)")
         if dead_time:
             out["dead_time"] = Parameter("s", "Input dead time θ")
         return out
@@ -201,11 +222,10 @@ def linear(poles: int, zeros: int, integrators: int, dead_time: bool,
         return {"type": "linear",
                 "model": {"type": "transfer_function", "numerator": b, "denominator": a},
                 "output_unit": units["position"], "input_unit": units["input"],
-                "dead_time": v.get("dead_time", 0.0),
-                "velocity_controller": velocity_controller,
-                "position_controller": position_controller}
+                "dead_time": v.get("dead_time", 0.0)}
 
     return Model(
         "linear", Structure(m, n, k, dead_time, False), None, None, parameters, values, plant,
         "Nothing is lumped: the transfer function is the model.",
-        {"poles": n, "zeros": m, "integrators": k, "dead_time": dead_time})
+        {"poles": n, "zeros": m, "integrators": k, "dead_time": dead_time},
+        replaced=("dead_time_samples",))
