@@ -145,7 +145,7 @@ def parse_data_spec(raw: dict) -> DataDrivenSpec:
 
 
 def frd_plant_block(data: Sequence, names: Sequence[str] | None = None, *,
-                    controller: str = "pid", filter_time_constant: float | None = None,
+                    controller: str = "pi", filter_time_constant: float | None = None,
                     integrators: int = 1, unstable_poles: int = 0) -> dict:
     """The ``plant`` block of a data-driven spec from measured frequency responses: what
     ``feedtune identify DATA... --model frd`` writes.
@@ -153,8 +153,8 @@ def frd_plant_block(data: Sequence, names: Sequence[str] | None = None, *,
     Parameters
     ----------
     data : sequence of feedtune.measured.data.FrequencyResponseData
-        One per set, position responses (``m`` or ``rad`` per command unit), all with the
-        same units.
+        One per set, all with the same units: position responses (``m`` or ``rad`` per
+        command unit), or velocity responses (``m/s``, ``rad/s``), integrated here (÷ jω).
     names : sequence of str, optional
         A name per set; default: each file's stem.
     controller, filter_time_constant, integrators, unstable_poles
@@ -169,7 +169,7 @@ def frd_plant_block(data: Sequence, names: Sequence[str] | None = None, *,
     Raises
     ------
     ValueError
-        A velocity response, units that differ between sets, or a block the plant refuses.
+        Units that differ between sets, or a block the plant refuses.
     """
     from pathlib import Path
 
@@ -179,19 +179,20 @@ def frd_plant_block(data: Sequence, names: Sequence[str] | None = None, *,
     if len(units) > 1:
         raise ValueError(f"the sets' units differ: {sorted(units)}")
     (input_unit, output_unit), = units
-    if output_unit not in ("m", "rad"):
-        raise ValueError(f"a position response is needed (m or rad per command), not "
-                         f"{output_unit}/{input_unit}: integrate a velocity response (divide "
-                         "by jω) or measure the position")
     names = list(names) if names is not None else [Path(d.source).stem for d in data]
+    position = output_unit.removesuffix("/s")
+    sets = []
+    for name, d in zip(names, data):
+        response = d.response
+        if position != output_unit:  # a velocity response: position = velocity/(jω)
+            response = response / (1j * d.frequency_rad_s)
+        sets.append({"name": name, "frequency_unit": "rad/s",
+                     "frequency": [float(w) for w in d.frequency_rad_s],
+                     "real": [float(v) for v in response.real],
+                     "imag": [float(v) for v in response.imag]})
     block = {"type": "frequency_response_data", "input_unit": input_unit,
-             "output_unit": output_unit, "integrators": integrators,
-             "unstable_poles": unstable_poles, "controller": controller,
-             "sets": [{"name": name, "frequency_unit": "rad/s",
-                       "frequency": [float(w) for w in d.frequency_rad_s],
-                       "real": [float(v) for v in d.response.real],
-                       "imag": [float(v) for v in d.response.imag]}
-                      for name, d in zip(names, data)]}
+             "output_unit": position, "integrators": integrators,
+             "unstable_poles": unstable_poles, "controller": controller, "sets": sets}
     if filter_time_constant is not None:
         block["filter_time_constant"] = filter_time_constant
     FrequencyResponseDataParams.model_validate(block)

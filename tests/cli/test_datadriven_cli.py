@@ -154,11 +154,42 @@ def test_plant_block_from_measured_files_is_a_spec_feedtune_takes(example, tmp_p
     assert spec.plant.input_unit == "V" and spec.plant.output_unit == "rad"
 
 
-def test_plant_block_refuses_a_velocity_response(tmp_path):
+def test_a_velocity_response_is_integrated():
+    """rad/s/V becomes rad/V: G_position = G_velocity/(jω), exactly."""
     omega = np.logspace(0, 3, 20)
-    data = FrequencyResponseData(omega, 1 / (1j * omega + 1), None, "V", "rad/s", "v.csv")
-    with pytest.raises(ValueError, match="position response"):
-        frd_plant_block([data])
+    velocity = 1 / (1j * omega * 0.01 + 1)
+    data = FrequencyResponseData(omega, velocity, None, "V", "rad/s", "v.csv")
+    block = frd_plant_block([data])
+    assert block["output_unit"] == "rad" and block["sets"][0]["name"] == "v"
+    got = np.array(block["sets"][0]["real"]) + 1j * np.array(block["sets"][0]["imag"])
+    np.testing.assert_allclose(got, velocity / (1j * omega), rtol=1e-15)
+
+
+def test_identify_model_frd_writes_a_block_that_tunes(tmp_path):
+    """``feedtune identify FILES --model frd -o PLANT.json`` through the entry point: the
+    bundled hydraulic velocity responses become a block; a spec with it (PI, M_peak ≤ 1.3)
+    tunes by the convex technique. A time series is exit 2, nothing written."""
+    files = [str(REPO / "examples" / "data" / f"hydraulic-frf-{i}.csv") for i in (1, 2)]
+    plant = tmp_path / "plant.json"
+    proc = run("identify", *files, "--model", "frd", "-o", str(plant))
+    assert proc.returncode == 0, proc.stderr.decode()
+    block = json.loads(plant.read_text())
+    assert json.loads(proc.stdout) == block
+    assert [s["name"] for s in block["sets"]] == ["hydraulic-frf-1", "hydraulic-frf-2"]
+    spec = {"name": "from-identify", "plant": block,
+            "tunables": {"controller.kp": {"min": 0.01, "max": 100, "initial": 0.1},
+                         "controller.ki": {"min": 1e-3, "max": 100, "initial": 1e-3}},
+            "objective": [{"metric": "bandwidth", "goal": "maximize"}],
+            "constraints": [{"metric": "m_peak", "max": 1.3}]}
+    proc = run("tune", "-", stdin=json.dumps(spec).encode())
+    assert proc.returncode == 0, proc.stderr.decode()
+    result = json.loads(proc.stdout)
+    assert result["stability"]["stable"] and result["constraints"][0]["satisfied"]
+    bad = tmp_path / "bad.json"
+    proc = run("identify", str(REPO / "examples" / "data" / "software-servo-step.csv"),
+               "--model", "frd", "-o", str(bad))
+    assert proc.returncode == 2 and b"not a time series" in proc.stderr
+    assert not bad.exists()
 
 
 def test_plants_and_metrics_document_the_technique():
