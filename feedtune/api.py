@@ -553,6 +553,9 @@ def summary_lines(result: TuneResult) -> list[str]:
         text += f", spectral radius {_g(stability['spectral_radius'])} [1] (z-plane poles)"
     elif "spectral_abscissa" in stability:
         text += f", spectral abscissa {_g(stability['spectral_abscissa'])} [1/s] (s-plane poles)"
+    elif stability.get("certified_by") == "nyquist":  # measured data: no poles to list
+        low, high = stability["band"]
+        text += f" by the Nyquist count on the measured {_g(low)}–{_g(high)} [rad/s]"
     lines.append(f"stability: {text}")
     s = result.solver
     method = {"ipopt": "IPOPT", "brent": "Brent"}.get(s.method, s.method.replace("_", " "))
