@@ -651,6 +651,19 @@ class _Exchange:
         return self.full.solve(self.a, self.x_c, self.l_c, active, nxt)
 
 
+def _bisect(feasible, low: int, high: int, z_low):
+    """The largest index in (low, high) that ``feasible`` accepts, by bisection, with its
+    solution; (low, z_low) when none is (``high`` is known infeasible, ``low`` feasible)."""
+    while high - low > 1:
+        mid = (low + high) // 2
+        ok, z = feasible(mid)
+        if ok:
+            low, z_low = mid, z
+        else:
+            high = mid
+    return low, z_low
+
+
 def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
            box: Mapping[str, tuple[float, float]], initial: Mapping[str, float], *,
            m_peak: float | None = None, sensitivity_peak: float | None = None,
@@ -704,6 +717,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
     candidates = np.unique(loops.omega)
     scale, socps = None, {}
     history, iterations, solves, solve_time, build_time = [], 0, 0, 0.0, 0.0
+    notes: list[str] = []  # what happened besides the last round's ending
     m_grid, s_grid = m_peak, sensitivity_peak  # the bounds the SOCPs hold at the points
 
     def reach(metrics) -> int:
@@ -747,10 +761,13 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             socp.linearise(rho / scale)
             tick = time.perf_counter()
 
+            def prefix(index):
+                """The points at or below candidate ``index`` (none for index < 0)."""
+                return (loops.omega <= candidates[index] if index >= 0
+                        else np.zeros(len(loops.omega), dtype=bool))
+
             def feasible(index):
-                active = (loops.omega <= candidates[index] if index >= 0
-                          else np.zeros(len(loops.omega), dtype=bool))
-                s, z_new = socp.solve(active)
+                s, z_new = socp.solve(prefix(index))
                 return (s is not None and s >= -1e-9), z_new
 
             # the current point is feasible at k (unless a refinement tightened the bounds):
@@ -761,15 +778,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
                 ok, best_z = feasible(k)
                 tightened = False
             if not ok:  # only after a refinement: search downwards
-                best_z, low, high = None, -2, k
-                while high - low > 1:
-                    mid = (low + high) // 2
-                    ok, z_try = feasible(mid)
-                    if ok:
-                        low, best_z = mid, z_try
-                    else:
-                        high = mid
-                best_k = low
+                best_k, best_z = _bisect(feasible, -2, k, None)
                 if best_z is None:
                     status, message = "infeasible", ("no controller of this structure meets "
                                                       "the bounds at every measured point")
@@ -782,23 +791,13 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
                     break
                 best_k, best_z, step = best_k + step, z_try, step * 2
             if upper is not None:
-                low = best_k
-                while upper - low > 1:
-                    mid = (low + upper) // 2
-                    ok, z_try = feasible(mid)
-                    if ok:
-                        low, best_z = mid, z_try
-                    else:
-                        upper = mid
-                best_k = low
+                best_k, best_z = _bisect(feasible, best_k, upper, best_z)
             if best_k + 1 < len(candidates):  # widen towards the next point of each set
                 following = np.array([sl.start + int(np.searchsorted(
                     loops.omega[sl], candidates[best_k], side="right"))
                     for sl in loops.slices])
                 following = following[following < [sl.stop for sl in loops.slices]][:NEXT]
-                active = (loops.omega <= candidates[best_k] if best_k >= 0
-                          else np.zeros(len(loops.omega), dtype=bool))
-                s_final, z_final = socp.solve(active, following)
+                s_final, z_final = socp.solve(prefix(best_k), following)
                 if z_final is not None and s_final >= -1e-9:
                     best_z = z_final
             solve_time += time.perf_counter() - tick
@@ -835,13 +834,14 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             m_grid = m_grid * m_peak / metrics["m_peak"] * (1 - GRID_MARGIN)
         if sensitivity_peak is not None and metrics["sensitivity_peak"] > sensitivity_peak * (1 + BOUND_SLACK):
             s_grid = s_grid * sensitivity_peak / metrics["sensitivity_peak"] * (1 - GRID_MARGIN)
-        message += (f"; a peak between measured points was over its bound: the points held to "
-                    f"M_peak {m_grid:.6g}" if m_peak is not None else "") + (
-                    f", M_s {s_grid:.6g}" if sensitivity_peak is not None else "")
+        held = ([f"M_peak {m_grid:.6g}"] if m_peak is not None else []) + (
+            [f"M_s {s_grid:.6g}"] if sensitivity_peak is not None else [])
+        notes.append("a peak between measured points was over its bound: the points held to "
+                     + ", ".join(held))
     if not _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK) and status == "optimal":
         status = "infeasible"
-        message += "; a peak between the measured points is still over its bound"
+        notes.append("a peak between the measured points is still over its bound")
     return Design(values=dict(zip(names, (float(v) for v in rho))), status=status,
-                  message=message, iterations=iterations, solves=solves, per_set=per_set,
+                  message="; ".join([message, *notes]), iterations=iterations, solves=solves, per_set=per_set,
                   metrics=metrics, certificates=certificates, history=history,
                   solve_time=solve_time, build_time=build_time)
