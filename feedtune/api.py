@@ -559,9 +559,11 @@ def summary_lines(result: TuneResult) -> list[str]:
     lines.append(f"stability: {text}")
     s = result.solver
     method = {"ipopt": "IPOPT", "brent": "Brent"}.get(s.method, s.method.replace("_", " "))
-    unit = "generations" if s.method == "differential_evolution" else "iterations"
-    lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
-                 f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
+    unit = {"differential_evolution": "generations", "convex": "linearisations"}.get(
+        s.method, "iterations")
+    starts = "" if s.method == "convex" else f", {len(s.starts)} start(s)"  # one path, no starts
+    lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}{starts}; "
+                 f"build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
     return lines
 
 
