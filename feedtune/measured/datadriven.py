@@ -61,6 +61,8 @@ from typing import Literal, Mapping, Sequence
 
 import numpy as np
 
+from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
+
 Law = Literal["p", "pi", "pd", "pid"]
 Objective = Literal["bandwidth", "crossover_frequency"]
 
@@ -754,7 +756,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
         socp = socps[key]
         tightened = refinement > 0
         metrics = worst_case(per_set)
-        status, message = "iteration_limit", ""
+        status, message = ITERATION_LIMIT, ""
         while iterations < max_iter:
             iterations += 1
             k = reach(metrics)
@@ -780,7 +782,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             if not ok:  # only after a refinement: search downwards
                 best_k, best_z = _bisect(feasible, -2, k, None)
                 if best_z is None:
-                    status, message = "infeasible", ("no controller of this structure meets "
+                    status, message = INFEASIBLE, ("no controller of this structure meets "
                                                       "the bounds at every measured point")
                     break
             step, upper = 1, None
@@ -802,7 +804,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
                     best_z = z_final
             solve_time += time.perf_counter() - tick
             if best_z is None:
-                status, message = "optimal", (f"no controller widens the {objective} beyond "
+                status, message = OPTIMAL, (f"no controller widens the {objective} beyond "
                                               "the current one at this linearisation")
                 break
             new_rho = best_z * scale
@@ -810,7 +812,7 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             new_metrics = worst_case(new_per_set)
             if not (all(c.stable for c in new_certificates)
                     and _meets(new_metrics, m_grid, s_grid, BOUND_SLACK, "_measured")):
-                status, message = "optimal", ("the next iterate left the certified set (solver "
+                status, message = OPTIMAL, ("the next iterate left the certified set (solver "
                                               "tolerance); the last certified one is kept")
                 break
             moved = float(np.linalg.norm(new_rho - rho) / max(np.linalg.norm(rho), 1e-300))
@@ -818,16 +820,16 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             rho, per_set, certificates, metrics = new_rho, new_per_set, new_certificates, new_metrics
             history.append(metrics[objective] if metrics[objective] is not None else math.inf)
             if not grew and moved < tol:
-                status, message = "optimal", (f"converged: the {objective} stopped growing and "
+                status, message = OPTIMAL, (f"converged: the {objective} stopped growing and "
                                               f"ρ moved by {moved:.2g} (< tol {tol:g}) relative")
                 break
             if time_limit is not None and time.perf_counter() - started > time_limit:
-                status, message = "time_limit", f"time limit {time_limit:g} s reached"
+                status, message = TIME_LIMIT, f"time limit {time_limit:g} s reached"
                 break
         else:
             message = f"{max_iter} linearisations without converging; the last iterate is kept"
         solves = sum(x.solves for x in socps.values())
-        if status != "optimal" or _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK):
+        if status != OPTIMAL or _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK):
             break
         # a peak between the measured points is over its bound: hold the points tighter
         if m_peak is not None and metrics["m_peak"] > m_peak * (1 + BOUND_SLACK):
@@ -838,8 +840,8 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
             [f"M_s {s_grid:.6g}"] if sensitivity_peak is not None else [])
         notes.append("a peak between measured points was over its bound: the points held to "
                      + ", ".join(held))
-    if not _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK) and status == "optimal":
-        status = "infeasible"
+    if not _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK) and status == OPTIMAL:
+        status = INFEASIBLE
         notes.append("a peak between the measured points is still over its bound")
     return Design(values=dict(zip(names, (float(v) for v in rho))), status=status,
                   message="; ".join([message, *notes]), iterations=iterations, solves=solves, per_set=per_set,

@@ -690,7 +690,8 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     if not isinstance(raw, dict):
         raise SpecError([("", f"a spec is a JSON object, not {json_type(raw)}")])
     plant = raw.get("plant")
-    if isinstance(plant, dict) and plant.get("type") in DATA_PLANTS:  # the convex technique
+    if isinstance(plant, dict) and isinstance(plant.get("type"), str) and \
+            plant["type"] in DATA_PLANTS:  # measured data: the convex technique
         from feedtune.measured.datadriven_spec import parse_data_spec
 
         return parse_data_spec(raw)
