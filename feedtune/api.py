@@ -123,6 +123,10 @@ def as_spec(spec: Spec | Mapping[str, Any] | str | os.PathLike) -> Spec:
             raise SpecError([("", f"{os.fspath(spec)}: spec is larger than the limit of "
                                   f"{MAX_SPEC_BYTES} bytes")])
         return parse_spec(data)
+    from feedtune.measured.datadriven_spec import DataDrivenSpec  # loads numpy: asked last
+
+    if isinstance(spec, DataDrivenSpec):  # a spec of measured data (the convex technique)
+        return parse_spec(spec.model_dump(mode="json"))
     raise TypeError(f"a spec is a feedtune.Spec, a dict or the path of a JSON file, not "
                     f"{type(spec).__name__}")
 
@@ -374,6 +378,9 @@ class Result:
         ResultError
             The result has no tuned values (a failed build), or its spec is not valid.
         """
+        if not isinstance(self.spec, Spec):
+            raise ResultError(f"{self._where()}: a design on measured frequency responses has "
+                              "no model to build a loop from")
         plant = plant_for(self.spec.plant)
         tunables = plant.tunables()
         tuned = self.data.tuned
@@ -419,8 +426,8 @@ class Result:
         >>> systems = feedtune.load_result("result.json").to_control()   # doctest: +SKIP
         >>> control.stability_margins(systems.open_loop)                   # doctest: +SKIP
         """
-        unit = plant_for(self.spec.plant).position_unit
-        return loop_to_control(self.loop(), unit)
+        loop = self.loop()
+        return loop_to_control(loop, plant_for(self.spec.plant).position_unit)
 
     # -- for people --------------------------------------------------------------------------
 
@@ -547,12 +554,17 @@ def summary_lines(result: TuneResult) -> list[str]:
         text += f", spectral radius {_g(stability['spectral_radius'])} [1] (z-plane poles)"
     elif "spectral_abscissa" in stability:
         text += f", spectral abscissa {_g(stability['spectral_abscissa'])} [1/s] (s-plane poles)"
+    elif stability.get("certified_by") == "nyquist":  # measured data: no poles to list
+        low, high = stability["band"]
+        text += f" by the Nyquist count on the measured {_g(low)}–{_g(high)} [rad/s]"
     lines.append(f"stability: {text}")
     s = result.solver
     method = {"ipopt": "IPOPT", "brent": "Brent"}.get(s.method, s.method.replace("_", " "))
-    unit = "generations" if s.method == "differential_evolution" else "iterations"
-    lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}, "
-                 f"{len(s.starts)} start(s); build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
+    unit = {"differential_evolution": "generations", "convex": "linearisations"}.get(
+        s.method, "iterations")
+    starts = "" if s.method == "convex" else f", {len(s.starts)} start(s)"  # one path, no starts
+    lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}{starts}; "
+                 f"build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")
     return lines
 
 

@@ -13,7 +13,7 @@ import casadi as ca
 from feedtune.expr import is_symbolic
 from feedtune.loops.loop import HorizonError
 from feedtune.objectives import METRICS
-from feedtune.plants import plant_for
+from feedtune.plants import DATA_PLANTS, plant_for
 from feedtune.plausibility import plausibility_warnings
 from feedtune.schema.labels import metric_label
 from feedtune.schema.result import (ConstraintResult, MetricValue, OptimumCheck, SolverResult,
@@ -278,6 +278,10 @@ def tune(spec: Spec, progress: Callable | None = None,
     A plant that asks for a whole-number ratio of its interpolator (``integer_ratio``) is
     solved as :func:`_tune_integer_ratio` describes; otherwise see :func:`_tune_once`.
     """
+    if spec.plant.type in DATA_PLANTS:  # measured data: the convex technique, no Loop
+        from feedtune.measured.datadriven_spec import tune_data_driven
+
+        return tune_data_driven(spec)
     if spec.robust is not None:  # uncertain plant numbers: feedtune.robust's rounds
         from feedtune.robust import tune_robust  # it solves each round with _tune_once
 

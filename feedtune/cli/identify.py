@@ -12,7 +12,7 @@ from feedtune.cli.common import (EXIT_INTERNAL, EXIT_OK, POSITIVE, check_output,
                                  fmt)
 from feedtune.cli.report import check_report_dir
 
-MODELS = ("software_servo", "hydraulic_rotary", "ward_leonard", "linear")
+MODELS = ("software_servo", "hydraulic_rotary", "ward_leonard", "linear", "frd")
 #: the options that shape the linear model only
 LINEAR_OPTIONS = ("poles", "zeros", "integrators", "dead_time", "max_dead_time")
 
@@ -38,7 +38,10 @@ def _template(path: str) -> dict:
                    "τ [s]), hydraulic_rotary (gain [rad/(s·V)], torque-motor time constant "
                    "[s], ω_n [rad/s], ξ [1]), ward_leonard (gain [rad/(s·V)], field, "
                    "electromechanical and armature time constants [s]) or linear (a transfer "
-                   "function of the orders below, coefficients in powers of s [s^i]).")
+                   "function of the orders below, coefficients in powers of s [s^i]) or frd "
+                   "(no fit: the frequency responses themselves, in rad/s, as a "
+                   "frequency_response_data block for the convex technique; --integrators "
+                   "declares the plant's poles at s = 0).")
 @click.option("-o", "--output", metavar="PLANT.json",
               help="Write the plant block (the spec's \"plant\" object) here, atomically; "
                    "the identification JSON still goes to stdout.")
@@ -78,6 +81,8 @@ def identify(data, model_name, output, report_dir, poles, zeros, integrators, de
     context = click.get_current_context()
     given = [name for name in LINEAR_OPTIONS
              if context.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE]
+    if model_name == "frd" and given in ([], ["integrators"]) and report_dir is None and like is None:
+        _frd(data, output, integrators, quiet)
     if given and model_name != "linear":
         raise click.UsageError(f"--{given[0].replace('_', '-')} applies to --model linear only")
     target = check_output(output)
@@ -126,4 +131,35 @@ def identify(data, model_name, output, report_dir, poles, zeros, integrators, de
             err(f"{entry['source']}: NRMSE {entry['nrmse']:.4g}")
         if target is not None:
             err(f"wrote {target}")
+    raise SystemExit(EXIT_OK)
+
+
+def _frd(data, output: str | None, integrators: int, quiet: bool) -> None:
+    """``--model frd``: the measured frequency responses as a ``frequency_response_data``
+    plant block (:func:`feedtune.measured.datadriven_spec.frd_plant_block`), written to
+    ``-o`` and stdout; bad data is exit 2, nothing written."""
+    target = check_output(output)
+    from feedtune.measured.data import DataError, FrequencyResponseData, read_all
+    from feedtune.measured.datadriven_spec import frd_plant_block
+
+    try:
+        measured = read_all(data)
+    except DataError as exc:
+        fail(str(exc))
+    series = [d.source for d in measured if not isinstance(d, FrequencyResponseData)]
+    if series:
+        fail(f"{series[0]}: --model frd takes frequency responses, not a time series")
+    try:
+        block = frd_plant_block(measured, integrators=integrators)
+    except ValueError as exc:
+        fail(f"{', '.join(data)}: {exc}")
+    text = (json.dumps(block, indent=1, allow_nan=False) + "\n").encode("utf-8")
+    if target is not None:
+        emit(text, target)
+    emit(text, None)
+    if not quiet:
+        err(f"{len(block['sets'])} frequency response(s), "
+            f"{sum(len(s['frequency']) for s in block['sets'])} points; controller "
+            f"{block['controller']}: set controller, filter_time_constant [s] and the "
+            "tunables in the spec" + (f"; wrote {target}" if target is not None else ""))
     raise SystemExit(EXIT_OK)

@@ -49,7 +49,9 @@ def _plant_configurations() -> dict[str, list]:
 
 def metric_support() -> dict[str, dict[str, list[str]]]:
     """Metric → ``supported`` (the plant configurations on whose loop it is defined) and
-    ``reported_only`` (those of them where it cannot be an objective or a constraint).
+    ``reported_only`` (those of them where it cannot be an objective or a constraint);
+    measured frequency responses, which have no loop, by the convex technique's table
+    (:data:`feedtune.measured.datadriven_spec.ROLES`).
 
     Computed, not written down: each registered metric's ``supports`` and ``optimisable``
     asked on the loop of each configuration of :func:`_plant_configurations` (default
@@ -75,6 +77,12 @@ def metric_support() -> dict[str, dict[str, list[str]]]:
                 support[name]["supported"].append(label)
                 if not any(metric.optimisable(loop, options) for loop in supported):
                     support[name]["reported_only"].append(label)
+    from feedtune.measured.datadriven_spec import ROLES, TECHNIQUE  # measured data: no Loop
+
+    for name, role in ROLES.items():
+        support[name]["supported"].append(TECHNIQUE)
+        if role == "reported":
+            support[name]["reported_only"].append(TECHNIQUE)
     return support
 
 
@@ -101,7 +109,9 @@ def metrics(as_json: bool) -> None:
     if as_json:
         emit((json.dumps(described, indent=2, ensure_ascii=False) + "\n").encode("utf-8"), None)
         return
-    configurations = list(_plant_configurations())
+    from feedtune.measured.datadriven_spec import TECHNIQUE
+
+    configurations = [*_plant_configurations(), TECHNIQUE]
     lines = []
     for name, m in described.items():
         lines.append(f"{name} {unit_text(m['unit'])}: {m['description']}")

@@ -53,10 +53,15 @@ def _plant_tunables(name: str, plant_cls) -> dict[str, dict]:
 
 def describe_plants() -> dict[str, dict]:
     """Every registered plant: parameters and, per technique, tunables with default bounds."""
-    from feedtune.plants import PLANTS
+    import importlib
 
+    from feedtune.plants import DATA_PLANTS, PLANTS
+
+    data_plants = {name: importlib.import_module(module).__dict__[
+        "".join(part.capitalize() for part in name.split("_"))]
+        for name, module in DATA_PLANTS.items()}
     plants = {}
-    for name, plant_cls in PLANTS.items():
+    for name, plant_cls in {**PLANTS, **data_plants}.items():
         module = sys.modules.get(plant_cls.__module__)
         plants[name] = {
             "summary": _first_line(getattr(module, "__doc__", None)),

@@ -60,9 +60,10 @@ class StartResult(ResultModel):
 
 
 class SolverResult(ResultModel):
-    method: Literal["ipopt", "brent", "differential_evolution"] = Field(
+    method: Literal["ipopt", "brent", "differential_evolution", "convex"] = Field(
         "ipopt", description="ipopt: the NLP with exact derivatives; differential_evolution: "
-                             "the search on an exact simulation (pulse generators)")
+                             "the search on an exact simulation (pulse generators); convex: "
+                             "iterated SOCPs on measured frequency responses")
     return_status: str = Field(description="The solver's own return status of the chosen start "
                                            "(IPOPT's names, also for the search)")
     message: str

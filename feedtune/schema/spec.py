@@ -22,7 +22,7 @@ from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
 from feedtune.objectives import METRICS
 from feedtune.objectives.time.step_error import StepErrorMetric, has_exact_step
-from feedtune.plants import PLANTS, plant_for
+from feedtune.plants import DATA_PLANTS, PLANTS, plant_for
 from feedtune.plants.linear import MODEL_TYPES
 from feedtune.schema.model import SpecModel
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
@@ -782,6 +782,12 @@ def parse_spec(data: bytes | str | dict) -> Spec:
     raw = data if isinstance(data, dict) else load_json(data)
     if not isinstance(raw, dict):
         raise SpecError([("", f"a spec is a JSON object, not {json_type(raw)}")])
+    plant = raw.get("plant")
+    if isinstance(plant, dict) and isinstance(plant.get("type"), str) and \
+            plant["type"] in DATA_PLANTS:  # measured data: the convex technique
+        from feedtune.measured.datadriven_spec import parse_data_spec
+
+        return parse_data_spec(raw)
     canonical, moved, problems = move_inline_forms(raw, PLANT_MODELS)
     schema, spec = [], None
     forms = [(_pointer(loc, raw), message) for loc, message in problems]

@@ -27,7 +27,7 @@ import pytest
 import feedtune
 from feedtune.objectives import METRICS
 from feedtune.objectives.base import Metric
-from feedtune.plants import PLANTS
+from feedtune.plants import DATA_PLANTS, PLANTS
 
 PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 ALL_MODULES = sorted(PACKAGE_ROOT.rglob("*.py"))
@@ -297,5 +297,7 @@ def test_plant_helper_modules_are_imported_by_a_plant():
     used = set()
     for cls in PLANTS.values():
         used |= transitive_imports(cls.__module__)
+    for module in DATA_PLANTS.values():  # plants of measured data (the convex technique)
+        used |= {module} | transitive_imports(module)
     for module in helpers:
         assert module in used, f"{module} defines no plant and no registered plant uses it"
