@@ -381,9 +381,8 @@ def hessenberg_resolvent(h, rhs, row, shift_re, shift_im):
         other = [tuple(ca.if_else(swap, t, b) for t, b in zip(te, be))
                  for te, be in zip(top[k:], bottom[k:])]
         factor = _cdiv(other[0], pivot_row[0])
-        reduced = [(0, 0)] + [
-            (o[0] - _cmul(factor, p)[0], o[1] - _cmul(factor, p)[1])
-            for o, p in zip(other[1:], pivot_row[1:])]
+        products = [_cmul(factor, p) for p in pivot_row[1:]]
+        reduced = [(0, 0)] + [(o[0] - m[0], o[1] - m[1]) for o, m in zip(other[1:], products)]
         rows[k] = rows[k][:k] + pivot_row
         rows[k + 1] = rows[k + 1][:k] + reduced
     solution = [None] * n
