@@ -505,6 +505,7 @@ class Linear(Plant):
 
     def __init__(self, params: LinearParams):
         self.params = params
+        self._bands: dict[tuple, tuple[float, float]] = {}  # frequency_band per box
 
     @property
     def position_unit(self) -> str:
@@ -819,11 +820,18 @@ class Linear(Plant):
 
         A discrete model keeps its k_p box as a low-end bound (its low-frequency asymptote
         is not computed; only the low end of a sampled band is read, the high end is the
-        Nyquist frequency).
+        Nyquist frequency). Computed once per box (the loop is built at every start and
+        for every report; a PID + notch box has 2^7 vertices).
 
         The ends are widened onto the frequency grid's lattice
         (:func:`~feedtune.loops.frequency.lattice_band`), so the grid's points do not move
         with them."""
+        key = tuple(sorted(box.items()))
+        if key not in self._bands:
+            self._bands[key] = self._frequency_band(box)
+        return self._bands[key]
+
+    def _frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         model = self.params.model
         num, den = model.polynomials()
         if model.discrete:
