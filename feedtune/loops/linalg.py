@@ -312,3 +312,86 @@ def pivoted_solve(matrix, rhs):
             row = row - ca.mtimes(upper[k, k + 1:], ca.vertcat(*solution[k + 1:]))
         solution[k] = row / upper[k, k]
     return ca.vertcat(*solution)
+
+
+def hessenberg(matrix):
+    """(H, Q) with H = Qᵀ·A·Q upper Hessenberg and Q orthogonal, A = ``matrix`` (n×n SX/MX/DM).
+
+    Householder reflections P_k = I − 2uuᵀ/uᵀu on columns k = 0 … n − 3 (Golub & Van Loan,
+    *Matrix Computations*, 4th ed., Alg. 7.4.2), the reflection's sign that of the column's
+    first entry (no cancellation); a column already zero below its subdiagonal leaves
+    P_k = I. Written in CasADi operations, so a symbolic A gives H and Q as expressions:
+    built once, they let every frequency of a resolvent C(zI − A)⁻¹b be solved in O(n²)
+    (:func:`hessenberg_resolvent`) where a dense solve costs O(n³).
+    """
+    n = matrix.shape[0]
+    a = matrix
+    q = ca.DM.eye(n)
+    for k in range(n - 2):
+        x = a[k + 1:, k]
+        alpha = -ca.if_else(x[0] >= 0, 1, -1) * ca.norm_2(x)
+        u = ca.vertcat(ca.DM.zeros(k + 1, 1), x - ca.vertcat(alpha, ca.DM.zeros(n - k - 2, 1)))
+        size = ca.sumsqr(u)
+        reflect = ca.DM.eye(n) - 2 * ca.mtimes(u, u.T) / ca.if_else(size == 0, 1, size)
+        a = ca.mtimes(ca.mtimes(reflect, a), reflect)
+        q = ca.mtimes(q, reflect)
+    return a, q
+
+
+def _cmul(a, b):
+    return a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]
+
+
+def _cdiv(a, b):
+    size = b[0] ** 2 + b[1] ** 2
+    size = ca.if_else(size == 0, 1, size)
+    return (a[0] * b[0] + a[1] * b[1]) / size, (a[1] * b[0] - a[0] * b[1]) / size
+
+
+def hessenberg_resolvent(h, rhs, row, shift_re, shift_im):
+    """Re and Im of row·(zI − H)⁻¹·rhs for H upper Hessenberg (n×n), rhs n×1, row 1×n, at
+    z = ``shift_re`` + j·``shift_im``: numbers or 1×m rows of them, one solve per column,
+    every entry computed elementwise (so a whole row of frequencies is one expression).
+
+    Gaussian elimination of the Hessenberg matrix: one subdiagonal entry per column, the
+    pivot the larger of rows k and k + 1 in modulus (partial pivoting: backward stable as
+    the dense solve), then back substitution; O(n²) complex operations per z.
+    """
+    n = h.shape[0]
+    # rows of (zI − H | rhs) as complex (re, im) pairs, columns k … n (n: the rhs)
+    rows = []
+    for i in range(n):
+        entries = []
+        for j in range(n):
+            if j < i - 1:
+                entries.append((0, 0))
+            elif i == j:
+                entries.append((shift_re - h[i, j], shift_im + 0 * shift_re))
+            else:
+                entries.append((-h[i, j], 0))
+        entries.append((rhs[i], 0))
+        rows.append(entries)
+    for k in range(n - 1):
+        top, bottom = rows[k], rows[k + 1]
+        size_top = top[k][0] ** 2 + top[k][1] ** 2
+        size_bottom = bottom[k][0] ** 2 + bottom[k][1] ** 2
+        swap = size_bottom > size_top
+        pivot_row = [tuple(ca.if_else(swap, b, t) for t, b in zip(te, be))
+                     for te, be in zip(top[k:], bottom[k:])]
+        other = [tuple(ca.if_else(swap, t, b) for t, b in zip(te, be))
+                 for te, be in zip(top[k:], bottom[k:])]
+        factor = _cdiv(other[0], pivot_row[0])
+        products = [_cmul(factor, p) for p in pivot_row[1:]]
+        reduced = [(0, 0)] + [(o[0] - m[0], o[1] - m[1]) for o, m in zip(other[1:], products)]
+        rows[k] = rows[k][:k] + pivot_row
+        rows[k + 1] = rows[k + 1][:k] + reduced
+    solution = [None] * n
+    for k in reversed(range(n)):
+        re, im = rows[k][n]
+        for j in range(k + 1, n):
+            product = _cmul(rows[k][j], solution[j])
+            re, im = re - product[0], im - product[1]
+        solution[k] = _cdiv((re, im), rows[k][k])
+    re = sum(row[0, j] * solution[j][0] for j in range(n))
+    im = sum(row[0, j] * solution[j][1] for j in range(n))
+    return re, im

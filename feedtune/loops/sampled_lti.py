@@ -344,19 +344,26 @@ class SampledLTILoop(_SampledLoopBase):
         """(I − Φ)⁻¹·rhs: the steady state per constant input."""
         return linalg.pivoted_solve(-self._state_difference, rhs)
 
+    @cached_property
+    def _hessenberg(self):
+        """(H, Q): Φ − I = Q·H·Qᵀ with H upper Hessenberg (:func:`linalg.hessenberg`), once
+        per loop: every frequency's resolvent is then an O(n²) solve."""
+        return linalg.hessenberg(self._state_difference)
+
     def _resolvent(self, omega, rhs):
-        """C(zI − Φ)⁻¹·rhs at z = e^{jωT} of the closed loop, from Φ − I: zI − Φ =
-        (z − 1)I − (Φ − I), Re(z − 1) = −2 sin²(ωT/2)."""
-        n = self.order
+        """C(zI − Φ)⁻¹·rhs at z = e^{jωT} of the closed loop, ω [rad/s] a number or a row of
+        them (one expression for the row), from Φ − I = Q H Qᵀ: zI − Φ = Q((z − 1)I − H)Qᵀ,
+        Re(z − 1) = −2 sin²(ωT/2), solved by :func:`linalg.hessenberg_resolvent`.
+
+        Measured (benchmarks/README.md, the 7-state sampled loop's bandwidth under M_peak):
+        the dense 2n × 2n real block solve per frequency could not take a row of ω, so each
+        frequency row was a mapped call that rebuilt Φ, and the expanded NLP held 227 of them
+        (28.7 s of build)."""
+        h, q = self._hessenberg
         wt = omega * self.period
-        difference = self._state_difference
-        real = -2 * ca.sin(wt / 2) ** 2 * ca.DM.eye(n) - difference
-        imag = ca.sin(wt) * ca.DM.eye(n)
-        # (R + jI)x = b as the real block system [[R, −I], [I, R]]
-        block = ca.vertcat(ca.horzcat(real, -imag), ca.horzcat(imag, real))
-        solution = linalg.pivoted_solve(block, ca.vertcat(rhs, ca.DM.zeros(n, 1)))
-        c = self.position_row
-        return ca.mtimes(c, solution[:n]), ca.mtimes(c, solution[n:])
+        return linalg.hessenberg_resolvent(h, ca.mtimes(q.T, rhs),
+                                           ca.mtimes(self.position_row, q),
+                                           -2 * ca.sin(wt / 2) ** 2, ca.sin(wt))
 
     def open_loop_response(self, omega):
         """Re and Im of L(e^{jωT}) [1], ω [rad/s] ≤ π/T: the loop opened at the controller's

@@ -51,6 +51,7 @@ space to transfer function), §11.3 (the cascade with feed-forward).
 from __future__ import annotations
 
 import cmath
+import itertools
 import math
 from typing import Annotated, Literal, Mapping, Union
 
@@ -58,6 +59,7 @@ from pydantic import Field, NonNegativeFloat, ValidationInfo, field_validator
 
 from feedtune.lazy import Deferred, np
 from feedtune.loops import linalg
+from feedtune.loops.frequency import lattice_band
 from feedtune.loops.sampled_controllers import cascade_controller, error_controller
 from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.loops.sampled_plants import (WHOLE_SAMPLE_TOL, ContinuousPlant, DiscretePlant,
@@ -85,6 +87,14 @@ def _trim(p: list[float]) -> list[float]:
     while i < len(p) - 1 and p[i] == 0:
         i += 1
     return list(p[i:])
+
+
+def _trailing(p: list[float]) -> tuple[float, int]:
+    """(the lowest nonzero coefficient, its power of s) of ``p`` (highest power first)."""
+    for power, c in enumerate(reversed(p)):
+        if c != 0:
+            return c, power
+    raise ValueError("the zero polynomial has no lowest coefficient")
 
 
 def _degree_check(numerator: list[float], denominator: list[float] | None,
@@ -495,6 +505,7 @@ class Linear(Plant):
 
     def __init__(self, params: LinearParams):
         self.params = params
+        self._bands: dict[tuple, tuple[float, float]] = {}  # frequency_band per box
 
     @property
     def position_unit(self) -> str:
@@ -795,10 +806,32 @@ class Linear(Plant):
                 + (self.params.computation_delay + 1) * period_min)
 
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
-        """(low, high) [rad/s]: two decades beyond every corner the loop can have: the
-        drive's roots (bounded from its coefficients, Fujiwara's bound; a discrete model's
-        roots z as |ln z|/T, its Nyquist frequency π/T), the controllers' and compensators'
-        corners, the position gain's box, 1/θ."""
+        """(low, high) [rad/s]: two decades beyond every frequency where the open loop L can
+        turn or cross unity over the tunables' ``box``.
+
+        * the drive's poles and zeros |p| (roots at s = 0 left out; a discrete model's roots
+          z as |ln z|/T, its Nyquist frequency π/T);
+        * the controllers' and compensators' corners at the ends of their boxes (1/T_i,
+          1/T_d, N/T_d, 1/τ, the notch frequency) and 1/θ;
+        * a cascade's position gain k_p [1/s]: the outer loop's crossover, a frequency;
+        * a direct position loop's k_p [input/output unit] is a gain, not a frequency: the
+          crossovers it can cause beyond every corner are those of L's asymptotes,
+          |L| ≈ k_p|b/a|/ω^m = 1 (:func:`_asymptote_crossovers`), at the box's vertices.
+
+        A discrete model keeps its k_p box as a low-end bound (its low-frequency asymptote
+        is not computed; only the low end of a sampled band is read, the high end is the
+        Nyquist frequency). Computed once per box (the loop is built at every start and
+        for every report; a PID + notch box has 2^7 vertices).
+
+        The ends are widened onto the frequency grid's lattice
+        (:func:`~feedtune.loops.frequency.lattice_band`), so the grid's points do not move
+        with them."""
+        key = tuple(sorted(box.items()))
+        if key not in self._bands:
+            self._bands[key] = self._frequency_band(box)
+        return self._bands[key]
+
+    def _frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         model = self.params.model
         num, den = model.polynomials()
         if model.discrete:
@@ -807,14 +840,44 @@ class Linear(Plant):
             found = [abs(cmath.log(z)) / model.period for p in (num, den)
                      for z in linalg.roots(p) if z != 0 and abs(z - 1) > 1e-9]
             found.append(math.pi / model.period)
+            found += list(box.get("position_controller.kp", ()))
         else:
-            found = [bound for p in (num, den) for bound in _root_bounds(p)]
+            found = [abs(z) for p in (num, den) for z in linalg.roots(p) if z != 0]
+            if self.params.velocity_controller == "none":
+                found += self._asymptote_crossovers(box)
+            else:
+                found += list(box.get("position_controller.kp", ()))
         found += corners(box) + compensator_corners(box)
-        found += list(box.get("position_controller.kp", ()))
         if self.dead_time > 0:
             found.append(1 / self.dead_time)
         found = [f for f in found if f > 0 and math.isfinite(f)] or [1.0]
-        return min(found) / 100, max(found) * 100
+        return lattice_band((min(found) / 100, max(found) * 100))
+
+    def _asymptote_crossovers(self, box: Mapping[str, tuple[float, float]]) -> list[float]:
+        """Where the asymptotes of a direct position loop's L = k_p·C·P cross |L| = 1
+        [rad/s], at every vertex of the position controller's box (its k_p, law, compensator
+        and notch): below the lowest corner L ≈ k_p(b_l/a_l)/s^m (m the loop type), above
+        the highest L ≈ k_p(b_h/a_h)/s^r (r the relative degree), so ω = |k_p b/a|^(1/m)
+        and ^(1/r). A crossover between the corners lies within the corners' span."""
+        n_g, d_g, n_x, q = self.drive_polynomials()
+        n_p = _trim(list(n_g if n_x is None else n_x))
+        d_p = _trim(linalg.poly_mul(q, d_g))
+        structure, _ = self._structures()
+        names = sorted(name for name in box if name.split(".")[0] in
+                       ("position_controller", "position_compensator", "notch"))
+        out = []
+        for ends in itertools.product(*(sorted(set(box[name])) for name in names)):
+            c = controller("position", structure, dict(zip(names, ends)))
+            num = _trim(linalg.poly_mul(c.numerator, n_p))
+            den = _trim(linalg.poly_mul(c.denominator, d_p))
+            low_n, low_d = _trailing(num), _trailing(den)
+            m = low_d[1] - low_n[1]  # integrators net of zeros at s = 0
+            if m > 0:
+                out.append(abs(c.gain * low_n[0] / low_d[0]) ** (1 / m))
+            r = len(den) - len(num)  # relative degree
+            if r > 0:
+                out.append(abs(c.gain * num[0] / den[0]) ** (1 / r))
+        return out
 
 
 def _engine(build):
@@ -856,18 +919,3 @@ def _spec_pointer(message: str) -> str:
         if path == engine or path.startswith(engine + "/"):
             return f"{spec}: {text}"
     return message
-
-
-def _root_bounds(p: list[float]) -> list[float]:
-    """Bounds (low, high) [rad/s] on the magnitudes of the nonzero roots of ``p``:
-    Fujiwara's bound 2·max|a_k/a_0|^(1/k) on p and on its reversal (the reciprocal roots)."""
-    p = _trim(p)
-    while len(p) > 1 and p[-1] == 0:  # roots at s = 0 dropped
-        p = p[:-1]
-    if len(p) < 2:
-        return []
-
-    def upper(c):
-        return 2 * max(abs(c[k] / c[0]) ** (1 / k) for k in range(1, len(c)))
-
-    return [1 / upper(list(reversed(p))), upper(p)]

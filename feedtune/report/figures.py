@@ -31,6 +31,8 @@ RESONANCE = 10 ** (0.1 / 20)
 SCAN_POINTS, SCAN_SPAN = 40, 1e3
 #: Bode grid density [points per decade]
 BODE_POINTS = 400
+#: the margins' scan of a continuous loop extends this factor beyond the Bode range
+MARGIN_SPAN = 1e2
 #: micrometres per metre: the circle figure's deviations are in µm
 UM = 1e6
 #: the circle figure's ring spans at least this deviation range [m] (1 nm, far below a
@@ -234,14 +236,22 @@ def margin_marks(model, result: dict, low: float,
                  high: float) -> dict[str, tuple[float, float]]:
     """Where the margin arrows go: ``phase`` (ω_c [rad/s], −180° + reported phase margin
     [deg]) at the gain crossover |L| = 1, ``gain`` (ω_180 [rad/s], −20·log10 of the reported
-    gain margin [dB]) at the lowest phase crossover arg L = −180°, each where the result
-    reports that margin. ω_c is the reported crossover frequency when there is one, else
-    located on the model's |L|; ω_180 is located on the model's unwrapped phase over
-    [``low``, ``high``] [rad/s] (the Bode range: up to π/T for a sampled loop, where L(−1)
-    real and negative is a crossover).
-    The arrows' lengths are the reported values: their tips sit on the model's curves when
-    the tuner and the model agree."""
+    gain margin [dB]) at a phase crossover, each where the result reports that margin.
+
+    ω_c is the reported crossover frequency when there is one, else located on the model's
+    |L|. The phase crossovers are where L crosses the negative real axis (Im L changes
+    sign with Re L < 0: arg L ≡ −180° modulo 360°, so a type-3 loop whose phase starts at
+    −270° has one where it rises through −180°), on a scan of [``low``, ``high``] [rad/s]
+    widened by MARGIN_SPAN on both sides for a continuous loop (a crossover beyond the
+    Bode range, e.g. a dead time's), up to π/T for a sampled one (where L(−1) real and
+    negative is a crossover); of several, the one whose 1/|L| is nearest the reported gain
+    margin (in dB). A loop whose L never crosses the negative real axis has no gain
+    margin to mark (it is infinite). The arrows' lengths are the reported values: their
+    tips sit on the model's curves when the tuner and the model agree; :func:`bode_figure`
+    widens its range to every mark."""
     marks = {}
+    if not model.sampled:
+        low, high = low / MARGIN_SPAN, high * MARGIN_SPAN
     omega = np.geomspace(low, high, int(SCAN_POINTS * math.log10(high / low)) + 2)
     open_loop = model.frequency_response(omega)[0]
 
@@ -259,16 +269,13 @@ def margin_marks(model, result: dict, low: float,
             marks["phase"] = (float(crossover), -180.0 + pm)
     gm = metric(result, "gain_margin")
     if gm is not None and gm > 0:
-        phase = np.unwrap(np.angle(open_loop)) + math.pi
-        turns = np.flatnonzero(np.sign(phase[:-2]) != np.sign(phase[1:-1]))
-        where = None
-        if turns.size:
-            i = int(turns[0])
-            where = math.exp(brentq(lambda u: at(math.exp(u)).imag,
-                                    math.log(omega[i]), math.log(omega[i + 1]), xtol=1e-12))
-        elif model.sampled and open_loop[-1].real < 0:
-            where = high
-        if where is not None:
+        crossings = [w for w in _crossings(omega, np.sign(open_loop.imag), 0.0,
+                                           lambda w: at(w).imag)
+                     if at(w).real < 0]
+        if model.sampled and open_loop[-1].real < 0:
+            crossings.append(high)
+        if crossings:
+            where = min(crossings, key=lambda w: abs(math.log(abs(at(w)) * gm)))
             marks["gain"] = (where, -20 * math.log10(gm))
     return marks
 
@@ -276,6 +283,10 @@ def margin_marks(model, result: dict, low: float,
 def bode_figure(model, result: dict) -> Figure:
     """|L|, |H| [dB] and their phases [deg]; M_peak, bandwidth, crossover and margins."""
     low, high = bode_range(model)
+    marks = margin_marks(model, result, low, high)
+    if not model.sampled:  # a margin beyond the range: widen it to show the mark
+        for w, _ in marks.values():
+            low, high = min(low, w / 2), max(high, w * 2)
     omega = np.logspace(math.log10(low), math.log10(high),
                         int(BODE_POINTS * math.log10(high / low)) + 1)
     open_loop, closed = model.frequency_response(omega)
@@ -299,7 +310,6 @@ def bode_figure(model, result: dict) -> Figure:
         for ax in (mag, phase):
             ax.axvline(crossover, color="C4", lw=0.8, ls=":")
         lines.append(f"crossover {_g(crossover)} rad/s")
-    marks = margin_marks(model, result, low, high)
     pm = metric(result, "phase_margin")
     if pm is not None:
         phase.axhline(-180 + pm, color="C4", lw=0.8, ls=":")

@@ -27,7 +27,7 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.expr import Magnitude
-from feedtune.loops.frequency import POINTS_PER_DECADE, log_grid, lowest_value
+from feedtune.loops.frequency import POINTS_PER_DECADE, lattice_band, log_grid, lowest_value
 from feedtune.loops.loop import TransferLoop
 from feedtune.objectives import METRICS
 from feedtune.objectives.frequency.frequency_domain import normalised_gain_squared
@@ -334,3 +334,17 @@ def test_bhatia_design_numbers():
     assert metric("m_peak", high) == pytest.approx(3.1536, abs=1e-4)
     assert metric("gain_margin", high) == pytest.approx(1.3296, abs=1e-4)
     assert metric("bandwidth", low) < metric("bandwidth", high)
+
+
+@pytest.mark.parametrize("band", [(0.1, 2e7), (0.05, 3e7), (0.3, 201.0), (1.234, 5.6789e4),
+                                  (0.1, 1e8)])
+def test_lattice_band_grid_is_the_lattice(band):
+    """log_grid of lattice_band(band) is the points 10^(k/40) from an even k, covering the
+    band by less than two grid steps below and one above: its points do not move with the
+    band's ends. 1e-9 in k: rounding of log10 of numbers near 1e8 (≈ 1e-14)."""
+    low, high = lattice_band(band)
+    assert band[0] * 10 ** (-2 / POINTS_PER_DECADE) < low <= band[0]
+    assert band[1] <= high * (1 + 1e-12) and high < band[1] * 10 ** (1 / POINTS_PER_DECADE)
+    k = np.log10(log_grid((low, high))) * POINTS_PER_DECADE
+    np.testing.assert_allclose(k, np.round(k), rtol=0, atol=1e-9)
+    assert round(k[0]) % 2 == 0 and np.all(np.diff(np.round(k)) == 1)

@@ -363,3 +363,42 @@ def test_type_two_loop_is_tuned_reported_and_validated():
     assert block["covered"] and block["ok"], [e for e in block["entries"] if not e["ok"]]
     assert any(e["metric"] == "settling_time" and e["options"]["input"] == "ramp"
                for e in block["entries"])
+
+
+# -- the frequency band (issue 16: a direct loop's k_p is a gain, not a frequency) ---------
+
+PID_NOTCH = json.loads((Path(__file__).resolve().parents[2] / "examples"
+                        / "user-defined-pid-notch.json").read_text())
+
+
+def band_of(spec: dict) -> tuple[float, float]:
+    return plant_for(parse_spec(spec).plant).frequency_band(box(spec))
+
+
+def test_band_of_a_direct_loop_is_its_corners_not_its_gain():
+    """examples/user-defined-pid-notch.json: k_p ∈ [1e4, 1e6] N·m/m is no frequency. The
+    highest corner over the box is the derivative filter N/T_d = 20/1e-4 = 2e5 rad/s (the
+    drive's zero 4.3e4, its mode 1732), the lowest 1/T_d = 10 rad/s: two decades beyond,
+    [0.1, 2e7], widened onto the grid's lattice by less than one grid step (6 %).
+    Before, the band ran to 100·k_p = 1e8 rad/s."""
+    low, high = band_of(PID_NOTCH)
+    assert 0.1 * 10 ** (-2 / 40) < low <= 0.1
+    assert 2e7 <= high < 2e7 * 10 ** (1 / 40)
+
+
+def test_band_reaches_a_crossover_beyond_every_corner():
+    """A PI position loop on a pure integrator 1000/s (its only corner 1/T_i = 1 rad/s):
+    L = 1000 k_p (s + 1)/s², whose crossovers are where the asymptotes meet 1: 1000 k_p
+    above the corner (1e9 rad/s at k_p = 1e6), √(1000 k_p) below it (√10 at k_p = 1e-2,
+    above the corner, so the corner bounds the low end). The band reaches two decades
+    beyond the high one, however k_p's unit scales it."""
+    spec = {"name": "integrator", "plant": {
+        "type": "linear", "model": {"type": "transfer_function", "numerator": [1000.0],
+                                    "denominator": [1.0, 0.0]},
+        "input_unit": "m/s", "output_unit": "m", "position_controller": "pi"},
+        "tunables": {"position_controller.kp": {"min": 1e-2, "max": 1e6},
+                     "position_controller.ti": {"value": 1.0}},
+        "objective": [{"metric": "bandwidth", "goal": "maximize"}]}
+    low, high = band_of(spec)
+    assert high >= 1e11
+    assert low <= 1e-2

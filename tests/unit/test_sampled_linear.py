@@ -283,3 +283,18 @@ def test_a_continuous_spec_may_state_the_sampled_options_defaults():
     spec["objective"] = [{"metric": "phase_margin", "goal": "maximize"}]  # IAE: sampled only
     spec["constraints"] = []
     assert parse_spec(spec).plant.implementation == "continuous"
+
+
+def test_closed_loop_responses_take_a_row_of_frequencies():
+    """H, S and the error response of the 7-state README drive at 1 kHz evaluated on a
+    1×m row of ω are one expression with m values, each the value at its own ω (the
+    tuner's frequency rows then share one Φ instead of building it per frequency). 1e-12:
+    the same operations in another order, on values of order 1."""
+    loop, _ = drive_loop()
+    omega = np.geomspace(1.0, np.pi / 1e-3, 9)
+    for name in ("frequency_response", "sensitivity_response", "error_response"):
+        re, im = getattr(loop, name)(ca.DM(omega).T)
+        assert re.shape == im.shape == (1, omega.size)
+        row = np.array(ca.evalf(re)).ravel() + 1j * np.array(ca.evalf(im)).ravel()
+        each = np.array([response(getattr(loop, name)(w)) for w in omega])
+        np.testing.assert_allclose(row, each, rtol=0, atol=1e-12 * np.max(np.abs(each)))
