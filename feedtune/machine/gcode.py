@@ -373,6 +373,12 @@ def parse_program(text: str, *, source: str, units: str | None = None,
                     segments.append(Line(position, target, speed, rapid=motion == 0,
                                          source_line=number, exact_stop=stop))
             else:
+                if "R" not in moves and math.hypot(target[0] - position[0], target[1] - position[1]) \
+                        <= ARC_RADIUS_TOLERANCE[unit] * scale:
+                    # a full circle whose end is off its start by rounding (an absolute end
+                    # after incremental sums): the end is the start, or the arc's sweep
+                    # would be the tiny angle between them
+                    target = (position[0], position[1], target[2])
                 center = _arc_centre(position, target, moves, seen, motion == 30, unit, fail)
                 try:
                     segments.append(Arc(position, target, center, ccw=motion == 30, feed=speed,
