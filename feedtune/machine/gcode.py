@@ -70,6 +70,10 @@ UNIT_METRES = {"mm": 1e-3, "inch": 0.0254}
 #: how far the end of an I/J arc may lie off the start's circle [program units]: 0.002 mm,
 #: 0.0002 inch (a 3-decimal mm or 4-decimal inch program's rounding of end and centre)
 ARC_RADIUS_TOLERANCE = {"mm": 0.002, "inch": 0.0002}
+#: an I/J arc whose end is within ``ARC_RADIUS_TOLERANCE`` of its start is a full circle
+#: only if that chord also subtends less than 1° (chord/radius < 2 sin 0.5°); otherwise
+#: (a circle of a few resolution steps) it is the short arc as written
+FULL_CIRCLE_CHORD = 2 * math.sin(math.radians(0.5))
 
 _WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))", re.ASCII)
 _MOTION = {0: "G0", 10: "G1", 20: "G2", 30: "G3"}
@@ -373,11 +377,15 @@ def parse_program(text: str, *, source: str, units: str | None = None,
                     segments.append(Line(position, target, speed, rapid=motion == 0,
                                          source_line=number, exact_stop=stop))
             else:
-                if "R" not in moves and math.hypot(target[0] - position[0], target[1] - position[1]) \
-                        <= ARC_RADIUS_TOLERANCE[unit] * scale:
+                chord = math.hypot(target[0] - position[0], target[1] - position[1])
+                radius = math.hypot(moves.get("I", 0.0), moves.get("J", 0.0)) * scale
+                if "R" not in moves and chord <= ARC_RADIUS_TOLERANCE[unit] * scale \
+                        and chord <= FULL_CIRCLE_CHORD * radius:
                     # a full circle whose end is off its start by rounding (an absolute end
                     # after incremental sums): the end is the start, or the arc's sweep
-                    # would be the tiny angle between them
+                    # would be the tiny angle between them. A chord that is short only
+                    # because the circle is (a radius near the program's resolution) is
+                    # an arc as written, as LinuxCNC reads it
                     target = (position[0], position[1], target[2])
                 center = _arc_centre(position, target, moves, seen, motion == 30, unit, fail)
                 try:

@@ -247,3 +247,18 @@ def test_full_circle_whose_end_is_off_its_start_by_float_rounding_keeps_its_cent
     start = prog.path.segments[-2].end
     np.testing.assert_allclose(arc.center[:2], start[:2] + [6.026e-3, -0.253e-3], atol=TOL)
     assert arc.sweep == pytest.approx(2 * math.pi, abs=1e-12)
+
+
+def test_arc_end_within_rounding_of_its_start_is_a_full_circle_only_on_a_large_circle():
+    # radius 10 mm, the end 0.001 mm off the start (a 3-decimal program's rounding): a
+    # chord of 0.006° of the circle, so a full circle; a radius of 0.001 mm (the program's
+    # resolution) turned by a quarter has a chord of 0.0014 mm, also within the rounding,
+    # but 90° of its circle: the quarter arc as written (hypothesis found it read as a
+    # full circle, 2π where π/2 was programmed)
+    big = parse_program("G21 G90 G1 X10 F100\nG3 X10 Y0.001 I-10 J0\n", source="t")
+    assert big.path.segments[-1].sweep == pytest.approx(2 * math.pi, abs=1e-12)
+    small = parse_program("G21 G90 G1 Z0.001 F100\nG2 X-0.001 Y0.001 Z0 I0 J0.001\n",
+                          source="t")
+    arc = small.path.segments[-1]
+    assert arc.sweep == pytest.approx(-math.pi / 2, abs=1e-9)
+    np.testing.assert_allclose(arc.end, [-1e-6, 1e-6, 0], atol=TOL)
