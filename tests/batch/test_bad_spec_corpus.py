@@ -128,9 +128,10 @@ def corpus() -> list[Case]:
         Case("overflow", _replace("overflow", '"time_constant": 0.02', '"time_constant": 1e400'),
              "/plant/time_constant", "finite number"),
         # -- wrong types ----------------------------------------------------------------
+        # a list for a bound (a list for a plant number is a robust set of values now)
         Case("type-list-for-number", _edit("type-list-for-number",
-                                           _set(("plant", "time_constant"), [0.02])),
-             "/plant/time_constant", "valid number"),
+                                           _set(("constraints", 0, "min"), [0.5])),
+             "/constraints/0/min", "valid number"),
         Case("type-word-for-number", _edit("type-word-for-number",
                                            _set(("plant", "blu"), "five microns")),
              "/plant/blu", "valid number"),
