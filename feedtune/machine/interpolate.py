@@ -72,7 +72,7 @@ import math
 
 import numpy as np
 
-from feedtune.machine.path import Arc, Line, Path, Reference
+from feedtune.machine.path import Path, Reference, SegmentTable
 
 #: at most this many samples in one reference (8 MB per float column)
 MAX_SAMPLES = 20_000_000
@@ -88,53 +88,26 @@ def _positive(value, name: str, unit: str) -> float:
 
 
 class _Segments:
-    """The path's segments as columns (n,) / (n, 3), read once."""
+    """The path's segments as columns (:class:`SegmentTable`), feeds scaled by the override."""
 
     def __init__(self, path: Path, feed_override: float = 1.0):
-        segs = path.segments
-        if not segs:
+        if not path.segments:
             raise ValueError("an empty path has nothing to interpolate")
-        n = len(segs)
-        self.length = np.array([s.length for s in segs])
-        self.feed = np.array([float(s.feed) for s in segs])
-        if not np.all(np.isfinite(self.feed) & (self.feed > 0)):
-            k = int(np.argmin(np.isfinite(self.feed) & (self.feed > 0)))
-            raise ValueError(f"segment {k} has feed {self.feed[k]!r}; feeds must be positive [m/s]")
-        self.start = np.array([s.start for s in segs])
-        self.end = np.array([s.end for s in segs])
-        self.is_arc = np.array([isinstance(s, Arc) for s in segs])
-        self.rapid = np.array([isinstance(s, Line) and s.rapid for s in segs])
-        self.feed = np.where(self.rapid, self.feed, self.feed * feed_override)
-        self.exact_stop = np.array([bool(s.exact_stop) for s in segs])
-        self.center = np.zeros((n, 3))
-        self.radius = np.zeros(n)
-        self.sweep = np.zeros(n)
-        for k in np.flatnonzero(self.is_arc):
-            arc = segs[k]
-            self.center[k] = arc.center
-            self.radius[k] = arc.radius
-            self.sweep[k] = arc.sweep
-        rel = self.start - self.center
-        self.angle0 = np.where(self.is_arc, np.arctan2(rel[:, 1], rel[:, 0]), 0.0)
+        table = SegmentTable.of(path)
+        feed = table.feed
+        if not np.all(np.isfinite(feed) & (feed > 0)):
+            k = int(np.argmin(np.isfinite(feed) & (feed > 0)))
+            raise ValueError(f"segment {k} has feed {feed[k]!r}; feeds must be positive [m/s]")
+        self.table = table
+        self.length, self.start, self.end = table.length, table.start, table.end
+        self.is_arc, self.rapid, self.exact_stop = table.arc, table.rapid, table.exact_stop
+        self.center, self.radius, self.sweep = table.center, table.radius, table.sweep
+        self.angle0 = table.angle
+        self.feed = np.where(self.rapid, feed, feed * feed_override)
 
     def tangents(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit tangents (n, 3) at each segment's start and end (zero for zero length)."""
-        chord = self.end - self.start
-        with np.errstate(invalid="ignore", divide="ignore"):
-            line = np.where(self.length[:, None] > 0, chord / self.length[:, None], 0.0)
-        sign = np.sign(self.sweep)
-        planar = self.radius * np.abs(self.sweep)
-        dz = chord[:, 2]
-        norm = np.hypot(planar, dz)
-        norm = np.where(norm > 0, norm, 1.0)
-        a1 = self.angle0 + self.sweep
-
-        def arc_tangent(a):
-            return np.column_stack([-sign * np.sin(a) * planar, sign * np.cos(a) * planar, dz]) / norm[:, None]
-
-        arc = self.is_arc[:, None]
-        return (np.where(arc, arc_tangent(self.angle0), line),
-                np.where(arc, arc_tangent(a1), line))
+        return self.table.end_tangents()
 
     def points(self, k: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Points (m, 3) at local arc length ``s`` of segments ``k``."""

@@ -11,6 +11,7 @@ arc (a helix) so that a program with a z move in an arc block is not silently fl
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -220,6 +221,127 @@ def _points(points) -> np.ndarray:
     if p.shape[1] != 3:
         raise ValueError(f"points must be (n, 2) or (n, 3) [m], got shape {p.shape}")
     return p
+
+
+@dataclass(frozen=True)
+class SegmentTable:
+    """A path's segments as arrays (M segments): what the interpolator and the contour
+    metrics read, for vectorised end tangents, points and distances."""
+
+    arc: np.ndarray  # bool (M,)
+    start: np.ndarray  # (M, 3) [m]
+    end: np.ndarray  # (M, 3) [m]
+    center: np.ndarray  # (M, 3) [m]
+    radius: np.ndarray  # (M,) [m], 0 for a line
+    angle: np.ndarray  # (M,) start angle [rad]
+    sweep: np.ndarray  # (M,) signed sweep [rad]
+    length: np.ndarray  # (M,) [m]
+    begin: np.ndarray  # (M,) arc length at the segment's start [m]
+    rapid: np.ndarray  # bool (M,)
+    feed: np.ndarray  # (M,) [m/s]
+    exact_stop: np.ndarray  # bool (M,)
+
+    @classmethod
+    def of(cls, path: Path) -> SegmentTable:
+        """The table of ``path`` (the last few paths' tables are kept: a tuner runs one
+        path many times)."""
+        return _table(path)
+
+    @classmethod
+    def build(cls, path: Path) -> SegmentTable:
+        segs = path.segments
+        arc = np.array([isinstance(s, Arc) for s in segs], dtype=bool)
+        length = np.array([s.length for s in segs])
+        zero3 = np.zeros(3)
+        return cls(
+            arc=arc,
+            start=np.array([s.start for s in segs]).reshape(-1, 3),
+            end=np.array([s.end for s in segs]).reshape(-1, 3),
+            center=np.array([s.center if a else zero3 for s, a in zip(segs, arc)]).reshape(-1, 3),
+            radius=np.array([s.radius if a else 0.0 for s, a in zip(segs, arc)]),
+            angle=np.array([math.atan2(*(s.start - s.center)[1::-1]) if a else 0.0
+                            for s, a in zip(segs, arc)]),
+            sweep=np.array([s.sweep if a else 0.0 for s, a in zip(segs, arc)]),
+            length=length,
+            begin=np.concatenate([[0.0], np.cumsum(length)[:-1]]),
+            rapid=np.array([isinstance(s, Line) and s.rapid for s in segs], dtype=bool),
+            feed=np.array([float(s.feed) for s in segs]),
+            exact_stop=np.array([bool(s.exact_stop) for s in segs], dtype=bool),
+        )
+
+    def end_tangents(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unit tangents (M, 3) at every segment's start and end, as ``tangent_at``."""
+        d = self.end - self.start
+        norm = np.linalg.norm(d, axis=1)
+        line = d / np.where(norm > 0, norm, 1.0)[:, None]
+        turn = np.sign(self.sweep)
+        planar = self.radius * np.abs(self.sweep)
+        dz = d[:, 2]
+        scale = np.hypot(planar, dz)
+        scale = np.where(scale > 0, scale, 1.0)
+
+        def arc_tangent(angle):
+            return np.column_stack([-turn * np.sin(angle) * planar, turn * np.cos(angle) * planar,
+                                    dz]) / scale[:, None]
+
+        first = np.where(self.arc[:, None], arc_tangent(self.angle), line)
+        last = np.where(self.arc[:, None], arc_tangent(self.angle + self.sweep), line)
+        return first, last
+
+    def spheres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Centre (M, 3) and radius (M,) [m] of a sphere holding each segment."""
+        centre = 0.5 * (self.start + self.end)
+        centre[self.arc, :2] = self.center[self.arc, :2]
+        half = 0.5 * np.linalg.norm(self.end - self.start, axis=1)
+        radius = np.where(self.arc, np.hypot(self.radius, 0.5 * np.abs(self.end[:, 2]
+                                                                      - self.start[:, 2])),
+                          half)
+        return centre, radius * (1 + 1e-12) + 1e-15
+
+    def distance(self, index: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(distance [m], arc length of the nearest point [m]) of each point (n, 3) from
+        segment ``index`` (n,), as :meth:`Line.distance` and :meth:`Arc.distance`."""
+        dist = np.empty(len(index))
+        where = np.empty(len(index))
+        is_arc = self.arc[index]
+        for pick, formula in ((~is_arc, self._line), (is_arc, self._arc)):
+            if pick.any():
+                k = index[pick]
+                d, u = formula(k, points[pick])
+                dist[pick] = d
+                where[pick] = self.begin[k] + u * self.length[k]
+        return dist, where
+
+    def _line(self, index, points):
+        start, end = self.start[index], self.end[index]
+        d = end - start
+        dd = np.einsum("ij,ij->i", d, d)
+        safe = np.where(dd > 0, dd, 1.0)
+        u = np.where(dd > 0, np.clip(np.einsum("ij,ij->i", points - start, d) / safe,
+                                     0.0, 1.0), 0.0)
+        return np.linalg.norm(points - (start + u[:, None] * d), axis=1), u
+
+    def _arc(self, index, points):
+        start, end = self.start[index], self.end[index]
+        rel = points[:, :2] - self.center[index, :2]
+        sweep = self.sweep[index]
+        ang = np.arctan2(rel[:, 1], rel[:, 0])
+        a0 = self.angle[index]
+        travelled = np.where(sweep > 0, ang - a0, a0 - ang) % (2 * math.pi)
+        inside = travelled <= np.abs(sweep)
+        u = np.clip(travelled / np.abs(sweep), 0.0, 1.0)
+        z = start[:, 2] + u * (end[:, 2] - start[:, 2])
+        radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius[index]),
+                          points[:, 2] - z)
+        to_start = np.linalg.norm(points - start, axis=1)
+        to_end = np.linalg.norm(points - end, axis=1)
+        u = np.where(inside, u, np.where(to_start <= to_end, 0.0, 1.0))
+        return np.where(inside, radial, np.minimum(to_start, to_end)), u
+
+
+@functools.lru_cache(maxsize=8)
+def _table(path: Path) -> SegmentTable:
+    return SegmentTable.build(path)  # a Path hashes by identity (eq=False)
 
 
 @dataclass(frozen=True, eq=False)

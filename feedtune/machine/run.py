@@ -20,9 +20,9 @@ import numpy as np
 from feedtune.expr import to_float
 from feedtune.loops.export import closed_loop_state_space
 from feedtune.loops.protocols import Capability
-from feedtune.machine.contour import SegmentTable, contour_metrics, step_settling_time
+from feedtune.machine.contour import contour_metrics, step_settling_time
 from feedtune.machine.interpolate import interpolate
-from feedtune.machine.path import Path
+from feedtune.machine.path import Path, SegmentTable
 from feedtune.machine.simulate import (AxisModel, CrossCoupling, discretise, run_out_samples,
                                        simulate_coupled, simulate_independent)
 from feedtune.machine.spec import SAMPLING_PERIOD, MachineSpec, nominal

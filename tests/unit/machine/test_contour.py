@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from feedtune.machine.contour import SegmentTable, contour_distance
+from feedtune.machine.contour import contour_distance
 from feedtune.machine.gcode import parse_program
 from feedtune.machine.interpolate import transition_length
+from feedtune.machine.path import SegmentTable
 from feedtune.machine.run import builtin_path, run
 from feedtune.machine.spec import parse_machine
 
