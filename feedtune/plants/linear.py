@@ -120,12 +120,18 @@ _NOT_STRICTLY_PROPER = (
     "algebraic loop")
 
 
+#: the shortest sampling period a discrete model may have [s]: 1 ns, a thousand times
+#: faster than any drive's current loop; a shorter one (2.2e-308 s, found by hypothesis)
+#: overflowed only when the loop was formed, refused at /plant instead of at its field
+MIN_MODEL_PERIOD = 1e-9
+
+
 def _period_field():
     """The ``period`` every model form takes: a sampling period makes it a model in z."""
     return Field(
-        None, gt=0,
-        description="Sampling period T of a discrete model [s]; omitted: a continuous model "
-                    "in s. With it the model is in z (x(k+1) = A x(k) + B u(k)), strictly "
+        None, ge=MIN_MODEL_PERIOD,
+        description="Sampling period T of a discrete model [s], at least 1e-9 s; omitted: a "
+                    "continuous model in s. With it the model is in z (x(k+1) = A x(k) + B u(k)), strictly "
                     "proper, its output a position (m or rad), and it is closed by a sampled "
                     "controller at this same period (implementation 'sampled'; the sampling "
                     "period is then fixed, not tunable)")

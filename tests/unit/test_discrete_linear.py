@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 import feedtune
 from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.plants import plant_for
+from feedtune.plants.linear import MIN_MODEL_PERIOD
 from feedtune.schema.spec import SpecError, parse_spec
 from feedtune_cli import run_cli
 
@@ -96,8 +97,10 @@ def _without_sampling_period(spec):
       "numerator": None, "denominator": None}, {}, {}, "/plant/model/d", "strictly proper"),
     ({"denominator": []}, {}, {}, "/plant/model/denominator", "at least 1"),
     ({"numerator": [0.0, 0.0]}, {}, {}, "/plant/model/numerator", "zero"),
-    ({"period": 0.0}, {}, {}, "/plant/model/period", "greater than 0"),
-    ({"period": -PERIOD}, {}, {}, "/plant/model/period", "greater than 0"),
+    ({"period": 0.0}, {}, {}, "/plant/model/period", "greater than or equal to 0.000000001"),
+    ({"period": -PERIOD}, {}, {}, "/plant/model/period", "greater than or equal to 0.000000001"),
+    ({"period": 2.2250738585072014e-308}, {}, {}, "/plant/model/period",
+     "greater than or equal to 0.000000001"),
     # a discrete drive is closed by a sampled controller, reads a position, has no velocity
     ({}, {"implementation": "continuous"}, {}, "/plant/implementation", "sampled"),
     ({}, {"output_unit": "m/s"}, {}, "/plant/output_unit", "position"),
@@ -145,18 +148,19 @@ def test_any_discrete_model_parses_or_is_refused_at_its_field(numerator, denomin
     the spec; never another exception. What decides it is known in advance: a zero
     numerator or one not strictly proper (improper only, when the period itself is
     refused: the model is then not known to be in z), a zero leading denominator
-    coefficient, a period ≤ 0 and a negative dead time are refused at their own field."""
+    coefficient, a period below MIN_MODEL_PERIOD (1 ns) and a negative dead time are refused at their own field."""
     spec = with_plant(model={"numerator": numerator, "denominator": denominator,
                              "period": period},
                       position_controller=controller, dead_time_samples=samples)
     spec["constraints"] = []  # ζ of the pole pair: order-2 loops only
     trimmed = numerator[next((i for i, c in enumerate(numerator) if c), len(numerator)):]
     expected = set()
-    if period <= 0:
+    in_z = period >= MIN_MODEL_PERIOD  # a period it accepts makes the model one in z
+    if not in_z:
         expected.add("/plant/model/period")
     if denominator[0] == 0:
         expected.add("/plant/model/denominator")
-    elif not trimmed or len(trimmed) > len(denominator) - (period > 0):  # strictly, in z
+    elif not trimmed or len(trimmed) > len(denominator) - in_z:  # strictly, in z
         expected.add("/plant/model/numerator")
     if samples < 0:
         expected.add("/plant/dead_time_samples")
