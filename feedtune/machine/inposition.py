@@ -17,14 +17,17 @@ overshoot; a control checks in-position and zero speed, which this is.)
 
 How, without anything flowing back into a loop: every axis is linear and time-invariant,
 so its following error over the program is the sum of the errors of the pieces of motion
-between stops, each simulated once from rest (:func:`~feedtune.machine.simulate.
-simulate_lti`, its displacement from its start, held at the end for the axes' run-out),
-shifted to where the piece starts. Piece p starts where the hold of stop p − 1 ends, which
+between stops, each from rest and held at its end for the axes' run-out (until the slowest
+mode has decayed by 1e-9, :func:`~feedtune.machine.simulate.run_out_samples`), shifted to
+where the piece starts. All pieces' errors come from one simulation per axis of the pieces
+end to end, each held for that run-out (the axes are then at rest to 1e-9 of the lag, and
+the next piece starts as if from rest). Piece p starts where the hold of stop p − 1 ends, which
 only the pieces before it decide: the holds are found one stop after another by adding
 each piece's error into the running sum and reading where it leaves the band for the
 last time. The result is a reference (:func:`~feedtune.machine.interpolate.join`) that
 the machine simulation runs like any other: the axes never see anything but a reference.
-The cost is one extra simulation of every piece and its run-out.
+The cost is one extra simulation of the pieces, each with its run-out
+(benchmarks/machine_inposition.py).
 
 Independent axes only: a cross-coupled controller's loop follows the path's direction,
 so it is not time-invariant and the sum does not hold (the machine spec refuses both).
@@ -38,21 +41,25 @@ import numpy as np
 
 from feedtune.machine.interpolate import MAX_SAMPLES, join, stop_pieces
 from feedtune.machine.path import Path, Reference
-from feedtune.machine.simulate import AxisModel, axis_inputs, run_out_samples, simulate_lti
+from feedtune.machine.simulate import AxisModel, run_out_samples, simulate_independent
 
 
-def piece_error(models: list[AxisModel], piece: Reference, tail: int) -> np.ndarray:
-    """Following error [m] (len(piece) + ``tail``, axes) of the axes starting at rest at
-    the piece's first point, the reference held at its last point for ``tail`` samples."""
+def piece_errors(models: list[AxisModel], pieces: list[Reference], tail: int) -> list[np.ndarray]:
+    """Following error [m] (len(piece) + ``tail``, axes) of each piece, the axes starting
+    at rest at its first point and the reference held at its last for ``tail`` samples.
+
+    One simulation per axis: the pieces end to end, each held for ``tail`` samples (after
+    which the axes are at rest at its end to within the run-out's decay, so the next
+    piece starts as if from rest there)."""
     count = len(models)
-    moved = piece.position[:, :count] - piece.position[0, :count]
-    moved = np.vstack([moved, np.repeat(moved[-1:], tail, axis=0)])
-    error = np.empty_like(moved)
-    for i, model in enumerate(models):
-        error[:, i] = moved[:, i] - simulate_lti(model.phi, model.gamma[:, :2], model.c,
-                                                 np.array([model.d, 0.0]),
-                                                 axis_inputs(moved[:, i]))
-    return error
+    rows = np.concatenate([np.append(np.arange(len(piece.time)),
+                                     np.full(tail, len(piece.time) - 1)) for piece in pieces])
+    which = np.repeat(np.arange(len(pieces)), [len(piece.time) + tail for piece in pieces])
+    command = np.concatenate([piece.position[:, :count] for piece in pieces])
+    offsets = np.concatenate([[0], np.cumsum([len(piece.time) for piece in pieces])[:-1]])
+    command = command[offsets[which] + rows]
+    error = command - simulate_independent(models, command)
+    return np.split(error, np.cumsum([len(piece.time) + tail for piece in pieces])[:-1])
 
 
 def hold_samples(models: list[AxisModel], pieces: list[Reference], band: float,
@@ -64,15 +71,17 @@ def hold_samples(models: list[AxisModel], pieces: list[Reference], band: float,
     Raises
     ------
     ValueError
-        An axis that does not settle within ``band`` in :data:`MAX_SAMPLES` samples.
+        An axis that does not settle within ``band`` in its run-out.
     UnstableAxis
         An unstable axis.
     """
     tail = run_out_samples(models, MAX_SAMPLES)
+    if sum(len(piece.time) + tail for piece in pieces) > MAX_SAMPLES:
+        raise ValueError(f"{len(pieces)} stops, each with a run-out of {tail} samples: more "
+                         f"than {MAX_SAMPLES} samples to find the in-position waits")
     total = np.zeros((0, len(models)))
     holds, start = [], 0
-    for piece in pieces:
-        error = piece_error(models, piece, tail)
+    for piece, error in zip(pieces, piece_errors(models, pieces, tail)):
         end = start + len(error)
         if end > len(total):
             total = np.vstack([total, np.zeros((max(end, 2 * len(total)) - len(total),
