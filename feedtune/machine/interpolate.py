@@ -2,7 +2,7 @@
 
 ``interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
 corner_tolerance: float | None = None, time_constant: float | None = None,
-feed_override: float = 1.0) -> Reference``
+feed_override: float = 1.0, max_normal_acceleration: float | None = None) -> Reference``
 
 Feed profile
 ------------
@@ -48,8 +48,20 @@ samples at once (numpy, no Python loop per sample or per block beyond reading th
 segments). The reference starts at t = 0 at the path's start and ends at the first sample
 at or after the end of the motion, at the path's end point.
 
-Acceleration is tangential only (along the path); an arc's centripetal v²/R is not
-limited (the block's F is what the program asks for).
+Acceleration: ``max_acceleration`` is tangential (along the path). With
+``max_normal_acceleration`` a_n [m/s²] an arc's feed is first lowered to √(a_n/κ) (κ = 1/R
+on a planar arc, R/(R² + p²) on a helix of pitch p [m/rad]), so that its normal
+(centripetal) acceleration v²κ stays within a_n whatever the program and the feed
+override ask; the arcs so slowed are listed in the reference's ``summary``. The two
+limits are separate: in the acceleration phases at an arc's ends the total acceleration
+is √(a² + a_n²) at most.
+
+Stops and in-position waits: :func:`stop_pieces` cuts the same motion at its stops
+(the junctions whose speed is 0 above) into pieces that each start at t = 0, and
+:func:`join` puts them end to end with a hold after each; the holds are what a control's
+in-position check waits (:mod:`feedtune.machine.inposition` finds them from the axes'
+simulated errors). :func:`interpolate` itself never waits: without holds an exact stop
+takes no time beyond stopping the reference.
 
 V-F pulses (Tian et al.): :func:`pulse_reference` turns a reference into the position
 each axis' pulse counter reaches under Tian's V-F transformation (``feedtune.loops.
