@@ -5,20 +5,17 @@ their pointer."""
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 FIG38 = REPO / "examples" / "machine" / "bhatia-fig38.json"
 MACHINE = REPO / "examples" / "machine" / "two-axes.json"
 
 
-def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          cwd=REPO, timeout=600,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+def run(*args: str):
+    return run_cli(*args, cwd=REPO)
 
 
 def test_fig38_with_his_special_code_reports_the_wait_and_the_overshoot_at_b(tmp_path):
