@@ -12,8 +12,8 @@ null position at B."
 The hold at a stop is the first interpolation instant after which the following error of
 every axis stays within ``band`` while the reference holds there: the table has settled,
 at rest to within the band. (Its error merely being within the band once is not enough:
-Bhatia's drive crosses null 14 ms after the stop at full speed on its way to a 60 µm
-overshoot; a control checks in-position and zero speed, which this is.)
+Bhatia's drive crosses null 14 ms after the stop, still moving, on its way to a 60 µm
+overshoot; a control approximates this by checking the band and zero speed.)
 
 How, without anything flowing back into a loop: every axis is linear and time-invariant,
 so its following error over the program is the sum of the errors of the pieces of motion
