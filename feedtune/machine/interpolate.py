@@ -2,7 +2,7 @@
 
 ``interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
 corner_tolerance: float | None = None, time_constant: float | None = None,
-feed_override: float = 1.0) -> Reference``
+feed_override: float = 1.0, max_normal_acceleration: float | None = None) -> Reference``
 
 Feed profile
 ------------
@@ -48,8 +48,20 @@ samples at once (numpy, no Python loop per sample or per block beyond reading th
 segments). The reference starts at t = 0 at the path's start and ends at the first sample
 at or after the end of the motion, at the path's end point.
 
-Acceleration is tangential only (along the path); an arc's centripetal v²/R is not
-limited (the block's F is what the program asks for).
+Acceleration: ``max_acceleration`` is tangential (along the path). With
+``max_normal_acceleration`` a_n [m/s²] an arc's feed is first lowered to √(a_n/κ) (κ = 1/R
+on a planar arc, R/(R² + p²) on a helix of pitch p [m/rad]), so that its normal
+(centripetal) acceleration v²κ stays within a_n whatever the program and the feed
+override ask; the arcs so slowed are listed in the reference's ``summary``. The two
+limits are separate: in the acceleration phases at an arc's ends the total acceleration
+is √(a² + a_n²) at most.
+
+Stops and in-position waits: :func:`stop_pieces` cuts the same motion at its stops
+(the junctions whose speed is 0 above) into pieces that each start at t = 0, and
+:func:`join` puts them end to end with a hold after each; the holds are what a control's
+in-position check waits (:mod:`feedtune.machine.inposition` finds them from the axes'
+simulated errors). :func:`interpolate` itself never waits: without holds an exact stop
+takes no time beyond stopping the reference.
 
 V-F pulses (Tian et al.): :func:`pulse_reference` turns a reference into the position
 each axis' pulse counter reaches under Tian's V-F transformation (``feedtune.loops.
@@ -88,9 +100,11 @@ def _positive(value, name: str, unit: str) -> float:
 
 
 class _Segments:
-    """The path's segments as columns (:class:`SegmentTable`), feeds scaled by the override."""
+    """The path's segments as columns (:class:`SegmentTable`), feeds scaled by the override
+    and, on arcs, lowered to the normal-acceleration limit."""
 
-    def __init__(self, path: Path, feed_override: float = 1.0):
+    def __init__(self, path: Path, feed_override: float = 1.0,
+                 normal_acceleration: float | None = None):
         if not path.segments:
             raise ValueError("an empty path has nothing to interpolate")
         table = SegmentTable.of(path)
@@ -98,16 +112,42 @@ class _Segments:
         if not np.all(np.isfinite(feed) & (feed > 0)):
             k = int(np.argmin(np.isfinite(feed) & (feed > 0)))
             raise ValueError(f"segment {k} has feed {feed[k]!r}; feeds must be positive [m/s]")
+        self.path = path
         self.table = table
         self.length, self.start, self.end = table.length, table.start, table.end
         self.is_arc, self.rapid, self.exact_stop = table.arc, table.rapid, table.exact_stop
         self.center, self.radius, self.sweep = table.center, table.radius, table.sweep
         self.angle0 = table.angle
-        self.feed = np.where(self.rapid, feed, feed * feed_override)
+        self.programmed = np.where(self.rapid, feed, feed * feed_override)
+        self.feed = self.programmed
+        self.normal_acceleration = normal_acceleration
+        if normal_acceleration is not None:
+            self.feed = np.minimum(self.programmed, arc_speed_limit(
+                self.radius, self.end[:, 2] - self.start[:, 2], self.sweep,
+                normal_acceleration))
 
     def tangents(self) -> tuple[np.ndarray, np.ndarray]:
         """Unit tangents (n, 3) at each segment's start and end (zero for zero length)."""
         return self.table.end_tangents()
+
+    def stops(self) -> np.ndarray:
+        """bool (n + 1,): the junctions where the tool stops (module docstring): the
+        path's start and end, after an exact-stop block, both ends of a rapid."""
+        stop = np.ones(len(self.length) + 1, dtype=bool)
+        stop[1:-1] = self.exact_stop[:-1] | self.rapid[:-1] | self.rapid[1:]
+        return stop
+
+    def summary(self) -> dict:
+        """The arcs whose feed the normal-acceleration limit lowered, JSON-ready."""
+        if self.normal_acceleration is None:
+            return {}
+        slowed = np.flatnonzero(self.feed < self.programmed)
+        segments = self.path.segments
+        return {"normal_acceleration": self.normal_acceleration,
+                "arcs_slowed": [{"segment": int(k), "line": int(segments[k].source_line),
+                                 "radius": float(self.radius[k]),
+                                 "feed": float(self.programmed[k]),
+                                 "limited_feed": float(self.feed[k])} for k in slowed]}
 
     def points(self, k: np.ndarray, s: np.ndarray) -> np.ndarray:
         """Points (m, 3) at local arc length ``s`` of segments ``k``."""
@@ -124,6 +164,20 @@ class _Segments:
             out[arc, 0] = self.center[ka, 0] + r * np.cos(angle)
             out[arc, 1] = self.center[ka, 1] + r * np.sin(angle)
         return out
+
+
+def arc_speed_limit(radius, rise, sweep, normal_acceleration: float) -> np.ndarray:
+    """Highest speed [m/s] on an arc of ``radius`` R [m] rising ``rise`` Δz [m] over
+    ``sweep`` [rad] whose normal (centripetal) acceleration v²κ stays within
+    ``normal_acceleration`` a_n [m/s²]: v = √(a_n/κ), κ = R/(R² + p²) the curvature of
+    the helix, p = Δz/|sweep| [m/rad] (κ = 1/R on a planar arc: v²/R ≤ a_n). Infinite
+    where ``radius`` is 0 (a line)."""
+    radius = np.asarray(radius, dtype=float)
+    sweep = np.abs(np.asarray(sweep, dtype=float))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        pitch = np.where(sweep > 0, np.asarray(rise, dtype=float) / sweep, 0.0)
+        v = np.sqrt(normal_acceleration * (radius * radius + pitch * pitch) / radius)
+    return np.where(radius > 0, v, np.inf)
 
 
 def corner_speed(turn, corner_tolerance: float, time_constant: float,
@@ -155,13 +209,14 @@ def transition_length(initial_speed, final_speed, time_constant: float):
 def junction_speeds(path: Path, *, max_acceleration: float | None = None,
                     corner_tolerance: float | None = None,
                     time_constant: float | None = None,
-                    feed_override: float = 1.0) -> np.ndarray:
+                    feed_override: float = 1.0,
+                    max_normal_acceleration: float | None = None) -> np.ndarray:
     """Speeds [m/s] at the n + 1 block junctions of ``path`` (start, between blocks, end)
     by the rules of the module docstring (arguments as :func:`interpolate`'s); without
     ``max_acceleration`` the feed jumps at junctions and this returns the limits before
     acceleration (0 at exact stops)."""
-    return _junctions(_Segments(path, feed_override), max_acceleration, corner_tolerance,
-                      time_constant)
+    return _junctions(_Segments(path, feed_override, max_normal_acceleration),
+                      max_acceleration, corner_tolerance, time_constant)
 
 
 def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
@@ -169,9 +224,7 @@ def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
     cap = np.empty(n + 1)
     cap[0] = cap[n] = 0.0
     cap[1:n] = np.minimum(seg.feed[:-1], seg.feed[1:])
-    stop = seg.exact_stop | seg.rapid
-    stop[:-1] |= seg.rapid[1:]
-    cap[1:][stop] = 0.0
+    cap[seg.stops()] = 0.0
     if tolerance is not None:
         t_start, t_end = seg.tangents()
         cosine = np.clip(np.einsum("ij,ij->i", t_end[:-1], t_start[1:]), -1.0, 1.0)
@@ -187,10 +240,87 @@ def _junctions(seg: _Segments, accel, tolerance, tau) -> np.ndarray:
     return np.sqrt(np.clip(w, 0.0, None))
 
 
+class _Motion:
+    """Every block's trapezoid (module docstring): speeds at its ends and peak [m/s],
+    phase durations [s], the length of its acceleration phase [m]."""
+
+    def __init__(self, seg: _Segments, accel, tolerance, tau):
+        length = seg.length
+        if accel is None:
+            self.peak = seg.feed
+            zero = np.zeros_like(length)
+            self.t_acc, self.t_dec, self.s_acc, self.v_a = zero, zero, zero, zero
+            self.accel = 0.0
+            self.t_cruise = length / self.peak
+        else:
+            v = _junctions(seg, accel, tolerance, tau)
+            w_a, w_b = v[:-1] ** 2, v[1:] ** 2
+            peak = np.sqrt(np.minimum(seg.feed ** 2, 0.5 * (2.0 * accel * length + w_a + w_b)))
+            peak = np.maximum(peak, np.maximum(v[:-1], v[1:]))
+            self.s_acc = np.clip((peak ** 2 - w_a) / (2.0 * accel), 0.0, length)
+            s_dec = np.clip((peak ** 2 - w_b) / (2.0 * accel), 0.0, length - self.s_acc)
+            self.v_a = v[:-1]
+            self.t_acc = (peak - self.v_a) / accel
+            self.t_dec = (peak - v[1:]) / accel
+            with np.errstate(invalid="ignore", divide="ignore"):
+                self.t_cruise = np.where(peak > 0, (length - self.s_acc - s_dec) / peak, 0.0)
+            self.peak = peak
+            self.accel = accel
+        self.duration = self.t_acc + self.t_cruise + self.t_dec
+
+    def sample(self, seg: _Segments, lo: int, hi: int, period: float) -> Reference:
+        """Blocks ``lo`` … ``hi`` − 1 every ``period`` from t = 0 at block ``lo``'s start;
+        the last sample is block ``hi`` − 1's end."""
+        length = seg.length
+        block_start = np.concatenate([[0.0], np.cumsum(self.duration[lo:hi])])
+        total = block_start[-1]
+        count = int(math.ceil(total / period - 1e-9)) + 1
+        if count > MAX_SAMPLES:
+            raise ValueError(f"{count} samples ({total:.6g} s at T = {period:g} s); at most "
+                             f"{MAX_SAMPLES}")
+        time = np.arange(count) * period
+        k = lo + np.clip(np.searchsorted(block_start, time, side="right") - 1, 0, hi - lo - 1)
+        tau = time - block_start[k - lo]
+        ta, tc = self.t_acc[k], self.t_cruise[k]
+        vp, va = self.peak[k], self.v_a[k]
+        in_acc = tau < ta
+        in_dec = tau >= ta + tc
+        u = tau - ta - tc
+        a = self.accel
+        s = np.where(in_acc, va * tau + 0.5 * a * tau ** 2, self.s_acc[k] + vp * (tau - ta))
+        s = np.where(in_dec, self.s_acc[k] + vp * tc + vp * u - 0.5 * a * u ** 2, s)
+        s = np.clip(s, 0.0, length[k])
+        # the last sample, at or (within rounding) just before the end of the motion
+        k[-1] = hi - 1
+        s[-1] = length[hi - 1]
+        position = seg.points(k, s)
+        return Reference(period=period, time=time, position=position,
+                         arc_length=seg.table.begin[k] + s, segment=k, summary=seg.summary())
+
+
+def _prepared(path, period, max_acceleration, corner_tolerance, time_constant,
+              feed_override, max_normal_acceleration):
+    """The checked arguments' segments and motion, and the period [s]."""
+    period = _positive(period, "period", "s")
+    accel = None if max_acceleration is None else _positive(max_acceleration, "max_acceleration", "m/s²")
+    if (corner_tolerance is None) != (time_constant is None):
+        raise ValueError("the corner rule needs both corner_tolerance [m] and time_constant [s]")
+    if corner_tolerance is not None:
+        corner_tolerance = _positive(corner_tolerance, "corner_tolerance", "m")
+        time_constant = _positive(time_constant, "time_constant", "s")
+        if accel is None:
+            raise ValueError("a corner slow-down needs max_acceleration [m/s²] to slow down with")
+    normal = (None if max_normal_acceleration is None else
+              _positive(max_normal_acceleration, "max_normal_acceleration", "m/s²"))
+    seg = _Segments(path, _positive(feed_override, "feed_override", "1"), normal)
+    return seg, _Motion(seg, accel, corner_tolerance, time_constant), period
+
+
 def interpolate(path: Path, *, period: float, max_acceleration: float | None = None,
                 corner_tolerance: float | None = None,
                 time_constant: float | None = None,
-                feed_override: float = 1.0) -> Reference:
+                feed_override: float = 1.0,
+                max_normal_acceleration: float | None = None) -> Reference:
     """Sample the path's motion every ``period``.
 
     Parameters
@@ -211,69 +341,64 @@ def interpolate(path: Path, *, period: float, max_acceleration: float | None = N
     feed_override : float
         Factor [1] on every programmed feed except rapids (a control's feed override; a
         tuner varies it to trade cycle time against contour error).
+    max_normal_acceleration : float or None
+        Largest normal (centripetal) acceleration a_n [m/s²] on arcs: an arc's feed is
+        at most √(a_n R) (:func:`arc_speed_limit`), whatever the program and the override
+        ask; None: no limit.
 
     Returns
     -------
     Reference
         ``time`` (n,) [s], ``position`` (n, 3) [m], ``arc_length`` (n,) [m] from the
         path's start, ``segment`` (n,) the block being cut; the last sample is the path's
-        end point.
+        end point. ``summary`` lists the arcs the normal-acceleration limit slowed (with
+        ``max_normal_acceleration``).
     """
-    period = _positive(period, "period", "s")
-    accel = None if max_acceleration is None else _positive(max_acceleration, "max_acceleration", "m/s²")
-    if (corner_tolerance is None) != (time_constant is None):
-        raise ValueError("the corner rule needs both corner_tolerance [m] and time_constant [s]")
-    if corner_tolerance is not None:
-        corner_tolerance = _positive(corner_tolerance, "corner_tolerance", "m")
-        time_constant = _positive(time_constant, "time_constant", "s")
-        if accel is None:
-            raise ValueError("a corner slow-down needs max_acceleration [m/s²] to slow down with")
-    seg = _Segments(path, _positive(feed_override, "feed_override", "1"))
-    length = seg.length
-    if accel is None:
-        peak = seg.feed
-        zero = np.zeros_like(length)
-        t_acc, t_dec, s_acc, v_a = zero, zero, zero, zero
-        accel_value = 0.0
-        t_cruise = length / peak
-    else:
-        v = _junctions(seg, accel, corner_tolerance, time_constant)
-        w_a, w_b = v[:-1] ** 2, v[1:] ** 2
-        peak = np.sqrt(np.minimum(seg.feed ** 2, 0.5 * (2.0 * accel * length + w_a + w_b)))
-        peak = np.maximum(peak, np.maximum(v[:-1], v[1:]))
-        s_acc = np.clip((peak ** 2 - w_a) / (2.0 * accel), 0.0, length)
-        s_dec = np.clip((peak ** 2 - w_b) / (2.0 * accel), 0.0, length - s_acc)
-        v_a = v[:-1]
-        t_acc = (peak - v_a) / accel
-        t_dec = (peak - v[1:]) / accel
-        with np.errstate(invalid="ignore", divide="ignore"):
-            t_cruise = np.where(peak > 0, (length - s_acc - s_dec) / peak, 0.0)
-        accel_value = accel
-    duration = t_acc + t_cruise + t_dec
-    block_start = np.concatenate([[0.0], np.cumsum(duration)])
-    total = block_start[-1]
-    count = int(math.ceil(total / period - 1e-9)) + 1
-    if count > MAX_SAMPLES:
-        raise ValueError(f"{count} samples ({total:.6g} s at T = {period:g} s); at most {MAX_SAMPLES}")
-    time = np.arange(count) * period
-    k = np.clip(np.searchsorted(block_start, time, side="right") - 1, 0, len(length) - 1)
-    tau = time - block_start[k]
-    ta, tc = t_acc[k], t_cruise[k]
-    vp, va = peak[k], v_a[k]
-    in_acc = tau < ta
-    in_dec = tau >= ta + tc
-    u = tau - ta - tc
-    s = np.where(in_acc, va * tau + 0.5 * accel_value * tau ** 2,
-                 s_acc[k] + vp * (tau - ta))
-    s = np.where(in_dec, s_acc[k] + vp * tc + vp * u - 0.5 * accel_value * u ** 2, s)
-    s = np.clip(s, 0.0, length[k])
-    # the last sample, at or (within rounding) just before the end of the motion
-    k[-1] = len(length) - 1
-    s[-1] = length[-1]
-    position = seg.points(k, s)
-    cumulative = np.concatenate([[0.0], np.cumsum(length)])
-    return Reference(period=period, time=time, position=position,
-                     arc_length=cumulative[k] + s, segment=k)
+    seg, motion, period = _prepared(path, period, max_acceleration, corner_tolerance,
+                                    time_constant, feed_override, max_normal_acceleration)
+    return motion.sample(seg, 0, len(seg.length), period)
+
+
+def stop_pieces(path: Path, *, period: float, max_acceleration: float | None = None,
+                corner_tolerance: float | None = None, time_constant: float | None = None,
+                feed_override: float = 1.0,
+                max_normal_acceleration: float | None = None) -> list[Reference]:
+    """The path's motion cut at its stops (exact stops, both ends of rapids), each piece
+    sampled every ``period`` from t = 0 at rest at its start to its last sample at rest at
+    its stop; ``segment`` and ``arc_length`` are the whole path's. Arguments as
+    :func:`interpolate`'s, whose motion each piece is (the tool is at rest at a stop
+    either way); :func:`join` puts the pieces together with holds between them."""
+    seg, motion, period = _prepared(path, period, max_acceleration, corner_tolerance,
+                                    time_constant, feed_override, max_normal_acceleration)
+    bounds = np.flatnonzero(seg.stops())
+    return [motion.sample(seg, int(lo), int(hi), period) for lo, hi in zip(bounds[:-1], bounds[1:])]
+
+
+def join(path: Path, pieces: list[Reference], holds) -> Reference:
+    """One reference from :func:`stop_pieces`' pieces, the reference held at the end of
+    piece p for ``holds[p]`` more samples (an in-position wait, a dwell) before piece
+    p + 1 starts from its first sample (its stop point, so the joint is not repeated).
+
+    The summary gains ``in_position``: for each stop, the block that ends there, its
+    program line, the stop point [m], the time [s] the reference arrives there and the
+    hold [s] after it."""
+    parts, stops, offset = [], [], 0
+    for p, (piece, hold) in enumerate(zip(pieces, holds)):
+        hold = int(hold)
+        rows = np.append(np.arange(0 if p == 0 else 1, len(piece.time)),
+                         np.full(hold, len(piece.time) - 1))
+        parts.append((piece.position[rows], piece.arc_length[rows], piece.segment[rows]))
+        arrival = offset + len(rows) - hold - 1
+        segment = int(piece.segment[-1])
+        stops.append({"segment": segment, "line": int(path.segments[segment].source_line),
+                      "position": piece.position[-1].tolist(),
+                      "time": float(arrival * piece.period), "hold": float(hold * piece.period)})
+        offset += len(rows)
+    position, arc, segment = (np.concatenate(column) for column in zip(*parts))
+    period = pieces[0].period
+    return Reference(period=period, time=np.arange(len(position)) * period, position=position,
+                     arc_length=arc, segment=segment,
+                     summary={**pieces[0].summary, "in_position": stops})
 
 
 def pulse_reference(reference: Reference, *, pulse_equivalent: float,

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -117,13 +117,22 @@ class Arc:
 
     @property
     def sweep(self) -> float:
-        """Signed swept angle [rad], in (0, 2π] counter-clockwise, [−2π, 0) clockwise."""
+        """Signed swept angle [rad], in [0, 2π] counter-clockwise, [−2π, 0] clockwise.
+
+        ±2π (a full circle) exactly when the end's x and y are the start's: the G-code
+        rule for a centre-format arc ("if the starting point and the end point are equal
+        with respect to the working plane, a full circle", Beckhoff TwinCAT NC I,
+        "Circular interpolation (G02, G03, IJK, U)"; a full circle cannot be given by R).
+        Any other arc sweeps the angle from start to end in its direction, however small
+        (0 when the two points lie on one ray from the centre, within the radius check)."""
+        if self.end[0] == self.start[0] and self.end[1] == self.start[1]:
+            return 2 * math.pi if self.ccw else -2 * math.pi
         a0 = math.atan2(*(self.start - self.center)[1::-1])
         a1 = math.atan2(*(self.end - self.center)[1::-1])
         delta = (a1 - a0) % (2 * math.pi)
         if self.ccw:
-            return delta if delta > 1e-12 else 2 * math.pi
-        return delta - 2 * math.pi if delta > 1e-12 else -2 * math.pi
+            return delta
+        return delta - 2 * math.pi if delta > 0 else 0.0
 
     @property
     def length(self) -> float:
@@ -133,7 +142,8 @@ class Arc:
 
     def _angle(self, s) -> tuple[np.ndarray, np.ndarray]:
         s = np.atleast_1d(np.asarray(s, dtype=float))
-        u = s / self.length
+        length = self.length
+        u = s / length if length > 0 else np.zeros_like(s)
         a0 = math.atan2(*(self.start - self.center)[1::-1])
         return a0 + u * self.sweep, u
 
@@ -154,7 +164,8 @@ class Arc:
         dz = self.end[2] - self.start[2]
         t = np.column_stack([-sign * np.sin(a) * planar, sign * np.cos(a) * planar,
                              np.full(a.shape, dz)])
-        return t / math.hypot(planar, dz)
+        scale = math.hypot(planar, dz)
+        return t / scale if scale > 0 else t  # zero for a zero-length arc, as for a line
 
     def distance(self, points) -> np.ndarray:
         """Distance [m] of each point from the arc: from the circle where the point's angle
@@ -168,7 +179,7 @@ class Arc:
         # angle travelled from the start in the arc's direction, in [0, 2π)
         travelled = ((ang - a0) if sweep > 0 else (a0 - ang)) % (2 * math.pi)
         inside = travelled <= abs(sweep)
-        u = np.clip(travelled / abs(sweep), 0.0, 1.0)
+        u = np.clip(travelled / abs(sweep), 0.0, 1.0) if sweep else np.zeros(len(p))
         z = self.start[2] + u * (self.end[2] - self.start[2])
         radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius), p[:, 2] - z)
         ends = np.minimum(np.linalg.norm(p - self.start, axis=1),
@@ -329,7 +340,7 @@ class SegmentTable:
         a0 = self.angle[index]
         travelled = np.where(sweep > 0, ang - a0, a0 - ang) % (2 * math.pi)
         inside = travelled <= np.abs(sweep)
-        u = np.clip(travelled / np.abs(sweep), 0.0, 1.0)
+        u = np.clip(travelled / np.where(sweep != 0, np.abs(sweep), 1.0), 0.0, 1.0)
         z = start[:, 2] + u * (end[:, 2] - start[:, 2])
         radial = np.hypot(np.abs(np.hypot(rel[:, 0], rel[:, 1]) - self.radius[index]),
                           points[:, 2] - z)
@@ -360,6 +371,11 @@ class Reference:
         Commanded distance along the path [m] at each sample.
     segment : ndarray of int (n,)
         Index of the path segment being cut at each sample.
+    summary : dict
+        What the interpolator changed from the program, JSON-ready (SI units): arcs whose
+        feed the normal-acceleration limit lowered, the in-position holds at exact stops
+        (:func:`feedtune.machine.interpolate.interpolate`,
+        :func:`feedtune.machine.inposition.settled_reference`).
     """
 
     period: float
@@ -367,3 +383,20 @@ class Reference:
     position: np.ndarray
     arc_length: np.ndarray
     segment: np.ndarray
+    summary: dict = field(default_factory=dict)
+
+    def resampled(self, ratio: int) -> Reference:
+        """This reference every ``period``/``ratio``: linear between its points (Sato's
+        linear interpolation), every ``ratio``-th sample one of them; the segment is the
+        one of the interpolator's point at or before each sample."""
+        if ratio == 1:
+            return self
+        period = self.period / ratio
+        time = np.arange((len(self.time) - 1) * ratio + 1) * period
+        position = np.column_stack([np.interp(time, self.time, self.position[:, i])
+                                    for i in range(3)])
+        arc = np.interp(time, self.time, self.arc_length)
+        segment = self.segment[np.minimum(np.arange(len(time)) // ratio,
+                                          len(self.segment) - 1)]
+        return Reference(period=period, time=time, position=position, arc_length=arc,
+                         segment=segment, summary=self.summary)

@@ -21,6 +21,7 @@ from feedtune.expr import to_float
 from feedtune.loops.export import closed_loop_state_space
 from feedtune.loops.protocols import Capability
 from feedtune.machine.contour import contour_metrics, step_settling_time
+from feedtune.machine.inposition import settled_reference
 from feedtune.machine.interpolate import interpolate
 from feedtune.machine.path import Path, SegmentTable
 from feedtune.machine.simulate import (AxisModel, CrossCoupling, discretise, run_out_samples,
@@ -167,13 +168,20 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     if interp.corner_tolerance is not None:
         tau = interp.time_constant or max(rise_time(m, probe) for m in models)
     ratio = round(interp.period / setting.period) if interp.period else 1
-    reference = interpolate(path, period=ratio * setting.period,
-                            max_acceleration=interp.max_acceleration,
-                            corner_tolerance=interp.corner_tolerance, time_constant=tau,
-                            feed_override=setting.feed_override)
+    options = dict(period=ratio * setting.period, max_acceleration=interp.max_acceleration,
+                   corner_tolerance=interp.corner_tolerance, time_constant=tau,
+                   feed_override=setting.feed_override,
+                   max_normal_acceleration=interp.max_normal_acceleration)
+    if interp.in_position is None:
+        reference = interpolate(path, **options)
+    else:
+        reference = settled_reference(models, path, band=interp.in_position, ratio=ratio,
+                                      **options)
     if "z" not in names and np.any(reference.position[:, 2] != reference.position[0, 2]):
         raise ValueError("the path moves z; the machine has no z axis")
-    time, position, arc, segment = _resampled(reference, ratio)
+    sampled = reference.resampled(ratio)
+    time, position, arc, segment = (sampled.time, sampled.position, sampled.arc_length,
+                                    sampled.segment)
     program_end = float(time[-1])
     extra = run_out_samples(models, len(time))
     time = np.concatenate([time, time[-1] + setting.period * np.arange(1, extra + 1)])
@@ -194,23 +202,10 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     metrics, error = contour_metrics(path, time, position, full, arc, segment, program_end,
                               settling, max(lag for _, lag in axes), names,
                               setting.feed_override, detail)
+    if reference.summary:
+        metrics["interpolation"] = reference.summary
     return MachineRun(path, names, time, position, full, arc, segment, tangent, error,
                       metrics)
-
-
-def _resampled(reference, ratio: int):
-    """The reference at the sampling instants: linear between the interpolator's points
-    (Sato's linear interpolation), every ``ratio``-th sample one of them."""
-    if ratio == 1:
-        return (reference.time, reference.position, reference.arc_length, reference.segment)
-    period = reference.period / ratio
-    time = np.arange((len(reference.time) - 1) * ratio + 1) * period
-    position = np.column_stack([np.interp(time, reference.time, reference.position[:, i])
-                                for i in range(3)])
-    arc = np.interp(time, reference.time, reference.arc_length)
-    segment = reference.segment[np.minimum(np.arange(len(time)) // ratio,
-                                           len(reference.segment) - 1)]
-    return time, position, arc, segment
 
 
 def path_direction(table: SegmentTable, arc: np.ndarray, segment: np.ndarray):

@@ -114,6 +114,19 @@ class InterpolatorSpec(SpecModel):
     time_constant: PositiveFloat | None = Field(
         None, description="τ of the corner rule [s]; omitted: the least responsive axis' own "
                           "(the time its step response takes to reach 1 − 1/e)")
+    max_normal_acceleration: PositiveFloat | None = Field(
+        None, description="Largest normal (centripetal) acceleration on arcs [m/s²]: the feed "
+                          "on an arc of radius R is at most √(a·R) (v²/R ≤ a), whatever the "
+                          "program and the feed override ask; the arcs slowed are listed in "
+                          "the metrics' 'interpolation' section; omitted: no limit")
+    in_position: float | None = Field(
+        None, ge=1e-9, le=1.0,
+        description="In-position band [m] (e.g. one BLU; Bhatia's pulse weight .0002 in = "
+                    "5.08e-6 m): at every exact stop (G9, G61, M0/M1, a rapid's ends, the "
+                    "program's end) the next block waits until every axis' following error "
+                    "is within it and stays there (Bhatia Fig 38: 'the execution of the next "
+                    "block is started from rest'); the cycle time includes the waits; "
+                    "omitted: the next block starts when the reference arrives")
 
     @model_validator(mode="after")
     def _corner_rule(self):
@@ -279,6 +292,10 @@ def _machine_errors(spec: MachineSpec) -> list[tuple[str, str]]:
         elif not _whole(interp / low):
             errors.append(("/interpolator/period",
                            f"{interp} s is not a whole multiple of the sampling period {low} s"))
+    if spec.interpolator.in_position is not None and spec.cross_coupling is not None:
+        errors.append(("/interpolator/in_position",
+                       "the in-position wait is computed for independent axes (their "
+                       "errors add up piece by piece); not with cross_coupling"))
     for name, axis in spec.axes.named().items():
         plant = plant_for(axis.plant)
         box, _, _ = tunable_box(axis.tunables, plant.tunables())

@@ -266,3 +266,72 @@ def test_junction_speeds_on_short_blocks_follow_the_acceleration_from_both_stops
     np.testing.assert_allclose(junction_speeds(path, max_acceleration=a), expected, atol=1e-9)
     ref = interpolate(path, period=1e-4, max_acceleration=a)
     assert np.abs(np.diff(speeds(ref))).max() / 1e-4 <= a + ACCEL
+
+
+def small_arc_path(radius: float, feed: float) -> Path:
+    """A line along x, a quarter arc of ``radius`` [m] turning left, a line along y."""
+    p1 = (0.01, 0.0)
+    p2 = (0.01 + radius, radius)
+    return Path((Line((0, 0), p1, feed), Arc(p1, p2, center=(0.01, radius), ccw=True, feed=feed),
+                 Line(p2, (0.01 + radius, radius + 0.01), feed)))
+
+
+def test_arc_speed_limit_is_the_curvature_of_the_helix():
+    """v = √(a_n/κ): κ = 1/R on a plane arc; on a helix κ = R/(R² + p²), checked against
+    the curvature |dT/ds| of Arc.tangent_at by a central difference (h = 1e-6 m on a
+    2 mm radius: truncation (h/R)² ≈ 2.5e-7 relative, rounding 1e-16/1e-6 = 1e-10)."""
+    from feedtune.machine.interpolate import arc_speed_limit
+
+    assert arc_speed_limit(0.002, 0.0, 1.0, 0.5) == pytest.approx(math.sqrt(0.5 * 0.002), rel=1e-15)
+    assert np.isinf(arc_speed_limit(0.0, 0.0, 0.0, 0.5))
+    helix = Arc((0.002, 0, 0), (0, 0.002, 0.003), center=(0, 0), ccw=True, feed=0.01)
+    h, s = 1e-6, helix.length / 2
+    kappa = np.linalg.norm(helix.tangent_at(s + h)[0] - helix.tangent_at(s - h)[0]) / (2 * h)
+    limit = arc_speed_limit(helix.radius, 0.003, helix.sweep, 0.5)
+    assert 0.5 / limit ** 2 == pytest.approx(kappa, rel=1e-6)
+
+
+def test_small_radius_arc_is_slowed_to_the_normal_acceleration_limit():
+    """F = 50 mm/s round R = 2 mm is v²/R = 1.25 m/s²; with a_n = 0.5 m/s² the arc is cut
+    at √(a_n R) = 31.6 mm/s (speeds on it within SPEED of that, v²/R within a_n), the lines
+    at 50 mm/s, and the summary names the arc; an arc of 20 mm (√(a_n R) = 0.1 m/s > F)
+    is left at F and not listed. Without the limit the small arc runs at 50 mm/s."""
+    a_n, feed, T = 0.5, 0.05, 1e-4
+    for accel in (None, 2.0):
+        ref = interpolate(small_arc_path(0.002, feed), period=T, max_acceleration=accel,
+                          max_normal_acceleration=a_n)
+        v = speeds(ref)
+        on_arc = (ref.segment[:-1] == 1) & (ref.segment[1:] == 1)
+        limit = math.sqrt(a_n * 0.002)
+        assert v[on_arc].max() <= limit + SPEED
+        assert v[on_arc].max() ** 2 / 0.002 <= a_n * (1 + 1e-6)
+        assert v.max() == pytest.approx(feed, abs=SPEED)  # the lines keep their feed
+        (slowed,) = ref.summary["arcs_slowed"]
+        assert slowed["segment"] == 1 and slowed["radius"] == pytest.approx(0.002, abs=1e-15)
+        assert slowed["feed"] == feed and slowed["limited_feed"] == pytest.approx(limit, rel=1e-15)
+    wide = interpolate(small_arc_path(0.02, feed), period=T, max_normal_acceleration=a_n)
+    assert wide.summary["arcs_slowed"] == []
+    plain = interpolate(small_arc_path(0.002, feed), period=T)
+    on_arc = (plain.segment[:-1] == 1) & (plain.segment[1:] == 1)
+    assert speeds(plain)[on_arc].max() == pytest.approx(feed, abs=SPEED)
+    assert plain.summary == {}
+
+
+def test_normal_acceleration_limit_in_a_machine_run():
+    """Through the machine spec: the arc of a G-code program with R = 2 mm is listed in the
+    metrics' interpolation section, and the cycle is longer by the slower arc (its length
+    π mm at 31.6 instead of 50 mm/s: 36 ms, to a sample)."""
+    from feedtune.machine.run import run
+    from feedtune.machine.spec import parse_machine
+
+    axes = {name: {"plant": {"type": "software_servo", "technique": "sampled_data",
+                             "time_constant": 0.02},
+                   "tunables": {"position_gain": {"value": 20.0}}} for name in "xy"}
+    base = {"name": "t", "axes": axes, "sampling_period": {"value": 1e-3}}
+    path = parse_program("G21 G1 X10 F3000\nG3 X12 Y2 R2\nG1 Y12\n", source="t").path
+    slow = run(parse_machine({**base, "interpolator": {"max_normal_acceleration": 0.5}}), path)
+    fast = run(parse_machine(base), path)
+    (arc,) = slow.metrics["interpolation"]["arcs_slowed"]
+    assert arc["line"] == 2 and arc["radius"] == pytest.approx(0.002, abs=1e-12)
+    extra = math.pi * 0.001 * (1 / math.sqrt(0.5 * 0.002) - 1 / 0.05)
+    assert slow.metrics["cycle_time"] - fast.metrics["cycle_time"] == pytest.approx(extra, abs=1e-3)

@@ -67,11 +67,19 @@ def test_any_change_is_a_spec_or_pointed_errors(where, value, delete):
     (lambda r: r["interpolator"].update(period=0.0015), "/interpolator/period"),
     (lambda r: r["axes"].update(y=TIAN_AXIS), "/axes/y/plant"),
     (lambda r: r.update(feed_override={"min": 0.1, "max": 2}, tuning={}), ""),
+    (lambda r: r["interpolator"].update(in_position=0.0), "/interpolator/in_position"),
+    (lambda r: r["interpolator"].update(max_normal_acceleration=-1.0),
+     "/interpolator/max_normal_acceleration"),
+    (lambda r: (r["interpolator"].update(in_position=1e-6),
+                r.update(cross_coupling={"gain": 1.0})), "/interpolator/in_position"),
 ])
 def test_named_errors(change, pointer):
     """Each mistake is refused at its own pointer: an unknown tunable, a file named in the
     spec, a fourth axis, an interpolation period that is not a whole number of samples,
-    a plant with no linear loop, a free feed without a tolerance (the spec as a whole)."""
+    a plant with no linear loop, a free feed without a tolerance (the spec as a whole), an
+    in-position band of zero, a negative normal acceleration, an in-position wait with
+    Koren's cross-coupled controller (its loop follows the path: the wait's sum of pieces
+    does not hold)."""
     raw = copy.deepcopy(EXAMPLE)
     change(raw)
     with pytest.raises(SpecError) as caught:
