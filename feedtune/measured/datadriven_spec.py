@@ -264,6 +264,7 @@ def tune_data_driven(spec: DataDrivenSpec):
     from feedtune.schema.result import (ConstraintResult, MetricValue, SolverResult, TunedValue,
                                         TuneResult, provenance)
     from feedtune.schema.spec import tunable_box
+    from feedtune.validate import validate_result
 
     plant = FrequencyResponseData(spec.plant)
     tunables = plant.tunables()
@@ -349,12 +350,10 @@ def tune_data_driven(spec: DataDrivenSpec):
                           build_time=found.build_time,
                           evaluation_time=max(elapsed - found.solve_time - found.build_time, 0.0),
                           model_gap=None, starts=[])
-    return TuneResult(
+    result = TuneResult(
         name=spec.name, success=success, status=found.status, message=message,
         objective=sign * objective.weight * value if (stable and value is not None) else None,
         tuned=tuned, metrics=metrics, constraints=constraints, stability=stability,
-        solver=solver, provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"),
-        validation={"covered": False, "ok": None, "entries": [],
-                    "reason": "measured data: no model to re-simulate; the metrics and the "
-                              "Nyquist certificate are computed from the data at the tuned "
-                              "gains, independently of the SOCPs that chose them"})
+        solver=solver, provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"))
+    # re-evaluated on every measured frequency with the validator's own arithmetic
+    return result.model_copy(update={"validation": validate_result(result)})
