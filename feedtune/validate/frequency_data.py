@@ -289,7 +289,9 @@ def _compare(metric: str, options: dict, record: dict | None, value, tolerance, 
 def validate_measured(result: dict) -> list[dict]:
     """The ``validation`` entries of a data-driven ``result`` (JSON form): every reported
     metric per set and worst over the sets against its re-measured value, every bound per
-    set as held or violated (``held``, with ``measured_worst`` and ``measured_at`` [rad/s]),
+    set as held or violated (``reported``: the bound, ``validated``: the worst value between
+    the points; ``held``, ``claimed``: the result's ``satisfied``; ``measured_worst`` at the
+    points and ``measured_at`` [rad/s]; ``ok`` unless violated where the result claims it),
     and each set's stability against the Nyquist count made again (``stable``, with
     ``rhp_poles`` and ``turn_rad``)."""
     spec = result["spec"]
@@ -323,9 +325,9 @@ def validate_measured(result: dict) -> list[dict]:
             value, _, _, extra = values[name]
             held = value <= bound * (1 + BOUND_SLACK)
             entries.append(_entry(
-                name, {"set": loop.name, "bound": "max"}, said, held, "1", None, None,
+                name, {"set": loop.name, "bound": "max"}, bound, value, "1", None, None,
                 f"≤ {bound:g}·(1 + {BOUND_SLACK:g})", held or said is False,
-                bound=bound, held=bool(held), worst=value, **extra))
+                bound=bound, held=bool(held), claimed=said, worst=value, **extra))
     sets = {s.get("name"): s for s in (result.get("stability") or {}).get("sets") or []}
     controller_integrators = 1 if "i" in plant.get("controller", "pid") else 0
     for loop in loops:
