@@ -506,14 +506,17 @@ VERBOSE = False
 #: Clarabel's tolerances: 1e-7 rather than its 1e-8 (two fewer interior-point iterations of
 #: about twenty); every answer is checked against the true bounds with BOUND_SLACK
 CLARABEL = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7}
-#: points the SOCP holds at once; the exchange adds violated ones (_Exchange)
-WORKING_SET = 240
+#: the working set's sizes [points]: the SOCP is built once per size (padded by repeating
+#: a point), the smallest that holds the chosen points is solved (_Exchange)
+WORKING_SIZES = (32, 64, 128, 256, 512, 1024)
+#: a point joins the first working set when it is this near a bound at ρ_c [1; 1 = on it]
+TIGHT = 0.9
+#: violated points that join the working set a round, at most, the most violated first
+ADDED = 16
 #: the largest slack the SOCP may report [1]: bounds it where no point is active
 SLACK_CAP = 1e3
 #: next points above ω_b, one per set, whose slack the last solve of a linearisation widens
 NEXT = 16
-#: rounds of the exchange before the SOCP on all points is solved instead
-EXCHANGE_ROUNDS = 6
 #: a point's linearised constraint violated by more than this [1, relative to |X_c|]
 #: joins the working set (Clarabel's feasibility tolerance is 1e-8)
 EXCHANGE_TOL = 1e-7
@@ -644,22 +647,28 @@ class _Socp:
 
 class _Exchange:
     """Every measured point's constraints, solved on a working set of the tightest ones
-    (the exchange method): the SOCP holds ``WORKING_SET`` points; after each solve every
-    point's linearised constraints are checked in numpy, the violated ones join the set and
-    it is solved again, so the answer is that of the SOCP on all points. Most points are
-    far from every bound (|T| ≪ M above the resonances, |L| ≫ 1 far below ω_b): on 3 sets
-    × 500 points, Clarabel solved 3 000 cones in ≈ 130 ms of CPU a call."""
+    (the exchange method): the SOCP holds the points within ``TIGHT`` of a bound at ρ_c
+    (at least the 32 tightest); after each solve every point's linearised constraints are
+    checked in numpy, the violated ones join the set and it is solved again, so the answer
+    is that of the SOCP on all points. Most points are far from every bound (|T| ≪ M above
+    the resonances, |L| ≫ 1 far below ω_b), and an SOCP's cost grows with its points
+    (Clarabel, 3 sets × 500 points: ≈ 7 ms of CPU on 60 points, 27 ms on 240, 137 ms on all
+    1 500), so the set is kept small: one SOCP per size of ``WORKING_SIZES`` (and one of
+    all points), the chosen points padded to the size by repeating one of them."""
 
     def __init__(self, a: np.ndarray, omega: np.ndarray, z_box, bounds: Mapping[str, float],
                  objective: Objective, w: np.ndarray | None = None):
         self.a, self.omega, self.w = a, omega, w
         self.bounds, self.objective = dict(bounds), objective
-        rows = min(WORKING_SET, len(a))
-        self.small = _Socp(rows, a.shape[1], z_box, bounds, objective)
-        self.full = None if rows == len(a) else (
-            lambda: _Socp(len(a), a.shape[1], z_box, bounds, objective))
-        self.z_box = z_box
+        self.sizes = [n for n in WORKING_SIZES if n < len(a)] + [len(a)]
+        self.socps: dict[int, _Socp] = {}
+        self.p, self.z_box = a.shape[1], z_box
         self.solves = 0
+
+    def _socp(self, rows: int) -> _Socp:
+        if rows not in self.socps:
+            self.socps[rows] = _Socp(rows, self.p, self.z_box, self.bounds, self.objective)
+        return self.socps[rows]
 
     def linearise(self, z_c: np.ndarray) -> None:
         self.l_c = self.a @ z_c
@@ -710,38 +719,28 @@ class _Exchange:
               ) -> tuple[float | None, np.ndarray | None]:
         """As :meth:`_Socp.solve`, every point's constraints held; ``following``: the
         indices of the next points above ω_b, whose slack is then widened."""
-        rows = self.small.ar.shape[0]
         nxt = None if following is None else (self.a[following], self.l_c[following])
         w = self.w if self.w is not None else np.zeros(len(self.a))
-        if rows == len(self.a):
-            self.solves += 1
-            return self.small.solve(self.a, self.x_c, self.l_c, active, nxt, w)
         tightness = self._tightness(active)
-        chosen = list(np.argsort(-tightness)[:rows])
-        kept: set[int] = set()  # positions of points the exchange brought in
-        for _ in range(EXCHANGE_ROUNDS):
-            index = np.array(chosen)
+        order = np.argsort(-tightness)
+        chosen = order[:max(int(np.count_nonzero(tightness >= TIGHT)), self.sizes[0])]
+        while True:
+            rows = next(n for n in self.sizes if n >= len(chosen))
+            index = np.concatenate([chosen, np.full(rows - len(chosen), chosen[0])])
             self.solves += 1
-            s, z = self.small.solve(self.a[index], self.x_c[index], self.l_c[index],
-                                    active[index], nxt, w[index])
-            if z is None:
-                return None, None
+            s, z = self._socp(rows).solve(self.a[index], self.x_c[index], self.l_c[index],
+                                          active[index], nxt, w[index])
+            if z is None or rows == len(self.a):
+                return s, z
             violation = self._violation(z, s, active)
-            violation[index] = 0.0
+            violation[chosen] = 0.0
             worst = np.flatnonzero(violation > EXCHANGE_TOL)
             if worst.size == 0:
                 return s, z
-            # the violated points replace the slackest of those chosen at the start
-            free = [i for i in np.argsort(tightness[index]) if i not in kept]
-            if len(free) < worst.size:
-                break
-            for position, point in zip(free, worst):
-                chosen[position] = int(point)
-                kept.add(position)
-        if callable(self.full):
-            self.full = self.full()
-        self.solves += 1
-        return self.full.solve(self.a, self.x_c, self.l_c, active, nxt, w)
+            # the most violated join, at most ADDED a round (many violated points are
+            # neighbours, held by the same few)
+            worst = worst[np.argsort(-violation[worst])[:ADDED]]
+            chosen = np.concatenate([chosen, worst])
 
 
 def _bisect(feasible, low: int, high: int, z_low):
