@@ -37,6 +37,22 @@ def fail(message: str, code: int = EXIT_BAD_INPUT) -> typing.NoReturn:
     raise SystemExit(code)
 
 
+def internal_error(exc: BaseException, send: str) -> typing.NoReturn:
+    """A bug: its traceback on stderr, then exit 3 naming feedtune's version and ``exc``;
+    ``send``: what to report it with ("the spec", "the data")."""
+    import traceback
+
+    from feedtune import __version__
+
+    traceback.print_exc()
+    fail(f"internal error in feedtune {__version__} ({type(exc).__name__}: {exc}); "
+         f"please report it with {send}", EXIT_INTERNAL)
+
+
+#: ``-q/--quiet`` of the commands that print a summary to stderr
+QUIET = click.option("-q", "--quiet", is_flag=True, help="Do not print the summary to stderr.")
+
+
 def spec_errors(label: str, errors: list[tuple[str, str]]) -> typing.NoReturn:
     """One ``error: LABEL: POINTER: message`` line per problem, then exit 2."""
     from feedtune.schema.spec import printable

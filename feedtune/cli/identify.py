@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import json
-import traceback
 
 import click
 
-from feedtune import __version__
-from feedtune.cli.common import (EXIT_INTERNAL, EXIT_OK, POSITIVE, check_output, emit, err, fail,
-                                 fmt)
+from feedtune.cli.common import (EXIT_OK, POSITIVE, QUIET, check_output, emit, err, fail, fmt,
+                                 internal_error)
 from feedtune.cli.report import check_report_dir
 
 MODELS = ("software_servo", "hydraulic_rotary", "ward_leonard", "linear", "frd")
@@ -65,7 +63,7 @@ def _template(path: str) -> dict:
               help="A spec (its \"plant\") or plant block of the same type whose other "
                    "fields the written block keeps: technique, compensators, controllers, "
                    "BLU [m], … (constants the identification replaces are left out).")
-@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary to stderr.")
+@QUIET
 def identify(data, model_name, output, report_dir, poles, zeros, integrators, dead_time,
              max_dead_time, like, quiet):
     """Identify a plant from measured DATA files of one axis (CSV or JSON).
@@ -106,9 +104,7 @@ def identify(data, model_name, output, report_dir, poles, zeros, integrators, de
     except KeyboardInterrupt:
         fail("interrupted; nothing written", 130)
     except Exception as exc:  # a bug: say so, keep the traceback for the report
-        traceback.print_exc()
-        fail(f"internal error in feedtune {__version__} ({type(exc).__name__}: {exc}); "
-             "please report it with the data", EXIT_INTERNAL)
+        internal_error(exc, "the data")
     document = result.to_dict()
     text = json.dumps(document, indent=2, allow_nan=False) + "\n"
     block = json.dumps(result.plant, indent=2, allow_nan=False) + "\n"

@@ -80,6 +80,7 @@ def metric_support() -> dict[str, dict[str, list[str]]]:
     from feedtune.measured.datadriven_spec import ROLES, TECHNIQUE  # measured data: no Loop
 
     for name, role in ROLES.items():
+        support.setdefault(name, {"supported": [], "reported_only": []})
         support[name]["supported"].append(TECHNIQUE)
         if role == "reported":
             support[name]["reported_only"].append(TECHNIQUE)
@@ -88,14 +89,21 @@ def metric_support() -> dict[str, dict[str, list[str]]]:
 
 def describe_metrics() -> dict[str, dict]:
     """Every registered metric: unit, description, reference, options, and the plant
-    configurations that support it (:func:`metric_support`)."""
+    configurations that support it (:func:`metric_support`); then the metrics only measured
+    frequency responses have (:data:`feedtune.measured.datadriven_spec.DATA_METRICS`, their
+    options in the spec's ``sensitivity_weight``)."""
+    from feedtune.measured.datadriven_spec import DATA_METRICS, SensitivityWeightSpec
     from feedtune.objectives import METRICS
 
     support = metric_support()
-    return {
+    described = {
         name: {"unit": m.unit, "description": m.description, "reference": m.reference,
                "options": describe_fields(m.Options), **support[name]}
         for name, m in METRICS.items()}
+    for name, m in DATA_METRICS.items():
+        described[name] = {**m, "options": describe_fields(SensitivityWeightSpec),
+                           "options_at": "sensitivity_weight", **support[name]}
+    return described
 
 
 @click.command()
@@ -118,7 +126,7 @@ def metrics(as_json: bool) -> None:
         if m["reference"]:
             lines.append(f"  reference: {m['reference']}")
         if m["options"]:
-            lines.append("  options:")
+            lines.append(f"  options ({m['options_at']}):" if "options_at" in m else "  options:")
             lines.extend(field_lines(m["options"], "    "))
         lines.append("  supported by: " + _support_text(m["supported"], m["reported_only"],
                                                        configurations))

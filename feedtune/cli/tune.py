@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-import traceback
-
 import click
 
-from feedtune import __version__
-from feedtune.cli.common import (EPILOG, EXIT_INTERNAL, EXIT_NOT_SUCCESS, EXIT_OK, check_output,
-                                 emit, err, fail, fmt, parse, spec_errors, spec_label,
+from feedtune.cli.common import (EPILOG, EXIT_NOT_SUCCESS, EXIT_OK, QUIET, check_output, emit,
+                                 err, fail, fmt, internal_error, parse, spec_errors, spec_label,
                                  stdout_to_stderr)
 from feedtune.cli.report import check_report_dir, write_report
 
@@ -50,7 +47,7 @@ def _is_machine(spec: str) -> bool:
 @click.argument("spec", metavar="SPEC")
 @click.option("-o", "--output", metavar="RESULT",
               help="Write the result JSON here (atomically) instead of stdout; '-' is stdout.")
-@click.option("-q", "--quiet", is_flag=True, help="Do not print the summary to stderr.")
+@QUIET
 @click.option("--report", "report_dir", metavar="DIR",
               help="Also write the report (report.html and PNG figures, as `feedtune report`) "
                    "into DIR, created if missing; checked before solving, exit 2 if DIR holds "
@@ -86,9 +83,7 @@ def tune(spec: str, output: str | None, quiet: bool, report_dir: str | None,
     except KeyboardInterrupt:
         fail("interrupted; no result written", 130)
     except Exception as exc:  # a bug: say so, keep the traceback for the report
-        traceback.print_exc()
-        fail(f"internal error in feedtune {__version__} ({type(exc).__name__}: {exc}); "
-             "please report it with the spec", EXIT_INTERNAL)
+        internal_error(exc, "the spec")
     # first: a closed stderr must not lose the result
     emit(result.to_json().encode("utf-8"), target)
     if not quiet:

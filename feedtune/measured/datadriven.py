@@ -64,7 +64,7 @@ import numpy as np
 from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
 
 Law = Literal["p", "pi", "pd", "pid"]
-Objective = Literal["bandwidth", "crossover_frequency"]
+Objective = Literal["bandwidth", "crossover_frequency", "weighted_sensitivity"]
 
 #: the −3 dB level of |T| that defines the bandwidth (feedtune's ``bandwidth``)
 HALF_POWER = 1.0 / math.sqrt(2.0)
@@ -157,6 +157,32 @@ class ControllerBasis:
     def response(self, rho: np.ndarray, omega: np.ndarray) -> np.ndarray:
         """K(jω) at parameters ``rho`` [command per position unit]."""
         return self.phi(omega) @ np.asarray(rho, dtype=float)
+
+
+@dataclass(frozen=True)
+class SensitivityWeight:
+    """The first-order performance weight W(s) = (s/M + ω_B)/(s + ω_B A) of ‖W S‖∞ ≤ 1:
+    |S| ≤ A at low frequency, ≤ M at high frequency, |S| ≈ 1 near ω_B (Skogestad &
+    Postlethwaite, *Multivariable Feedback Control*, 2nd ed., §2.8.2, the weight w_P).
+
+    Attributes
+    ----------
+    bandwidth : float
+        ω_B [rad/s], the sensitivity's bandwidth the weight asks for.
+    peak : float
+        M [1], the bound on |S| at high frequency (|W(j∞)| = 1/M).
+    low_gain : float
+        A [1], the bound on |S| at low frequency (|W(0)| = 1/A); A < 1 < M.
+    """
+
+    bandwidth: float
+    peak: float
+    low_gain: float
+
+    def magnitude(self, omega: np.ndarray) -> np.ndarray:
+        """|W(jω)| [1] at ω [rad/s]."""
+        s = 1j * np.asarray(omega, dtype=float)
+        return np.abs((s / self.peak + self.bandwidth) / (s + self.bandwidth * self.low_gain))
 
 
 @dataclass(frozen=True)
@@ -321,8 +347,17 @@ def interpolated_peak(omega: np.ndarray, value: np.ndarray) -> float:
     return max(peak, float(np.max(vertex)))
 
 
-def set_metrics(data: FrequencySet, loop: np.ndarray) -> dict[str, float | None]:
+def set_metrics(data: FrequencySet, loop: np.ndarray,
+                weight: SensitivityWeight | None = None) -> dict[str, float | None]:
     """The frequency metrics of one data set's loop at its measured frequencies.
+
+    Parameters
+    ----------
+    data : FrequencySet
+    loop : ndarray of complex
+        L = G K at ``data.omega`` [1].
+    weight : SensitivityWeight, optional
+        W of ``weighted_sensitivity`` = max |W S| [1] (and ``_measured``), given one.
 
     Returns
     -------
@@ -345,21 +380,29 @@ def set_metrics(data: FrequencySet, loop: np.ndarray) -> dict[str, float | None]
         margin = math.degrees(at) + 180.0
         margin -= 360.0 * math.floor((margin + 180.0) / 360.0)  # within (−180°, 180°]
     sensitivity = np.abs(1.0 / x)
-    return {"m_peak": interpolated_peak(data.omega, t),
-            "sensitivity_peak": interpolated_peak(data.omega, sensitivity),
-            "m_peak_measured": float(t.max()),
-            "sensitivity_peak_measured": float(sensitivity.max()),
-            "bandwidth": _first_crossing_below(data.omega, t, HALF_POWER),
-            "crossover_frequency": crossover, "phase_margin": margin}
+    out = {"m_peak": interpolated_peak(data.omega, t),
+           "sensitivity_peak": interpolated_peak(data.omega, sensitivity),
+           "m_peak_measured": float(t.max()),
+           "sensitivity_peak_measured": float(sensitivity.max()),
+           "bandwidth": _first_crossing_below(data.omega, t, HALF_POWER),
+           "crossover_frequency": crossover, "phase_margin": margin}
+    if weight is not None:
+        weighted = weight.magnitude(data.omega) * sensitivity
+        out["weighted_sensitivity"] = interpolated_peak(data.omega, weighted)
+        out["weighted_sensitivity_measured"] = float(weighted.max())
+    return out
+
+
+#: the peaks (worst: the largest over the sets); every other metric's worst is its least
+PEAKS = ("m_peak", "sensitivity_peak", "weighted_sensitivity")
 
 
 def worst_case(per_set: Sequence[Mapping[str, float | None]]) -> dict[str, float | None]:
     """The worst value of each metric over the sets: the largest peak, the smallest
     bandwidth, crossover and margin (None when any set has none)."""
     out = {}
-    for key, pick in (("m_peak", max), ("sensitivity_peak", max), ("m_peak_measured", max),
-                      ("sensitivity_peak_measured", max), ("bandwidth", min),
-                      ("crossover_frequency", min), ("phase_margin", min)):
+    for key in per_set[0]:
+        pick = max if key.removesuffix("_measured") in PEAKS else min
         values = [m[key] for m in per_set]
         out[key] = None if any(v is None for v in values) else float(pick(values))
     return out
@@ -426,7 +469,8 @@ class _Loops:
     def loop(self, rho: np.ndarray) -> np.ndarray:
         return self.a @ rho
 
-    def evaluate(self, rho: np.ndarray, integrators: int, unstable_poles: int):
+    def evaluate(self, rho: np.ndarray, integrators: int, unstable_poles: int,
+                 weight: SensitivityWeight | None = None):
         """(per-set metrics, certificates) at ``rho``; ``integrators``: the plant's."""
         loop = self.loop(rho)
         per_set, certificates = [], []
@@ -435,18 +479,17 @@ class _Loops:
             return self.basis.response(rho, omega)
 
         for data, part in zip(self.sets, self.slices):
-            per_set.append(set_metrics(data, loop[part]))
+            per_set.append(set_metrics(data, loop[part], weight))
             certificates.append(nyquist_certificate(data, controller, integrators,
                                                     self.basis.integrators, unstable_poles))
         return per_set, certificates
 
 
-def _meets(metrics: Mapping, m_peak: float | None, sensitivity_peak: float | None,
-           slack: float = 0.0, suffix: str = "") -> bool:
-    """The peaks (``suffix`` ``_measured``: at the measured points only) within the bounds."""
-    return ((m_peak is None or metrics["m_peak" + suffix] <= m_peak * (1 + slack))
-            and (sensitivity_peak is None
-                 or metrics["sensitivity_peak" + suffix] <= sensitivity_peak * (1 + slack)))
+def _meets(metrics: Mapping, bounds: Mapping[str, float], slack: float = 0.0,
+           suffix: str = "") -> bool:
+    """The peaks (``suffix`` ``_measured``: at the measured points only) within ``bounds``
+    (peak name → its upper bound [1])."""
+    return all(metrics[name + suffix] <= bound * (1 + slack) for name, bound in bounds.items())
 
 
 #: times the points are held to tighter bounds when a peak between them is over its bound
@@ -463,14 +506,17 @@ VERBOSE = False
 #: Clarabel's tolerances: 1e-7 rather than its 1e-8 (two fewer interior-point iterations of
 #: about twenty); every answer is checked against the true bounds with BOUND_SLACK
 CLARABEL = {"tol_gap_abs": 1e-7, "tol_gap_rel": 1e-7, "tol_feas": 1e-7}
-#: points the SOCP holds at once; the exchange adds violated ones (_Exchange)
-WORKING_SET = 240
+#: the working set's sizes [points]: the SOCP is built once per size (padded by repeating
+#: a point), the smallest that holds the chosen points is solved (_Exchange)
+WORKING_SIZES = (32, 64, 128, 256, 512, 1024)
+#: a point joins the first working set when it is this near a bound at ρ_c [1; 1 = on it]
+TIGHT = 0.9
+#: violated points that join the working set a round, at most, the most violated first
+ADDED = 16
 #: the largest slack the SOCP may report [1]: bounds it where no point is active
 SLACK_CAP = 1e3
 #: next points above ω_b, one per set, whose slack the last solve of a linearisation widens
 NEXT = 16
-#: rounds of the exchange before the SOCP on all points is solved instead
-EXCHANGE_ROUNDS = 6
 #: a point's linearised constraint violated by more than this [1, relative to |X_c|]
 #: joins the working set (Clarabel's feasibility tolerance is 1e-8)
 EXCHANGE_TOL = 1e-7
@@ -478,19 +524,45 @@ EXCHANGE_TOL = 1e-7
 
 class _Socp:
     """The SOCP of one linearisation on ``rows`` measured points, built once with cvxpy
-    Parameters (DPP: a new ρ_c, ω_b or set of points only updates numbers)."""
+    Parameters (DPP: a new ρ_c, ω_b or set of points only updates numbers).
+
+    ``bounds``: peak name (``m_peak``, ``sensitivity_peak``, ``weighted_sensitivity``) → its
+    upper bound [1]. For the objective ``weighted_sensitivity`` the slack s is 1/γ of
+    |W S| ≤ γ: with X = 1 + L, |W|/|X| ≤ 1/s ⇐ Re{X_c* X}/|X_c| ≥ |W| s, linear in (ρ, s),
+    written relative to |X_c| (Re{X_c* X}/|X_c|² ≥ (|W|/|X_c|) s) so every row is O(1)."""
 
     def __init__(self, rows: int, p: int, z_box: tuple[np.ndarray, np.ndarray],
-                 m_peak: float | None, sensitivity_peak: float | None, objective: Objective):
+                 bounds: Mapping[str, float], objective: Objective):
         import cvxpy as cp
 
         self.cp = cp
+        self.objective = objective
         self.z = cp.Variable(p)
         self.s = cp.Variable()
         self.ar = cp.Parameter((rows, p))     # Re a, Im a: L = a z
         self.ai = cp.Parameter((rows, p))
         self.x_dir = cp.Parameter((rows, p))  # Re{X_c* a}/|X_c|
         self.x_0 = cp.Parameter(rows)         # Re{X_c}/|X_c|
+        z, s = self.z, self.s
+        re_x = self.x_0 + self.x_dir @ z
+        constraints = [z >= z_box[0], z <= z_box[1], re_x >= 0, s <= SLACK_CAP]
+        if "m_peak" in bounds:
+            constraints.append(cp.SOC(bounds["m_peak"] * re_x,
+                                      cp.vstack([self.ar @ z, self.ai @ z]), axis=0))
+        if "sensitivity_peak" in bounds:
+            constraints.append(bounds["sensitivity_peak"] * re_x >= 1.0)
+        self.weighted = "weighted_sensitivity" in bounds or objective == "weighted_sensitivity"
+        if self.weighted:
+            self.xr_dir = cp.Parameter((rows, p))         # Re{X_c* a}/|X_c|²
+            self.xr_0 = cp.Parameter(rows)                # Re{X_c}/|X_c|²
+            self.w_rel = cp.Parameter(rows, nonneg=True)  # |W|/|X_c| = |W S_c|
+            re_rel = self.xr_0 + self.xr_dir @ z
+            if "weighted_sensitivity" in bounds:
+                constraints.append(bounds["weighted_sensitivity"] * re_rel >= self.w_rel)
+        if objective == "weighted_sensitivity":
+            constraints += [re_rel >= cp.multiply(self.w_rel, s), s >= 0]
+            self.problem = cp.Problem(cp.Maximize(s), constraints)
+            return
         self.l_dir = cp.Parameter((rows, p))  # Re{L_c* a}/|L_c|, 0 above ω_b
         self.weight = cp.Parameter(rows, nonneg=True)  # the slack's scale |L_c|, 0 above ω_b
         self.active = cp.Parameter(rows, nonneg=True)  # 1 where ω ≤ ω_b, else 0
@@ -506,14 +578,8 @@ class _Socp:
         self.next_ai = cp.Parameter((NEXT, p))
         self.s_floor = cp.Parameter()                  # −SLACK_CAP, or 0 when t is maximised
         self.goal = cp.Parameter(2, nonneg=True)       # (1, 0): maximise s; (0, 1): t
-        z, s, t = self.z, self.s, self.t
-        re_x = self.x_0 + self.x_dir @ z
-        constraints = [z >= z_box[0], z <= z_box[1], re_x >= 0, s <= SLACK_CAP, t <= SLACK_CAP,
-                       s >= self.s_floor]
-        if m_peak is not None:
-            constraints.append(cp.SOC(m_peak * re_x, cp.vstack([self.ar @ z, self.ai @ z]), axis=0))
-        if sensitivity_peak is not None:
-            constraints.append(sensitivity_peak * re_x >= 1.0)
+        t = self.t
+        constraints += [t <= SLACK_CAP, s >= self.s_floor]
         # the objective's condition; above ω_b every coefficient is 0 (0 ≤ 0)
         lower = self.l_dir @ z - cp.multiply(self.weight, s)
         upper = self.next_dir @ z - cp.multiply(self.next_weight, t)
@@ -526,13 +592,10 @@ class _Socp:
             constraints += [lower >= self.active, upper >= self.next_on]
         self.problem = cp.Problem(cp.Maximize(self.goal[0] * s + self.goal[1] * t), constraints)
 
-    def solve(self, a: np.ndarray, x_c: np.ndarray, l_c: np.ndarray, active: np.ndarray,
-              following: tuple[np.ndarray, np.ndarray] | None = None
-              ) -> tuple[float | None, np.ndarray | None]:
-        """(largest smallest slack s, z) on the points of ``a`` (rows: L = a z), linearised at
-        X_c = 1 + L_c, with the objective's condition where ``active``; with ``following``
-        (a, L_c of the next points above ω_b) the z that keeps every active slack ≥ 0 and
-        widens the next points' smallest slack most. (None, None) when the solver fails."""
+    def _set_widening(self, active: np.ndarray, a: np.ndarray, l_c: np.ndarray,
+                      following: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """The bandwidth's (crossover's) parameters: its condition where ``active``, and
+        the next points' slack when ``following`` is given."""
         rows = np.zeros((NEXT, a.shape[1]), dtype=complex), np.ones(NEXT, dtype=complex)
         on_next = np.zeros(NEXT)
         if following is not None:
@@ -547,13 +610,30 @@ class _Socp:
         self.s_floor.value = 0.0 if following is not None else -SLACK_CAP
         self.goal.value = np.array([0.0, 1.0] if following is not None else [1.0, 0.0])
         on = active.astype(float)
-        self.ar.value, self.ai.value = a.real, a.imag
-        self.x_dir.value = (np.conj(x_c)[:, None] * a).real / np.abs(x_c)[:, None]
-        self.x_0.value = x_c.real / np.abs(x_c)
         self.l_dir.value = (np.conj(l_c)[:, None] * a).real / np.abs(l_c)[:, None] * on[:, None]
         self.weight.value = np.abs(l_c) * on
         self.active.value = on
         self.ar_active.value, self.ai_active.value = a.real * on[:, None], a.imag * on[:, None]
+
+    def solve(self, a: np.ndarray, x_c: np.ndarray, l_c: np.ndarray, active: np.ndarray,
+              following: tuple[np.ndarray, np.ndarray] | None = None,
+              w: np.ndarray | None = None) -> tuple[float | None, np.ndarray | None]:
+        """(largest smallest slack s, z) on the points of ``a`` (rows: L = a z), linearised at
+        X_c = 1 + L_c, with the objective's condition where ``active``; with ``following``
+        (a, L_c of the next points above ω_b) the z that keeps every active slack ≥ 0 and
+        widens the next points' smallest slack most; ``w``: |W| at the points [1] (the
+        weighted sensitivity's). (None, None) when the solver fails."""
+        if self.objective != "weighted_sensitivity":
+            self._set_widening(active, a, l_c, following)
+        self.ar.value, self.ai.value = a.real, a.imag
+        x_dir = (np.conj(x_c)[:, None] * a).real
+        size = np.abs(x_c)
+        self.x_dir.value = x_dir / size[:, None]
+        self.x_0.value = x_c.real / size
+        if self.weighted:
+            self.xr_dir.value = x_dir / size[:, None] ** 2
+            self.xr_0.value = x_c.real / size**2
+            self.w_rel.value = w / size
         try:
             with warnings.catch_warnings():  # "optimal_inaccurate": the answer is checked below
                 warnings.simplefilter("ignore", UserWarning)
@@ -567,22 +647,31 @@ class _Socp:
 
 class _Exchange:
     """Every measured point's constraints, solved on a working set of the tightest ones
-    (the exchange method): the SOCP holds ``WORKING_SET`` points; after each solve every
-    point's linearised constraints are checked in numpy, the violated ones join the set and
-    it is solved again, so the answer is that of the SOCP on all points. Most points are
-    far from every bound (|T| ≪ M above the resonances, |L| ≫ 1 far below ω_b): on 3 sets
-    × 500 points, Clarabel solved 3 000 cones in ≈ 130 ms of CPU a call."""
+    (the exchange method): the SOCP holds the points within ``TIGHT`` of a bound at ρ_c
+    (at least the 32 tightest); after each solve every point's linearised constraints are
+    checked in numpy, the violated ones join the set and it is solved again, so the answer
+    is that of the SOCP on all points. Most points are far from every bound (|T| ≪ M above
+    the resonances, |L| ≫ 1 far below ω_b), and an SOCP's cost grows with its points
+    (Clarabel, 3 sets × 500 points: ≈ 7 ms of CPU on 60 points, 27 ms on 240, 137 ms on all
+    1 500), so the set is kept small: one SOCP per size of ``WORKING_SIZES`` (and one of
+    all points), the chosen points padded to the size by repeating one of them."""
 
-    def __init__(self, a: np.ndarray, omega: np.ndarray, z_box, m_peak, sensitivity_peak,
-                 objective: Objective):
-        self.a, self.omega = a, omega
-        self.m_peak, self.sensitivity_peak, self.objective = m_peak, sensitivity_peak, objective
-        rows = min(WORKING_SET, len(a))
-        self.small = _Socp(rows, a.shape[1], z_box, m_peak, sensitivity_peak, objective)
-        self.full = None if rows == len(a) else (
-            lambda: _Socp(len(a), a.shape[1], z_box, m_peak, sensitivity_peak, objective))
-        self.z_box = z_box
+    def __init__(self, a: np.ndarray, omega: np.ndarray, z_box, bounds: Mapping[str, float],
+                 objective: Objective, w: np.ndarray | None = None):
+        self.a, self.omega, self.w = a, omega, w
+        self.bounds, self.objective = dict(bounds), objective
+        self.sizes = [n for n in WORKING_SIZES if n < len(a)] + [len(a)]
+        self.socps: dict[int, _Socp] = {}
+        self.p, self.z_box = a.shape[1], z_box
         self.solves = 0
+        self.build_time = 0.0  # wall time building the SOCPs [s]
+
+    def _socp(self, rows: int) -> _Socp:
+        if rows not in self.socps:
+            tick = time.perf_counter()
+            self.socps[rows] = _Socp(rows, self.p, self.z_box, self.bounds, self.objective)
+            self.build_time += time.perf_counter() - tick
+        return self.socps[rows]
 
     def linearise(self, z_c: np.ndarray) -> None:
         self.l_c = self.a @ z_c
@@ -593,12 +682,18 @@ class _Exchange:
         relative to |X_c| or |L_c|]."""
         l = self.a @ z
         x_c, l_c = self.x_c, self.l_c
-        re_x = (np.conj(x_c) * (1.0 + l)).real / np.abs(x_c)
+        size = np.abs(x_c)
+        re_x = (np.conj(x_c) * (1.0 + l)).real / size
         worst = np.maximum(-re_x, 0.0)
-        if self.m_peak is not None:
-            worst = np.maximum(worst, (np.abs(l) - self.m_peak * re_x) / np.abs(x_c))
-        if self.sensitivity_peak is not None:
-            worst = np.maximum(worst, (1.0 - self.sensitivity_peak * re_x) / np.abs(x_c))
+        bounds = self.bounds
+        if "m_peak" in bounds:
+            worst = np.maximum(worst, (np.abs(l) - bounds["m_peak"] * re_x) / size)
+        if "sensitivity_peak" in bounds:
+            worst = np.maximum(worst, (1.0 - bounds["sensitivity_peak"] * re_x) / size)
+        if "weighted_sensitivity" in bounds:
+            worst = np.maximum(worst, (self.w / bounds["weighted_sensitivity"] - re_x) / size)
+        if self.objective == "weighted_sensitivity":
+            return np.maximum(worst, (self.w * s - re_x) / size)
         lower = (np.conj(l_c) * l).real / np.abs(l_c) - np.abs(l_c) * s
         need = np.abs(1.0 + l) / math.sqrt(2.0) if self.objective == "bandwidth" else 1.0
         worst = np.maximum(worst, np.where(active, (need - lower) / np.abs(l_c), 0.0))
@@ -608,10 +703,17 @@ class _Exchange:
         """How near each point is to a bound at ρ_c [1; 1 = on it]."""
         t = np.abs(self.l_c / self.x_c)
         score = np.zeros(len(t))
-        if self.m_peak is not None:
-            score = np.maximum(score, t / self.m_peak)
-        if self.sensitivity_peak is not None:
-            score = np.maximum(score, 1.0 / (np.abs(self.x_c) * self.sensitivity_peak))
+        bounds = self.bounds
+        if "m_peak" in bounds:
+            score = np.maximum(score, t / bounds["m_peak"])
+        if "sensitivity_peak" in bounds:
+            score = np.maximum(score, 1.0 / (np.abs(self.x_c) * bounds["sensitivity_peak"]))
+        if self.w is not None:
+            weighted = self.w / np.abs(self.x_c)  # |W S_c|
+            if "weighted_sensitivity" in bounds:
+                score = np.maximum(score, weighted / bounds["weighted_sensitivity"])
+            if self.objective == "weighted_sensitivity":
+                return np.maximum(score, weighted / weighted.max())
         level = HALF_POWER if self.objective == "bandwidth" else 1.0
         near = level / (t if self.objective == "bandwidth" else np.abs(self.l_c))
         return np.maximum(score, np.where(active, near, 0.0))
@@ -620,37 +722,28 @@ class _Exchange:
               ) -> tuple[float | None, np.ndarray | None]:
         """As :meth:`_Socp.solve`, every point's constraints held; ``following``: the
         indices of the next points above ω_b, whose slack is then widened."""
-        rows = self.small.ar.shape[0]
         nxt = None if following is None else (self.a[following], self.l_c[following])
-        if rows == len(self.a):
-            self.solves += 1
-            return self.small.solve(self.a, self.x_c, self.l_c, active, nxt)
+        w = self.w if self.w is not None else np.zeros(len(self.a))
         tightness = self._tightness(active)
-        chosen = list(np.argsort(-tightness)[:rows])
-        kept: set[int] = set()  # positions of points the exchange brought in
-        for _ in range(EXCHANGE_ROUNDS):
-            index = np.array(chosen)
+        order = np.argsort(-tightness)
+        chosen = order[:max(int(np.count_nonzero(tightness >= TIGHT)), self.sizes[0])]
+        while True:
+            rows = next(n for n in self.sizes if n >= len(chosen))
+            index = np.concatenate([chosen, np.full(rows - len(chosen), chosen[0])])
             self.solves += 1
-            s, z = self.small.solve(self.a[index], self.x_c[index], self.l_c[index],
-                                    active[index], nxt)
-            if z is None:
-                return None, None
+            s, z = self._socp(rows).solve(self.a[index], self.x_c[index], self.l_c[index],
+                                          active[index], nxt, w[index])
+            if z is None or rows == len(self.a):
+                return s, z
             violation = self._violation(z, s, active)
-            violation[index] = 0.0
+            violation[chosen] = 0.0
             worst = np.flatnonzero(violation > EXCHANGE_TOL)
             if worst.size == 0:
                 return s, z
-            # the violated points replace the slackest of those chosen at the start
-            free = [i for i in np.argsort(tightness[index]) if i not in kept]
-            if len(free) < worst.size:
-                break
-            for position, point in zip(free, worst):
-                chosen[position] = int(point)
-                kept.add(position)
-        if callable(self.full):
-            self.full = self.full()
-        self.solves += 1
-        return self.full.solve(self.a, self.x_c, self.l_c, active, nxt)
+            # the most violated join, at most ADDED a round (many violated points are
+            # neighbours, held by the same few)
+            worst = worst[np.argsort(-violation[worst])[:ADDED]]
+            chosen = np.concatenate([chosen, worst])
 
 
 def _bisect(feasible, low: int, high: int, z_low):
@@ -669,10 +762,12 @@ def _bisect(feasible, low: int, high: int, z_low):
 def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
            box: Mapping[str, tuple[float, float]], initial: Mapping[str, float], *,
            m_peak: float | None = None, sensitivity_peak: float | None = None,
+           weighted_sensitivity: float | None = None, weight: SensitivityWeight | None = None,
            objective: Objective = "bandwidth", integrators: int = 0, unstable_poles: int = 0,
            max_iter: int = 50, tol: float = 1e-4, time_limit: float | None = None) -> Design:
-    """The controller of ``basis`` with the widest bandwidth (or crossover) whose bounds hold
-    at every measured frequency of every set, stable by :func:`nyquist_certificate` on each.
+    """The controller of ``basis`` with the widest bandwidth (or crossover), or the least
+    weighted sensitivity, whose bounds hold at every measured frequency of every set, stable
+    by :func:`nyquist_certificate` on each.
 
     Parameters
     ----------
@@ -685,10 +780,14 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
         Parameter name → the first controller ρ_c [its unit]; it should stabilise every
         set's loop. If it does not, or breaks a bound, every gain is halved (up to 12 times)
         until it does.
-    m_peak, sensitivity_peak : float, optional
-        Bounds on max |T| and max |S| [1] at every measured frequency of every set.
-    objective : {"bandwidth", "crossover_frequency"}
-        Maximised: the lowest −3 dB point of |T| over the sets, or the lowest |L| = 1 point.
+    m_peak, sensitivity_peak, weighted_sensitivity : float, optional
+        Bounds on max |T|, max |S| and max |W S| [1] at every measured frequency of every set.
+    weight : SensitivityWeight, optional
+        W of ``weighted_sensitivity`` (needed for its bound or objective).
+    objective : {"bandwidth", "crossover_frequency", "weighted_sensitivity"}
+        Maximised: the lowest −3 dB point of |T| over the sets, or the lowest |L| = 1 point;
+        or minimised: the largest max |W S| over the sets (each linearisation maximises s
+        with Re{X_c* X}/|X_c| ≥ |W| s at every point, so max |W S| ≤ 1/s).
     integrators : int
         Poles of the *plant* at s = 0 [count] (the controller's are added).
     unstable_poles : int
@@ -696,7 +795,9 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
     max_iter : int
         Linearisations at most [count].
     tol : float
-        Stop when ω_b is unchanged and ρ moves by less than this, relative [1].
+        Stop when the objective no longer improves (the bandwidth's grid index, or the
+        weighted sensitivity by more than ``tol`` relative) and ρ moves by less than this,
+        relative [1].
     time_limit : float, optional
         Wall-time limit [s]: the design so far is returned (status ``time_limit``).
 
@@ -709,18 +810,32 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
     ------
     DataDrivenError
         No initial controller found that is stable on every set and meets the bounds.
+    ValueError
+        A weighted sensitivity asked for without its ``weight``.
     """
+    bounds = {name: bound for name, bound in (("m_peak", m_peak),
+                                              ("sensitivity_peak", sensitivity_peak),
+                                              ("weighted_sensitivity", weighted_sensitivity))
+              if bound is not None}
+    weighted = objective == "weighted_sensitivity" or "weighted_sensitivity" in bounds
+    if weighted and weight is None:
+        raise ValueError("a weighted sensitivity needs its weight W")
     names = basis.names
     lo = np.array([box[n][0] for n in names], dtype=float)
     hi = np.array([box[n][1] for n in names], dtype=float)
     rho = np.clip(np.array([initial[n] for n in names], dtype=float), lo, hi)
     loops = _Loops(sets, basis)
+    w = weight.magnitude(loops.omega) if weighted else None
     started = time.perf_counter()
     candidates = np.unique(loops.omega)
+    everywhere = np.ones(len(loops.omega), dtype=bool)
     scale, socps = None, {}
-    history, iterations, solves, solve_time, build_time = [], 0, 0, 0.0, 0.0
+    history, iterations, solves, solve_time = [], 0, 0, 0.0
     notes: list[str] = []  # what happened besides the last round's ending
-    m_grid, s_grid = m_peak, sensitivity_peak  # the bounds the SOCPs hold at the points
+    grid = dict(bounds)  # the bounds the SOCPs hold at the points
+
+    def evaluate(at):
+        return loops.evaluate(at, integrators, unstable_poles, weight if weighted else None)
 
     def reach(metrics) -> int:
         """Index in ``candidates`` of the last frequency below the objective's crossing."""
@@ -733,9 +848,9 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
         # a stabilising controller within the bounds at the points: where the method starts
         # (a refinement goes on from the last iterate, just over its tighter bounds)
         for _ in range(INITIAL_RETRIES + 1):
-            per_set, certificates = loops.evaluate(rho, integrators, unstable_poles)
+            per_set, certificates = evaluate(rho)
             if refinement > 0 or (all(c.stable for c in certificates) and _meets(
-                    worst_case(per_set), m_grid, s_grid, suffix="_measured")):
+                    worst_case(per_set), grid, suffix="_measured")):
                 break
             rho = np.clip(rho * INITIAL_SHRINK, lo, hi)
         else:
@@ -747,80 +862,53 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
                                   "controller known to work")
         if scale is None:
             scale = np.where(rho > 0, rho, np.sqrt(lo * hi))
-        key = (m_grid, s_grid)
+        key = tuple(sorted(grid.items()))
         if key not in socps:
-            tick = time.perf_counter()
             socps[key] = _Exchange(loops.a * scale, loops.omega, (lo / scale, hi / scale),
-                                   m_grid, s_grid, objective)
-            build_time += time.perf_counter() - tick
+                                   grid, objective, w)
         socp = socps[key]
         tightened = refinement > 0
         metrics = worst_case(per_set)
         status, message = ITERATION_LIMIT, ""
         while iterations < max_iter:
             iterations += 1
-            k = reach(metrics)
             socp.linearise(rho / scale)
             tick = time.perf_counter()
-
-            def prefix(index):
-                """The points at or below candidate ``index`` (none for index < 0)."""
-                return (loops.omega <= candidates[index] if index >= 0
-                        else np.zeros(len(loops.omega), dtype=bool))
-
-            def feasible(index):
-                s, z_new = socp.solve(prefix(index))
-                return (s is not None and s >= -1e-9), z_new
-
-            # the current point is feasible at k (unless a refinement tightened the bounds):
-            # search upwards, doubling, then bisect
-            best_k, best_z = k, None
-            ok = True  # ρ_c itself holds at k (s = 0), unless the bounds were just tightened
-            if tightened:
-                ok, best_z = feasible(k)
+            if objective == "weighted_sensitivity":
+                s_new, best_z = socp.solve(everywhere)
+                if best_z is not None and not s_new > 0:
+                    best_z = None
+            else:
+                k = reach(metrics)
+                best_z, failed = _widen(socp, loops, candidates, k, tightened)
                 tightened = False
-            if not ok:  # only after a refinement: search downwards
-                best_k, best_z = _bisect(feasible, -2, k, None)
-                if best_z is None:
+                if failed:
                     status, message = INFEASIBLE, ("no controller of this structure meets "
                                                       "the bounds at every measured point")
                     break
-            step, upper = 1, None
-            while best_k + step < len(candidates):
-                ok, z_try = feasible(best_k + step)
-                if not ok:
-                    upper = best_k + step
-                    break
-                best_k, best_z, step = best_k + step, z_try, step * 2
-            if upper is not None:
-                best_k, best_z = _bisect(feasible, best_k, upper, best_z)
-            if best_k + 1 < len(candidates):  # widen towards the next point of each set
-                following = np.array([sl.start + int(np.searchsorted(
-                    loops.omega[sl], candidates[best_k], side="right"))
-                    for sl in loops.slices])
-                following = following[following < [sl.stop for sl in loops.slices]][:NEXT]
-                s_final, z_final = socp.solve(prefix(best_k), following)
-                if z_final is not None and s_final >= -1e-9:
-                    best_z = z_final
             solve_time += time.perf_counter() - tick
             if best_z is None:
-                status, message = OPTIMAL, (f"no controller widens the {objective} beyond "
+                status, message = OPTIMAL, (f"no controller improves the {objective} beyond "
                                               "the current one at this linearisation")
                 break
             new_rho = best_z * scale
-            new_per_set, new_certificates = loops.evaluate(new_rho, integrators, unstable_poles)
+            new_per_set, new_certificates = evaluate(new_rho)
             new_metrics = worst_case(new_per_set)
             if not (all(c.stable for c in new_certificates)
-                    and _meets(new_metrics, m_grid, s_grid, BOUND_SLACK, "_measured")):
+                    and _meets(new_metrics, grid, BOUND_SLACK, "_measured")):
                 status, message = OPTIMAL, ("the next iterate left the certified set (solver "
                                               "tolerance); the last certified one is kept")
                 break
             moved = float(np.linalg.norm(new_rho - rho) / max(np.linalg.norm(rho), 1e-300))
-            grew = reach(new_metrics) > k
+            if objective == "weighted_sensitivity":
+                improved = (new_metrics[objective]
+                            < metrics[objective] * (1 - tol))
+            else:
+                improved = reach(new_metrics) > k
             rho, per_set, certificates, metrics = new_rho, new_per_set, new_certificates, new_metrics
             history.append(metrics[objective] if metrics[objective] is not None else math.inf)
-            if not grew and moved < tol:
-                status, message = OPTIMAL, (f"converged: the {objective} stopped growing and "
+            if not improved and moved < tol:
+                status, message = OPTIMAL, (f"converged: the {objective} stopped improving and "
                                               f"ρ moved by {moved:.2g} (< tol {tol:g}) relative")
                 break
             if time_limit is not None and time.perf_counter() - started > time_limit:
@@ -829,21 +917,76 @@ def design(sets: Sequence[FrequencySet], basis: ControllerBasis,
         else:
             message = f"{max_iter} linearisations without converging; the last iterate is kept"
         solves = sum(x.solves for x in socps.values())
-        if status != OPTIMAL or _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK):
+        if status != OPTIMAL or _meets(metrics, bounds, BOUND_SLACK):
             break
         # a peak between the measured points is over its bound: hold the points tighter
-        if m_peak is not None and metrics["m_peak"] > m_peak * (1 + BOUND_SLACK):
-            m_grid = m_grid * m_peak / metrics["m_peak"] * (1 - GRID_MARGIN)
-        if sensitivity_peak is not None and metrics["sensitivity_peak"] > sensitivity_peak * (1 + BOUND_SLACK):
-            s_grid = s_grid * sensitivity_peak / metrics["sensitivity_peak"] * (1 - GRID_MARGIN)
-        held = ([f"M_peak {m_grid:.6g}"] if m_peak is not None else []) + (
-            [f"M_s {s_grid:.6g}"] if sensitivity_peak is not None else [])
+        for name, bound in bounds.items():
+            if metrics[name] > bound * (1 + BOUND_SLACK):
+                grid[name] = grid[name] * bound / metrics[name] * (1 - GRID_MARGIN)
+        held = ", ".join(f"{LABELS[name]} {value:.6g}" for name, value in grid.items())
         notes.append("a peak between measured points was over its bound: the points held to "
-                     + ", ".join(held))
-    if not _meets(metrics, m_peak, sensitivity_peak, BOUND_SLACK) and status == OPTIMAL:
+                     + held)
+    build_time = sum(x.build_time for x in socps.values())  # inside the solves' time
+    solve_time -= build_time
+    if not _meets(metrics, bounds, BOUND_SLACK) and status == OPTIMAL:
         status = INFEASIBLE
         notes.append("a peak between the measured points is still over its bound")
     return Design(values=dict(zip(names, (float(v) for v in rho))), status=status,
                   message="; ".join([message, *notes]), iterations=iterations, solves=solves, per_set=per_set,
                   metrics=metrics, certificates=certificates, history=history,
                   solve_time=solve_time, build_time=build_time)
+
+
+#: the peaks' names in messages
+LABELS = {"m_peak": "M_peak", "sensitivity_peak": "M_s", "weighted_sensitivity": "‖W S‖∞"}
+
+
+def _widen(socp: _Exchange, loops: _Loops, candidates: np.ndarray, k: int, tightened: bool
+           ) -> tuple[np.ndarray | None, bool]:
+    """One linearisation of the bandwidth (crossover) design: the largest feasible prefix
+    of the measured frequencies, from the current ``k`` (an index in ``candidates``),
+    searched upwards by doubling, then bisection, and the next points' slack widened.
+
+    Returns
+    -------
+    (z, failed)
+        z: the new scaled parameters, None when nothing widens the objective; ``failed``:
+        after a refinement (``tightened``) no prefix at all is feasible.
+    """
+    def prefix(index):
+        """The points at or below candidate ``index`` (none for index < 0)."""
+        return (loops.omega <= candidates[index] if index >= 0
+                else np.zeros(len(loops.omega), dtype=bool))
+
+    def feasible(index):
+        s, z_new = socp.solve(prefix(index))
+        return (s is not None and s >= -1e-9), z_new
+
+    # the current point is feasible at k (unless a refinement tightened the bounds):
+    # search upwards, doubling, then bisect
+    best_k, best_z = k, None
+    ok = True  # ρ_c itself holds at k (s = 0), unless the bounds were just tightened
+    if tightened:
+        ok, best_z = feasible(k)
+    if not ok:  # only after a refinement: search downwards
+        best_k, best_z = _bisect(feasible, -2, k, None)
+        if best_z is None:
+            return None, True
+    step, upper = 1, None
+    while best_k + step < len(candidates):
+        ok, z_try = feasible(best_k + step)
+        if not ok:
+            upper = best_k + step
+            break
+        best_k, best_z, step = best_k + step, z_try, step * 2
+    if upper is not None:
+        best_k, best_z = _bisect(feasible, best_k, upper, best_z)
+    if best_k + 1 < len(candidates):  # widen towards the next point of each set
+        following = np.array([sl.start + int(np.searchsorted(
+            loops.omega[sl], candidates[best_k], side="right"))
+            for sl in loops.slices])
+        following = following[following < [sl.stop for sl in loops.slices]][:NEXT]
+        s_final, z_final = socp.solve(prefix(best_k), following)
+        if z_final is not None and s_final >= -1e-9:
+            best_z = z_final
+    return best_z, False

@@ -5,16 +5,19 @@ checked and tuned by :func:`feedtune.measured.datadriven.design` into the same
 Such a spec has the usual shape (name, plant, tunables, objective, constraints, solver),
 with what the convex design can hold:
 
-* objective: one term, ``bandwidth`` or ``crossover_frequency``, ``goal: maximize``;
-* constraints: ``m_peak`` and/or ``sensitivity_peak`` with ``max`` [1], each at most once,
-  held at every measured frequency of every set;
+* objective: one term, ``bandwidth`` or ``crossover_frequency`` with ``goal: maximize``, or
+  ``weighted_sensitivity`` (max |W S|) with ``goal: minimize``;
+* constraints: ``m_peak``, ``sensitivity_peak`` and/or ``weighted_sensitivity`` with
+  ``max`` [1], each at most once, held at every measured frequency of every set;
+* sensitivity_weight: W(s) = (s/M + ω_B)/(s + ω_B A) of ``weighted_sensitivity``, needed
+  where it is used;
 * solver: ``{"method": "convex", "max_iter": …, "tol": …, "time_limit": …}``.
 
 The metrics are the model metrics' definitions on the measured frequencies (the loop
 exists only there): M_peak = max |T| (T(0) = 1: the loop has an integrator), M_s = max
 |S|, the bandwidth and crossover where |T| falls below 1/√2 and |L| below 1 (interpolated
-between neighbouring points), each the worst over the sets, and per set as
-``name(set=…)``.
+between neighbouring points), max |W S| given a weight, each the worst over the sets, and
+per set as ``name(set=…)``.
 
 References
 ----------
@@ -29,7 +32,8 @@ import json
 import math
 from typing import Literal, Sequence
 
-from pydantic import Field, PositiveFloat, PositiveInt, ValidationError, field_validator
+from pydantic import (Field, PositiveFloat, PositiveInt, ValidationError, field_validator,
+                      model_validator)
 
 from feedtune.plants.frequency_response_data import (FrequencyResponseData,
                                                      FrequencyResponseDataParams)
@@ -40,11 +44,21 @@ from feedtune.schema.status import ERROR, OPTIMAL
 
 #: the model metrics' units (feedtune metrics), for the metrics the data give
 UNITS = {"m_peak": "1", "sensitivity_peak": "1", "bandwidth": "rad/s",
-         "crossover_frequency": "rad/s", "phase_margin": "deg"}
+         "crossover_frequency": "rad/s", "phase_margin": "deg", "weighted_sensitivity": "1"}
 #: what the technique does with each: widen it (objective), bound it (constraint), or
 #: report it; ``feedtune metrics`` lists them under TECHNIQUE
 ROLES = {"bandwidth": "objective", "crossover_frequency": "objective", "m_peak": "constraint",
-         "sensitivity_peak": "constraint", "phase_margin": "reported"}
+         "sensitivity_peak": "constraint", "phase_margin": "reported",
+         "weighted_sensitivity": "objective or constraint"}
+#: metrics only the measured-data technique has (no model metric of that name): ``feedtune
+#: metrics`` lists them from here
+DATA_METRICS = {"weighted_sensitivity": {
+    "unit": "1",
+    "description": "max |W(jω) S(jω)| over the measured frequencies of every set, S = 1/(1 + L), "
+                   "W the spec's sensitivity_weight (s/M + ω_B)/(s + ω_B A); ≤ 1 means |S| ≤ "
+                   "1/|W| everywhere",
+    "reference": "Skogestad & Postlethwaite, Multivariable Feedback Control (2005), §2.8.2; "
+                 "Karimi & Kammer, Automatica 85 (2017), §3"}}
 TECHNIQUE = "frequency_response_data(technique=convex)"
 
 
@@ -60,18 +74,48 @@ class ConvexSolverSpec(SpecModel):
     time_limit: PositiveFloat = Field(60.0, description="Wall-clock limit [s]")
 
 
+class SensitivityWeightSpec(SpecModel):
+    """The performance weight W(s) = (s/M + ω_B)/(s + ω_B A) of ``weighted_sensitivity``
+    (Skogestad & Postlethwaite 2005, §2.8.2): ‖W S‖∞ ≤ 1 asks |S| ≤ A at low frequency,
+    |S| ≤ M at high frequency, and a sensitivity bandwidth of about ω_B."""
+
+    bandwidth: PositiveFloat = Field(description="ω_B: the sensitivity's bandwidth asked for "
+                                                 "[rad/s]")
+    peak: float = Field(gt=1.0, le=100.0, description="M: the bound on |S| at high frequency "
+                                                      "(1/|W(j∞)|) [1], > 1")
+    low_gain: float = Field(1e-4, gt=0.0, lt=1.0,
+                            description="A: the bound on |S| at low frequency (1/|W(0)|) [1], "
+                                        "< 1")
+
+    def weight(self):
+        from feedtune.measured.datadriven import SensitivityWeight
+
+        return SensitivityWeight(self.bandwidth, self.peak, self.low_gain)
+
+
 class DataObjective(SpecModel):
-    metric: Literal["bandwidth", "crossover_frequency"] = Field(
+    metric: Literal["bandwidth", "crossover_frequency", "weighted_sensitivity"] = Field(
         description="Maximised: the lowest −3 dB point of |T| over the sets (bandwidth), or "
-                    "the lowest |L| = 1 point (crossover_frequency) [rad/s]")
-    goal: Literal["maximize"] = Field("maximize", description="maximize (the only goal)")
-    weight: PositiveFloat = Field(1.0, description="Weight of the term [s/rad]")
+                    "the lowest |L| = 1 point (crossover_frequency) [rad/s]; minimised: the "
+                    "largest max |W S| over the sets (weighted_sensitivity) [1]")
+    goal: Literal["maximize", "minimize"] = Field(
+        "maximize", description="maximize (bandwidth, crossover_frequency) or minimize "
+                                "(weighted_sensitivity)")
+    weight: PositiveFloat = Field(1.0, description="Weight of the term [s/rad] for a "
+                                                   "frequency, [1] for weighted_sensitivity")
+
+    @model_validator(mode="after")
+    def _goal_fits(self):
+        wanted = "minimize" if self.metric == "weighted_sensitivity" else "maximize"
+        if self.goal != wanted:
+            raise ValueError(f"{self.metric} can only be {wanted}d here (goal {wanted!r})")
+        return self
 
 
 class DataConstraint(SpecModel):
-    metric: Literal["m_peak", "sensitivity_peak"] = Field(
-        description="m_peak: max |T|; sensitivity_peak: max |S|, at every measured "
-                    "frequency of every set [1]")
+    metric: Literal["m_peak", "sensitivity_peak", "weighted_sensitivity"] = Field(
+        description="m_peak: max |T|; sensitivity_peak: max |S|; weighted_sensitivity: max "
+                    "|W S| (sensitivity_weight), at every measured frequency of every set [1]")
     max: PositiveFloat = Field(description="Upper bound [1]; at least 1 for m_peak")
     min: None = Field(None, description="Not available: only upper bounds are convex here")
 
@@ -91,8 +135,12 @@ class DataDrivenSpec(SpecModel):
                                           "controller (default: the geometric mid-bound)")
     objective: list[DataObjective] = Field(min_length=1, max_length=1,
                                            description="One term: what to widen")
-    constraints: list[DataConstraint] = Field(default_factory=list, max_length=2,
-                                              description="m_peak and/or sensitivity_peak")
+    constraints: list[DataConstraint] = Field(
+        default_factory=list, max_length=3,
+        description="m_peak, sensitivity_peak and/or weighted_sensitivity")
+    sensitivity_weight: SensitivityWeightSpec | None = Field(
+        None, description="W of weighted_sensitivity (needed where that metric is used; "
+                          "the metric is reported whenever W is given)")
     solver: ConvexSolverSpec = Field(default_factory=ConvexSolverSpec)
 
     @field_validator("name")
@@ -139,6 +187,10 @@ def parse_data_spec(raw: dict) -> DataDrivenSpec:
               for name in spec.tunables if name not in tunables]
     _, box_errors, _ = tunable_box(spec.tunables, tunables)
     errors += box_errors
+    used = [t.metric for t in [*spec.objective, *spec.constraints]]
+    if "weighted_sensitivity" in used and spec.sensitivity_weight is None:
+        errors.append(("/sensitivity_weight", "weighted_sensitivity needs the weight W: "
+                                              "{bandwidth [rad/s], peak [1], low_gain [1]}"))
     if errors:
         raise SpecError(errors)
     return spec
@@ -212,6 +264,7 @@ def tune_data_driven(spec: DataDrivenSpec):
     from feedtune.schema.result import (ConstraintResult, MetricValue, SolverResult, TunedValue,
                                         TuneResult, provenance)
     from feedtune.schema.spec import tunable_box
+    from feedtune.validate import validate_result
 
     plant = FrequencyResponseData(spec.plant)
     tunables = plant.tunables()
@@ -224,6 +277,7 @@ def tune_data_driven(spec: DataDrivenSpec):
     short = {name.removeprefix("controller."): value for name, value in box.items()}
     bounds = {c.metric: c.max for c in spec.constraints}
     objective = spec.objective[0]
+    weight = spec.sensitivity_weight.weight() if spec.sensitivity_weight is not None else None
     started = time.perf_counter()
 
     def failed(message: str) -> TuneResult:
@@ -240,6 +294,7 @@ def tune_data_driven(spec: DataDrivenSpec):
                        {name.removeprefix("controller."): v for name, v in initial.items()},
                        m_peak=bounds.get("m_peak"),
                        sensitivity_peak=bounds.get("sensitivity_peak"),
+                       weighted_sensitivity=bounds.get("weighted_sensitivity"), weight=weight,
                        objective=objective.metric, integrators=spec.plant.integrators,
                        unstable_poles=spec.plant.unstable_poles, max_iter=spec.solver.max_iter,
                        tol=spec.solver.tol, time_limit=spec.solver.time_limit)
@@ -259,7 +314,7 @@ def tune_data_driven(spec: DataDrivenSpec):
                                  at_bound=at_bound)
     stable = found.stable
     metrics = {key: MetricValue(metric=key, value=found.metrics[key] if stable else None,
-                                unit=unit) for key, unit in UNITS.items()}
+                                unit=unit) for key, unit in UNITS.items() if key in found.metrics}
     for data, per_set in zip(spec.plant.sets, found.per_set):
         for key, value in per_set.items():
             if key not in UNITS:
@@ -289,17 +344,16 @@ def tune_data_driven(spec: DataDrivenSpec):
     if value is None:
         message += (f"; the {objective.metric} lies above the measured band on some set: "
                     "measure higher frequencies")
+    sign = -1.0 if objective.goal == "maximize" else 1.0
     solver = SolverResult(method="convex", return_status=found.status, message=found.message,
                           iterations=found.iterations, solve_time=found.solve_time,
                           build_time=found.build_time,
                           evaluation_time=max(elapsed - found.solve_time - found.build_time, 0.0),
                           model_gap=None, starts=[])
-    return TuneResult(
+    result = TuneResult(
         name=spec.name, success=success, status=found.status, message=message,
-        objective=-objective.weight * value if (stable and value is not None) else None,
+        objective=sign * objective.weight * value if (stable and value is not None) else None,
         tuned=tuned, metrics=metrics, constraints=constraints, stability=stability,
-        solver=solver, provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"),
-        validation={"covered": False, "ok": None, "entries": [],
-                    "reason": "measured data: no model to re-simulate; the metrics and the "
-                              "Nyquist certificate are computed from the data at the tuned "
-                              "gains, independently of the SOCPs that chose them"})
+        solver=solver, provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"))
+    # re-evaluated on every measured frequency with the validator's own arithmetic
+    return result.model_copy(update={"validation": validate_result(result)})

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
+from feedtune.report import frequency_data
 from feedtune.report.figures import FIGURES
 from feedtune.report.output import ReportDirError, write_files
 from feedtune.report.output import check_out_dir as check
@@ -27,7 +28,11 @@ def _png(figure) -> bytes:
 
 
 def build_figures(result: dict) -> list[tuple[str, str, bytes | None, str | None]]:
-    """(stem, title, PNG bytes or None, why not) for every figure of the report."""
+    """(stem, title, PNG bytes or None, why not) for every figure of the report; a result
+    tuned on measured data has its own (:data:`MEASURED`)."""
+    kind = ((result.get("spec") or {}).get("plant") or {}).get("type")
+    if kind in MEASURED:
+        return MEASURED[kind](result, _png)
     tuned = {name: t["value"] for name, t in (result.get("tuned") or {}).items()}
     model, why = None, None
     if not tuned:
@@ -52,8 +57,11 @@ def build_figures(result: dict) -> list[tuple[str, str, bytes | None, str | None
     return figures
 
 
+#: plants known only by measured data: plant type → their figures (no validator model)
+MEASURED = {"frequency_response_data": frequency_data.figures_of}
+
 #: every file a report may write into its directory, the page first
-NAMES = ["report.html"] + [f"{stem}.png" for stem, _, _ in FIGURES]
+NAMES = ["report.html"] + [f"{stem}.png" for stem, _, _ in FIGURES + frequency_data.FIGURES]
 
 
 def check_out_dir(out_dir: Path) -> None:

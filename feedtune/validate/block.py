@@ -14,10 +14,17 @@ from __future__ import annotations
 
 from feedtune.schema.labels import metric_label
 from feedtune.validate.entries import poles_entry, stable_entry
+from feedtune.validate.frequency_data import validate_measured
 from feedtune.validate.measurements import Phase, measures
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
 from feedtune.validate.poles import POLE_MEASUREMENTS, pole_entries
+
+
+#: plants known only by measured data: plant type → (validator, its entries from a result)
+MEASURED = {"frequency_response_data": (
+    "numpy/scipy re-evaluation on every measured frequency (feedtune.validate.frequency_data)",
+    validate_measured)}
 
 
 def measurement_phases(model) -> tuple[Phase, ...]:
@@ -73,8 +80,12 @@ def validate_result(result) -> dict:
         else:
             plant = (data.get("spec") or {}).get("plant") or {}
             tuned = {name: t["value"] for name, t in data["tuned"].items()}
-            model = model_for(plant, tuned, data.get("stability"))
-            block["entries"] = _measure(model, data)
+            if plant.get("type") in MEASURED:  # no model: the data themselves
+                block["validator"], measure = MEASURED[plant["type"]]
+                block["entries"] = measure(data)
+            else:
+                model = model_for(plant, tuned, data.get("stability"))
+                block["entries"] = _measure(model, data)
             block["covered"] = True
             checked = list(block["entries"])
             if data.get("robust"):

@@ -5,6 +5,7 @@ failure; the plant block from measured files (frd_plant_block) is a spec feedtun
 
 from __future__ import annotations
 
+import base64
 import copy
 import json
 import os
@@ -18,6 +19,7 @@ import pytest
 from feedtune.measured.data import read_data, to_csv, FrequencyResponseData
 from feedtune.measured.datadriven_spec import frd_plant_block
 from feedtune.schema.spec import SpecError, parse_spec
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLE = REPO / "examples" / "datadriven" / "hydraulic-three-loads.json"
@@ -204,6 +206,111 @@ def test_plants_and_metrics_document_the_technique():
     label = "frequency_response_data(technique=convex)"
     held = {name for name, m in table.items() if label in m["supported"]}
     assert held == {"bandwidth", "crossover_frequency", "m_peak", "sensitivity_peak",
-                    "phase_margin"}
+                    "phase_margin", "weighted_sensitivity"}
+    weighted = table["weighted_sensitivity"]  # only the data have it: W's options, units
+    assert weighted["unit"] == "1" and weighted["supported"] == [label]
+    assert weighted["options_at"] == "sensitivity_weight"
+    assert {o["name"]: o["unit"] for o in weighted["options"]} == {
+        "bandwidth": "rad/s", "peak": "1", "low_gain": "1"}
+    text = run("metrics").stdout.decode()
+    assert "weighted_sensitivity [1]:" in text and "options (sensitivity_weight):" in text
     assert label in table["phase_margin"]["reported_only"]
     assert label not in table["m_peak"]["reported_only"]
+
+
+# -- the JSON schema and the weighted sensitivity through the CLI ---------------------------
+
+def test_schema_holds_the_data_driven_spec_with_units():
+    """``feedtune schema`` is one schema for both kinds of spec: exactly one of the
+    model-based spec and the data-driven one, whose plant block lists the measured sets'
+    fields with their units; the top level still lists every field."""
+    proc = run_cli("schema")
+    assert proc.returncode == 0
+    schema = json.loads(proc.stdout)
+    assert schema["oneOf"] == [{"$ref": "#/$defs/ModelSpec"}, {"$ref": "#/$defs/DataDrivenSpec"}]
+    defs = schema["$defs"]
+    assert defs["DataDrivenSpec"]["properties"]["plant"] == {
+        "$ref": "#/$defs/FrequencyResponseDataParams"}
+    plant = defs["FrequencyResponseDataParams"]["properties"]
+    assert plant["type"]["const"] == "frequency_response_data"
+    assert "[count]" in plant["integrators"]["description"]
+    assert "[count]" in plant["unstable_poles"]["description"]
+    assert "[s]" in plant["filter_time_constant"]["description"]
+    assert plant["sets"]["items"] == {"$ref": "#/$defs/FrequencySetSpec"}
+    data_set = defs["FrequencySetSpec"]["properties"]
+    assert data_set["frequency_unit"]["enum"] == ["rad/s", "Hz"]
+    assert "[frequency_unit]" in data_set["frequency"]["description"]
+    for part in ("real", "imag"):
+        assert "[position unit per command unit" in data_set[part]["description"]
+    weight = defs["SensitivityWeightSpec"]["properties"]
+    assert "[rad/s]" in weight["bandwidth"]["description"]
+    assert "[1]" in weight["peak"]["description"] and "[1]" in weight["low_gain"]["description"]
+    # the model-based spec's plants do not take measured data: the two forms exclude each other
+    model_plants = json.dumps(defs["ModelSpec"]["properties"]["plant"])
+    assert "FrequencyResponseDataParams" not in model_plants
+    assert {"plant", "objective", "sensitivity_weight", "robust"} <= set(schema["properties"])
+
+
+def test_weighted_sensitivity_tunes_and_needs_its_weight(example, tmp_path):
+    """Minimising max |W S| over the three loads from the command line: the result reports
+    the metric per set with unit 1 and a positive objective (minimised); without the weight
+    the spec is exit 2 at /sensitivity_weight and nothing is written."""
+    spec = {**copy.deepcopy(example),
+            "objective": [{"metric": "weighted_sensitivity", "goal": "minimize"}]}
+    bad = tmp_path / "no-weight.json"
+    bad.write_text(json.dumps(spec))
+    out = tmp_path / "result.json"
+    proc = run_cli("tune", str(bad), "-o", str(out))
+    assert proc.returncode == 2 and b"/sensitivity_weight:" in proc.stderr
+    assert not out.exists()
+    spec["sensitivity_weight"] = {"bandwidth": 20.0, "peak": 2.0, "low_gain": 1e-3}
+    good = tmp_path / "weighted.json"
+    good.write_text(json.dumps(spec))
+    proc = run_cli("tune", str(good), "-o", str(out))
+    assert proc.returncode == 0, proc.stderr.decode()
+    result = json.loads(out.read_text())
+    value = result["metrics"]["weighted_sensitivity"]["value"]
+    assert result["metrics"]["weighted_sensitivity"]["unit"] == "1"
+    assert result["objective"] == pytest.approx(value, rel=1e-12) and 0.9 < value < 1.2
+    per_set = [result["metrics"][f"weighted_sensitivity(set={s['name']})"]["value"]
+               for s in example["plant"]["sets"]]
+    assert max(per_set) == pytest.approx(value, rel=1e-12)
+    spec["objective"][0]["goal"] = "maximize"
+    good.write_text(json.dumps(spec))
+    proc = run_cli("validate", str(good))
+    assert proc.returncode == 2 and b"/objective/0" in proc.stderr
+
+
+# -- the report of a data-driven result ---------------------------------------------------
+
+#: matplotlib's first three cycle colours (C0, C1, C2): one per data set of the example
+SET_COLOURS = [(31, 119, 180), (255, 127, 14), (44, 160, 44)]
+
+
+def test_tune_report_draws_every_measured_set(example, tmp_path):
+    """``feedtune tune SPEC --report DIR`` on the three-load example: the Nyquist plot, the
+    Bode plot of L and |S|, |T| against their bounds are written, each with a curve of
+    every set's colour, embedded in report.html and listed in the report's manifest; the
+    page's validation section says the independent check agreed."""
+    from matplotlib.image import imread
+
+    out = tmp_path / "report"
+    proc = run_cli("tune", str(EXAMPLE), "-q", "-o", str(tmp_path / "r.json"), "--report", str(out))
+    assert proc.returncode == 0, proc.stderr.decode()
+    page = (out / "report.html").read_text(encoding="utf-8")
+    manifest = json.loads((out / ".feedtune-report.json").read_text())
+    assert "Not drawn" not in page
+    for stem, title in (("measured_nyquist", "Measured open loop (Nyquist)"),
+                        ("measured_bode", "Measured open loop (Bode)"),
+                        ("measured_sensitivity", "Sensitivity and complementary sensitivity")):
+        png = (out / f"{stem}.png").read_bytes()
+        assert png.startswith(b"\x89PNG") and f"{stem}.png" in manifest["files"]
+        assert f"<h2>{title}</h2>" in page
+        assert base64.b64encode(png).decode("ascii") in page
+        pixels = np.rint(imread(str(out / f"{stem}.png"))[..., :3] * 255).astype(int)
+        for colour in SET_COLOURS:  # every set is drawn (markers and lines in its colour)
+            hits = np.all(pixels == colour, axis=-1).sum()
+            assert hits > 50, (stem, colour, hits)
+    assert "every gap within its tolerance" in page
+    for name in (s["name"] for s in example["plant"]["sets"]):
+        assert f"stable(set={name})" in page and f"m_peak(set={name},bound=max)" in page
