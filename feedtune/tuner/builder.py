@@ -12,25 +12,10 @@ held apart as ``slots``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Callable
-
 import casadi as ca
 import numpy as np
 
 from feedtune.tuner.types import Variable
-
-
-@dataclass(frozen=True)
-class BoundedRegion:
-    """A pole region the NLP bounds from below: its conditions at the bound (all > 0
-    inside), the inputs its ``measure`` reads (expressions of z and p) and the bound
-    ``level`` [the measure's unit]."""
-
-    conditions: list
-    inputs: object
-    measure: Callable
-    level: float
 
 
 class NlpBuilder:
@@ -53,9 +38,6 @@ class NlpBuilder:
         self._ubg: list[float] = []
         self.slots: list[ca.MX] = []
         self._slot_defaults: list[float] = []
-        #: pole regions bounded from below (feedtune.tuner.poles.region_bound): a start is
-        #: restored into them and the objective is NaN outside them, as for stability
-        self.regions: list[BoundedRegion] = []
 
     def parameter(self, name: str, value: float, symbol: ca.MX | None = None) -> ca.MX:
         """A new NLP parameter holding ``value`` for this problem; its symbol (``symbol``

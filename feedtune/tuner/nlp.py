@@ -124,7 +124,6 @@ class Problem:
             add_bound(builder, index, value, scan, bound, reference, groups)
         scaled_settling = add_stability_rows(builder, structure.stability, structure.settling,
                                              scales.stability, scales.settling)
-        self.regions = builder.regions
         self.exchange_groups = groups
         self.param_values = builder.param_values
         self.lbw, self.ubw = builder.lbw, builder.ubw
@@ -151,7 +150,6 @@ class Problem:
         self.extra_start = entry.functions["extra_start"]
         self._exchange_levels = entry.functions["exchange_levels"]
         self.stability_check = entry.functions["stability_check"]
-        self._region_inputs = entry.functions["region_inputs"]
         self.solver_reused = entry.reused
         self.scalar = ScalarSearch.for_problem(self) if scalar else None
         if self.scalar is not None and not self.scalar.solvable:
@@ -175,10 +173,8 @@ class Problem:
         # serves every start); a start that is not stable is first moved to a stable point
         # nearby (restoration), where that value means something
         objective_scale = ca.MX.sym("objective_scale")
-        # peaks and crossings over frequency do not see an unstable loop; no iterate
-        # leaves a bounded pole region either (its start is restored into it)
-        regions = [c for region in self.regions for c in region.conditions]
-        f = nan_where_unstable(f, (structure.stability if groups else []) + regions)
+        if groups:  # peaks and crossings over frequency do not see an unstable loop
+            f = nan_where_unstable(f, structure.stability)
         functions = {
             "nlp": ca.Function("nlp", [builder.w, ca.vertcat(objective_scale, *builder.slots, p)],
                                [f / objective_scale, ca.vertcat(*builder.rows)],
@@ -191,12 +187,8 @@ class Problem:
                                            [ca.vertcat(ca.MX(0, 1), *[g.level for g in groups])]),
             # conditions and matrices alone: what restoration evaluates hundreds of times
             "stability_check": ca.Function("stability_check", [z, p],
-                                           [ca.vertcat(ca.MX(0, 1), *structure.stability,
-                                                       *regions),
+                                           [ca.vertcat(*structure.stability),
                                             *structure.matrices.values()]),
-            # what each bounded pole region's measure reads (restoration's target)
-            "region_inputs": ca.Function("region_inputs", [z, p],
-                                         [ca.MX(r.inputs) for r in self.regions]),
         }
         return functions, {"check": structure.evaluator.function}, expand
 
@@ -458,13 +450,7 @@ class Problem:
             return (np.asarray(conditions, dtype=float).ravel(),
                     [np.asarray(m, dtype=float) for m in matrices])
 
-        def regions(z):
-            inputs = self._region_inputs.call([z, self.param_values])
-            return [(r.level, r.measure(np.asarray(v, dtype=float)))
-                    for r, v in zip(self.regions, inputs)]
-
-        return restore(z0, evaluate, self.lbw[:self.n_z], self.ubw[:self.n_z], self.discrete,
-                       regions if self.regions else None)
+        return restore(z0, evaluate, self.lbw[:self.n_z], self.ubw[:self.n_z], self.discrete)
 
     def _x0(self, z0: np.ndarray) -> np.ndarray:
         """Start of every NLP variable: z0, and the extra variables where z0 puts them."""

@@ -15,16 +15,9 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import PoleRegion
-from feedtune.tuner.builder import BoundedRegion, NlpBuilder, scale
+from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.stability import STABILITY_MARGIN
 from feedtune.tuner.starts import starting_points
-
-
-#: iterates are kept where every pole's measure exceeds this fraction of a lower bound on
-#: it (the objective is NaN beyond): inside the region the conditions are smooth, and the
-#: bound itself stays a row IPOPT may cross on its way to an active bound (a NaN at the
-#: bound itself stalled it there: 580 iterations on Bhatia's drive with ζ_min ≥ 0.3)
-REGION_GUARD = 0.99
 
 
 class PoleScan:
@@ -41,12 +34,11 @@ class PoleScan:
         return self.measure(np.asarray(self.inputs(z, p[:self.n_params]), dtype=float))
 
 
-def region_above(builder: NlpBuilder, value: PoleRegion, level, probe_level, name: str) -> list:
+def region_above(builder: NlpBuilder, value: PoleRegion, level, probe_level, name: str) -> None:
     """Rows asinh(c/s_c) ≥ STABILITY_MARGIN for every condition c of ``value.conditions(level)``:
     every pole's measure above ``level`` (an expression of the NLP's variables and
     parameters). Each scale s_c is an NLP parameter, |c| at the first start with the
-    level ``probe_level`` (an expression of the parameters alone). Returns the scaled
-    conditions c/s_c."""
+    level ``probe_level`` (an expression of the parameters alone)."""
     if value.conditions is None:
         raise ValueError(f"{name}: no polynomial test for this pole region on this loop")
     conditions = value.conditions(level)
@@ -54,27 +46,15 @@ def region_above(builder: NlpBuilder, value: PoleRegion, level, probe_level, nam
                         [ca.vertcat(ca.MX(0, 1), *value.conditions(probe_level))])
     start = starting_points(builder.variables, 1)[0]
     sizes = np.abs(np.asarray(probe(start, builder.param_values), dtype=float)).ravel()
-    scaled = []
     for i, (condition, size) in enumerate(zip(conditions, sizes)):
         s = builder.parameter(f"{name}_scale{i}", scale(size))
-        scaled.append(condition / s)
-        builder.constrain(ca.asinh(scaled[-1]), STABILITY_MARGIN, ca.inf)
-    return scaled
+        builder.constrain(ca.asinh(condition / s), STABILITY_MARGIN, ca.inf)
 
 
 def region_bound(builder: NlpBuilder, value: PoleRegion, index: int, lower: float) -> None:
-    """Constraint ``lower`` ≤ the region's value (a parameter holds ``lower``), kept in
-    ``builder.regions``: the tuner restores a start into the region and keeps its iterates
-    there (feedtune.tuner.stability), because the conditions are polynomial tests that
-    only mean something from inside. Measured on Bhatia's hydraulic drive with all eight
-    tunables free and ζ_min ≥ 0.3 from his start (ζ_min = 0.134): from outside, IPOPT
-    ended at its iteration limit (Routh's entries, Δ_k/Δ_{k−1}, jump through ±∞ where a
-    minor crosses 0 on the way in) or "infeasible" (the minors themselves, spanning 50
-    decades)."""
+    """Constraint ``lower`` ≤ the region's value (a parameter holds ``lower``)."""
     level = builder.parameter(f"bound_lower{index}", lower)
-    region_above(builder, value, level, ca.MX(0), f"region_bound{index}")
-    guard = value.conditions(level * REGION_GUARD)
-    builder.regions.append(BoundedRegion(guard, value.inputs, value.measure, lower))
+    region_above(builder, value, level, level, f"region_bound{index}")
 
 
 def region_term(builder: NlpBuilder, value: PoleRegion, index: int, reference: float | None):

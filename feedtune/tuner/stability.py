@@ -107,20 +107,16 @@ def nan_where_unstable(f, conditions: list):
 
 
 def restore(z0: np.ndarray, evaluate: Callable, lower: np.ndarray, upper: np.ndarray,
-            discrete: bool, regions: Callable | None = None) -> np.ndarray | None:
-    """``z0`` if its loop is stable (and inside every bounded pole region), else such a
-    point near it, or None.
+            discrete: bool) -> np.ndarray | None:
+    """``z0`` if its loop is stable, else a stable point near it, or None.
 
     ``evaluate(z)`` gives (stability conditions, [matrices that must be stable]) at the log
-    tunables z; the conditions include those of the pole regions the NLP bounds from
-    below, and ``regions(z)`` gives each such region's (bound, measured value), e.g.
-    (0.3, ζ_min) [the measure's unit]. Restoration minimises the largest Re λ/|λ| (|λ| − 1
-    for a sampled loop) of every such matrix and each region's shortfall
-    (bound − value)/|bound| (|bound| = 0: 1), plus a pull towards ``z0``, with
-    Nelder–Mead within [lower, upper], stopping at the first point whose eigenvalues and
-    conditions all hold. Derivative-free on purpose: an NLP on the Hurwitz conditions
-    stalled (their frequency-balanced form is not monotone in a gain, measured: −1.62 at
-    K'_p = 900, −1.85 at 500, +0.98 at 120 on Bhatia's drive).
+    tunables z. Restoration minimises the largest Re λ/|λ| (|λ| − 1 for a sampled loop) of
+    every such matrix, plus a pull towards ``z0``, with Nelder–Mead within [lower, upper],
+    stopping at the first point whose eigenvalues and conditions both hold.
+    Derivative-free on purpose: an NLP on the Hurwitz conditions stalled (their
+    frequency-balanced form is not monotone in a gain, measured: −1.62 at K'_p = 900,
+    −1.85 at 500, +0.98 at 120 on Bhatia's drive).
     """
     from scipy import optimize
 
@@ -139,10 +135,6 @@ def restore(z0: np.ndarray, evaluate: Callable, lower: np.ndarray, upper: np.nda
         poles = np.concatenate([np.linalg.eigvals(m) for m in matrices])
         worst = (np.max(np.abs(poles)) - 1 if discrete else
                  np.max(poles.real / np.maximum(np.abs(poles), 1e-300)))
-        for bound, value in (regions(z) if regions is not None else []):
-            if not math.isfinite(value):
-                return 1e3
-            worst = max(worst, (bound - value) / (abs(bound) or 1.0))
         if worst < 0 and stable(z):
             found.append(z.copy())
             raise StopIteration

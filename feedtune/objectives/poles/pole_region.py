@@ -173,35 +173,6 @@ def damping_conditions(loop: Loop):
 
     def conditions(level):
         # ζ ≥ 1 holds nowhere but on real poles: α = π/2 turns them onto the jω axis
-        return sector_minors(balanced, ca.asin(ca.fmin(level, 1)))
+        return routh_column(rotated_product(balanced, ca.asin(ca.fmin(level, 1))))
 
     return conditions
-
-
-def sector_minors(poly: list, angle) -> list:
-    """Products D_k = c_1⋯c_k (k = 1 … n) of the leading coefficients of the Sturm chain of
-    P(y) = e^{−jnα}·j^{−n}·p(e^{jα}·jy) = R(y) + jI(y): all positive exactly when every root
-    of the monic real ``poly`` (highest power first) turned by −α lies in the open left
-    half plane (Hermite–Biehler: R and −I interlace), i.e. every root has damping above
-    sin α. R_k = b_k cos((n − k)(α + π/2)), I_k = −b_k sin((n − k)(α + π/2)), b_k the
-    coefficient of x^k; f_0 = R, f_1 = −I, f_{i+1} = −rem(f_{i−1}, f_i)."""
-    b = list(reversed(poly))
-    n = len(b) - 1
-    turn = angle + math.pi / 2
-    real = [b[k] * ca.cos((n - k) * turn) for k in range(n, -1, -1)]
-    imag = [b[k] * ca.sin((n - k) * turn) for k in range(n - 1, -1, -1)]  # −I, descending
-    upper, lower = real, imag
-    out, product = [], 1
-    for _ in range(n):
-        product = product * lower[0]
-        out.append(product)
-        pivot = ca.if_else(lower[0] == 0, 2.2250738585072014e-308, lower[0])
-        a = upper[0] / pivot
-        c = (upper[1] - a * (lower[1] if len(lower) > 1 else 0)) / pivot
-        padded = list(lower) + [0]
-        shifted = [0] + list(lower)
-        rest = [-(upper[i] - a * padded[i] - c * shifted[i]) for i in range(2, len(upper))]
-        if not rest:
-            break
-        upper, lower = lower, rest
-    return out
