@@ -25,6 +25,10 @@ fixed at the answer, and for information python-control (``stability_margins``,
 ``bandwidth`` at −3.0103 dB, a 200 000-point grid for the peaks). Times are wall clock and
 process CPU; the load average is printed.
 
+``--baseline REV`` instead runs feedtune only, side by side with the code of git revision
+REV: a cold and a warm tuning in a fresh child process per side, alternating new and old
+``--repeat`` times, and prints the medians of build and solve CPU and their ratio.
+
 Loop algebra (unity feedback, no velocity loop): P = n_p/d_p, C = k_p n_c/d_c,
 L = k_p n_c n_p/(d_c d_p), T = L/(1 + L), S = 1/(1 + L); characteristic polynomial
 d_c d_p + k_p n_c n_p. The numpy bandwidth is the lowest ω where |T/T(0)|² falls below ½
