@@ -165,6 +165,14 @@ def test_hurwitz_minors_equal_the_determinants(degree):
                 assert minor == pytest.approx(np.linalg.det(block), abs=1e-11 * bound)
 
 
+@pytest.mark.parametrize("degree", [8, 12, 16])
+def test_hurwitz_conditions_cost_grows_as_the_square_of_the_degree(degree):
+    """Routh's array: about 2n² SX instructions (252 at degree 12), where a pivoted
+    elimination per minor grew as n⁴ (11 599 at degree 12, built in 0.2–0.4 s of CPU in
+    every fresh process). The bound 4n² leaves the constant free, not the order."""
+    assert linalg._hurwitz_function(degree).n_instructions() < 4 * degree**2
+
+
 @pytest.mark.parametrize("coefficients", [[1.0, 0.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
                                           [1.0, 0.0, 2.0, 0.0, 1.0], [1.0, 2.0, 1.0, 2.0, 1.0]])
 def test_hurwitz_conditions_with_a_zero_pivot_say_not_stable(coefficients):
