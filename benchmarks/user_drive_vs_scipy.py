@@ -25,6 +25,10 @@ fixed at the answer, and for information python-control (``stability_margins``,
 ``bandwidth`` at −3.0103 dB, a 200 000-point grid for the peaks). Times are wall clock and
 process CPU; the load average is printed.
 
+``--baseline REV`` instead runs feedtune only, side by side with the code of git revision
+REV: a cold and a warm tuning in a fresh child process per side, alternating new and old
+``--repeat`` times, and prints the medians of build and solve CPU and their ratio.
+
 Loop algebra (unity feedback, no velocity loop): P = n_p/d_p, C = k_p n_c/d_c,
 L = k_p n_c n_p/(d_c d_p), T = L/(1 + L), S = 1/(1 + L); characteristic polynomial
 d_c d_p + k_p n_c n_p. The numpy bandwidth is the lowest ω where |T/T(0)|² falls below ½
@@ -45,8 +49,12 @@ import functools
 import json
 import math
 import os
+import statistics
+import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy import optimize
@@ -288,12 +296,85 @@ def feasible(m: dict, limits: dict) -> bool:
     return m["stable"] and all(m[k] <= v * (1 + FEAS_TOL) for k, v in limits.items())
 
 
+def _child(spec_path: str) -> int:
+    """``--child``: one cold and one warm tuning in this fresh process (the feedtune on
+    PYTHONPATH), printed as one JSON line: CPU [s] of build and solve, iterations, the
+    tuned bandwidth [rad/s] and the tuned values."""
+    import feedtune.problem  # noqa: F401 — imports out of the timings, as in main()
+    import feedtune.validate.block  # noqa: F401
+    import feedtune.validate.linear  # noqa: F401
+
+    spec = load_spec(spec_path)
+    out = {}
+    for label in ("cold", "warm"):
+        result, wall, cpu, build, solve = run_feedtune(spec)
+        out[label] = {"build": build, "solve": solve, "tune": cpu, "wall": wall,
+                      "iterations": result.data.solver.iterations, "status": result.status,
+                      "bandwidth": result.metrics["bandwidth"].value}
+    out["tuned"] = {n: result.tuned[n].value for n in NAMES}
+    print(json.dumps(out), flush=True)
+    return 0
+
+
+def side_by_side(revision: str, repeat: int, spec_path: str) -> int:
+    """Cold and warm tunings of this tree and of ``revision`` (``git archive``), each in a
+    fresh child process, alternating new and old ``repeat`` times: the medians and their
+    ratio, CPU [s]."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from baseline import export_package, short_revision
+
+    old_dir = str(export_package(revision, Path(tempfile.mkdtemp(prefix="feedtune-baseline-"))))
+    trees = {"new": ROOT, "old": old_dir}
+    runs = {"new": [], "old": []}
+    load_start = os.getloadavg()[0]
+    for _ in range(repeat):
+        for label, tree in trees.items():
+            env = {**os.environ, "PYTHONPATH": tree}
+            proc = subprocess.run([sys.executable, os.path.abspath(__file__), "--child",
+                                   "--spec", spec_path], capture_output=True, text=True,
+                                  env=env, cwd=tree, check=True)
+            runs[label].append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    print(f"cold and warm tunings of {os.path.relpath(spec_path, ROOT)}, this tree (new) and "
+          f"{short_revision(revision)} (old), each in a fresh process, alternating, {repeat} "
+          f"times; load average {load_start:.2f} at start, {os.getloadavg()[0]:.2f} at end, "
+          f"{os.cpu_count()} CPUs; CPU seconds, medians (min-max)")
+    print(f"{'':<6} {'':<5} {'build':>17} {'solve':>17} {'build + solve':>17} {'its':>4} "
+          f"{'bandwidth':>12}")
+    medians = {}
+    for label in ("new", "old"):
+        for kind in ("cold", "warm"):
+            rows = [r[kind] for r in runs[label]]
+            cells = []
+            for key in ("build", "solve", "sum"):
+                values = [r["build"] + r["solve"] if key == "sum" else r[key] for r in rows]
+                cells.append(f"{statistics.median(values):.3f} ({min(values):.2f}-{max(values):.2f})")
+                medians[label, kind, key] = statistics.median(values)
+            its = sorted({r["iterations"] for r in rows})
+            bandwidths = sorted({round(r["bandwidth"], 6) for r in rows})
+            print(f"{label:<6} {kind:<5} {cells[0]:>17} {cells[1]:>17} {cells[2]:>17} "
+                  f"{','.join(map(str, its)):>4} {','.join(map(str, bandwidths)):>12}")
+    for kind in ("cold", "warm"):
+        print(f"{kind}: build + solve new/old = "
+              f"{medians['new', kind, 'sum'] / medians['old', kind, 'sum']:.2f}")
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
                         help=f"differential_evolution limited to {DE_MAXITER_QUICK} generations")
     parser.add_argument("--spec", default=SPEC_PATH, help="the example spec (JSON)")
+    parser.add_argument("--baseline", metavar="REV",
+                        help="instead of DE: cold and warm tunings of this tree and of git "
+                             "revision REV side by side, each in a fresh process")
+    parser.add_argument("--repeat", type=int, default=5,
+                        help="with --baseline: fresh processes per side (default 5)")
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.child:
+        return _child(args.spec)
+    if args.baseline:
+        return side_by_side(args.baseline, args.repeat, os.path.abspath(args.spec))
 
     import casadi
     import scipy

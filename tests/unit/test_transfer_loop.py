@@ -6,8 +6,8 @@ numpy.
 * Stability conditions (of the balanced polynomials) against numpy roots, on seeded random
   polynomials with roots spread over up to five decades (coefficients over 20 orders of
   magnitude, as in Bhatia's loop), with and without an inner loop.
-* linalg.balanced_polynomial against the roots it should have; linalg.det against
-  numpy.linalg.det, zero leading pivots and singular matrices included, and its gradient.
+* linalg.balanced_polynomial against the roots it should have (the Hurwitz minors against
+  numpy's determinants are in tests/unit/test_linalg.py).
 * numeric_transfer against the polynomials and python-control's feedback.
 * The tuner's result reports the inner (velocity) loop's stability under "inner_loop".
 """
@@ -246,67 +246,6 @@ def test_balanced_polynomial_is_symbolic():
     p = [2.0, 30.0, 400.0, 5000.0]
     got = np.array([float(v) for v in f(p)])
     np.testing.assert_allclose(got, as_numbers(linalg.balanced_polynomial(p)), rtol=1e-15)
-
-
-# -- det -------------------------------------------------------------------------------------
-
-def _det(matrix) -> float:
-    return as_number(linalg.det([[ca.DM(v) for v in row] for row in np.asarray(matrix)]))
-
-
-@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 6, 7])
-def test_det_matches_numpy(n):
-    rng = np.random.default_rng(40 + n)
-    for _ in range(10):
-        a = rng.normal(size=(n, n))
-        # partial pivoting: backward stable, error ~ n·eps·‖A‖^n; 1e-12 of the Hadamard bound
-        bound = np.prod(np.linalg.norm(a, axis=1))
-        assert _det(a) == pytest.approx(np.linalg.det(a), abs=1e-12 * bound)
-
-
-@pytest.mark.parametrize("matrix", [
-    [[0.0, 1.0], [1.0, 0.0]],                                  # zero first pivot: −1
-    [[0.0, 2.0, 3.0], [0.0, 0.0, 4.0], [5.0, 6.0, 7.0]],       # zeros above the pivot: 40
-    [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]],       # anti-diagonal permutation
-    [[0.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]],
-    [[1.0, 2.0], [2.0, 4.0]],                                  # singular
-    [[0.0, 0.0], [0.0, 0.0]],                                  # zero
-    [[0.0, 1.0, 2.0], [0.0, 3.0, 4.0], [0.0, 5.0, 6.0]],       # zero column: singular
-    [[1e-300, 1.0], [1.0, 1.0]],                               # tiny pivot: swap needed
-])
-def test_det_with_zero_leading_pivots_and_singular_matrices(matrix):
-    # integer entries: the exact determinant is an integer; numpy's LU rounds (40 − 2e-14)
-    assert _det(matrix) == pytest.approx(np.linalg.det(np.array(matrix)), rel=1e-14, abs=1e-14)
-    assert _det(matrix) == pytest.approx(round(np.linalg.det(np.array(matrix))), rel=1e-14, abs=1e-14)
-
-
-def test_det_of_hurwitz_matrices_with_singular_leading_blocks():
-    """The case CasADi's own MX det fails on: Hurwitz matrices of polynomials with zero
-    coefficients (s⁴ + 1, s⁵ + s, …) have zero leading entries and singular leading blocks."""
-    for coefficients in ([1.0, 0.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
-                         [1.0, 0.0, 2.0, 0.0, 1.0], [0.0, 1.0, 0.0, 1.0]):
-        n = len(coefficients) - 1
-        a = list(reversed(coefficients))
-        h = np.array([[a[n - (2 * j - i)] if 0 <= n - (2 * j - i) <= n else 0.0
-                       for j in range(1, n + 1)] for i in range(1, n + 1)])
-        for k in range(1, n + 1):
-            assert _det(h[:k, :k]) == pytest.approx(np.linalg.det(h[:k, :k]), abs=1e-12)
-
-
-def test_det_symbolic_value_and_gradient():
-    """On MX symbols: the value equals numpy's at points that need row swaps, and the
-    gradient is Jacobi's formula d det A/dA = det(A)·A⁻ᵀ."""
-    x = ca.MX.sym("a", 3, 3)
-    det = linalg.det([[x[i, j] for j in range(3)] for i in range(3)])
-    f = ca.Function("det", [x], [det, ca.jacobian(det, ca.vec(x))])
-    rng = np.random.default_rng(3)
-    for a in [rng.normal(size=(3, 3)) for _ in range(5)] + [np.array([[0.0, 2, 1], [1, 0, 3], [4, 1, 0]])]:
-        value, gradient = f(a)
-        expected = np.linalg.det(a)
-        assert float(value) == pytest.approx(expected, rel=1e-12)
-        jacobi = expected * np.linalg.inv(a).T
-        np.testing.assert_allclose(np.array(gradient).reshape(3, 3, order="F"), jacobi,
-                                   rtol=1e-10, atol=1e-12)
 
 
 # -- numeric_transfer ------------------------------------------------------------------------

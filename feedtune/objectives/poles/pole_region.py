@@ -105,11 +105,11 @@ def decay_conditions(loop: Loop):
     |z| < e^{−σT}, the Routh test of p(r·z)/rⁿ with r = e^{−σT} mapped by
     z = (1 + w)/(1 − w), as the loop's settling conditions.
 
-    Routh's entries rather than the Hurwitz minors of feedtune.loops.linalg (whose pivoted
-    elimination the loops' stability rows use): measured on Bhatia's example with all
-    eight tunables free and σ_min ≥ 12 1/s, the minors ended at IPOPT's iteration limit
-    (1428 iterations; their Liénard–Chipart subset: infeasible after 951), the Routh
-    entries at the optimum in 114.
+    Routh's entries rather than the Hurwitz minors of feedtune.loops.linalg (their
+    products, which the loops' stability rows use): measured on Bhatia's example with all
+    eight tunables free and σ_min ≥ 12 1/s, the minors (then a pivoted elimination each)
+    ended at IPOPT's iteration limit (1428 iterations; their Liénard–Chipart subset:
+    infeasible after 951), the Routh entries at the optimum in 114.
     """
     poly = loop.characteristic_polynomial
     if loop.discrete:
@@ -134,11 +134,13 @@ def routh_column(coefficients: list) -> list:
     by that coefficient: all positive exactly when the polynomial (highest power first) is
     Hurwitz stable; entry k is Δ_k/Δ_{k−1} of the Hurwitz minors.
 
-    O(n²) operations where the minors cost O(n⁴) (used for the degree-2n product of
-    :func:`damping_conditions`: 16 for Bhatia's loop). Near the region's boundary only the
-    last minor Δ_{n−1} (a pair on the boundary) or a_0 (a real root) vanishes, so every
-    entry is smooth there; a pivot that is exactly 0 (far outside) is replaced by the
-    smallest normal number, so no row is NaN.
+    O(n²) operations (used for the degree-2n product of :func:`damping_conditions`: 16
+    for Bhatia's loop). For a generic polynomial only the last minor Δ_{n−1} (a pair on
+    the boundary) or a_0 (a real root) vanishes at the boundary, so every entry is smooth
+    there; not for the rotated product, where several entries change sign at once
+    (measured on Bhatia's eight-tunable drive at ζ_min = 0.290 against 0.3: entry 10 of 16
+    negative, the same in exact rational arithmetic). A pivot that is exactly 0 (far
+    outside) is replaced by the smallest normal number, so no row is NaN.
     """
     lead = coefficients[0]
     rows = [list(coefficients[0::2]), list(coefficients[1::2])]
