@@ -300,8 +300,8 @@ class Mapped:
     def __call__(self, x) -> np.ndarray:
         x = np.atleast_1d(np.asarray(x, dtype=float))
         row = self._rows.get(x.size)
-        if row is None:
-            buffer, trigger = self.fn.map(x.size).buffer()
+        if row is None:  # one point: the Function itself, no map of it
+            buffer, trigger = (self.fn if x.size == 1 else self.fn.map(x.size)).buffer()
             argument, result = np.zeros(x.size), np.zeros(x.size)
             buffer.set_arg(0, memoryview(argument))
             buffer.set_res(0, memoryview(result))

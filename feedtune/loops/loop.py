@@ -411,10 +411,14 @@ class ContinuousLoop(_LoopBase):
         S(s) = −s·C(sI − A)⁻¹A⁻¹B.
         """
         n = self.order
-        settled = linalg.solve(self.state_matrix, self.input_matrix)  # A⁻¹B
-        re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), settled)
+        re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), self._settled)
         c_re, c_im = ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
         return omega * c_im, -omega * c_re  # −jω·(c_re + j c_im)
+
+    @cached_property
+    def _settled(self):
+        """A⁻¹B, built once per loop: every response of S reads the same expression."""
+        return linalg.solve(self.state_matrix, self.input_matrix)
 
     @property
     def has_exact_step_error(self) -> bool:
