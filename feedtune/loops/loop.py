@@ -185,6 +185,18 @@ def _pole_pair() -> ca.Function:
     return ca.Function("pole_pair", [c1, c0], [zeta, wn])
 
 
+def _numbers(values: list) -> list | None:
+    """``values`` (expressions) as DM numbers, evaluated in one Function; None when any
+    holds a symbol (a loop inside the NLP)."""
+    try:
+        function = ca.Function("numbers", [], [ca.MX(v) for v in values])
+    except RuntimeError as exc:
+        if "are free" in str(exc):
+            return None
+        raise
+    return function.call([])
+
+
 def _poly_on_circle(p: list, theta):
     """Re and Im of p(e^{jθ}), highest power first: Σ c_k (cos kθ + j sin kθ)."""
     degree = len(p) - 1
@@ -352,8 +364,13 @@ class _LoopBase(DeclaredCapabilities):
         by z = (1 + w)/(1 − w), so the same test reads the unit circle.
         """
         poly = self.characteristic_polynomial
+        numbers = _numbers(poly)
+        if numbers is not None:  # a loop of numbers: the same operations on DM, no graph
+            poly = numbers
         if self.discrete:
             poly = linalg.bilinear_to_continuous(poly)
+        if numbers is not None:
+            return linalg.hurwitz_conditions_of_numbers(poly)
         return linalg.hurwitz_conditions(poly)
 
 

@@ -133,6 +133,12 @@ class ServoModel:
         Sampled state: [drive states, c(n−1), ..., c(n−d)]; the command held over sample n
         is c(n − d), c(n) = K(r − x(nT)).
         """
+        f, g = self._closed_loop()
+        return f.copy(), g.copy()
+
+    @functools.lru_cache(maxsize=8)
+    def _closed_loop(self):
+        """:meth:`closed_loop`, built once per model (its measurements ask ≈ 10 times)."""
         k = self.gain
         a, b, c = self.drive_matrices()
         m = a.shape[0]
@@ -157,7 +163,11 @@ class ServoModel:
 
     def poles(self) -> np.ndarray:
         """Closed-loop poles [1/s] (continuous) or [1] (z-plane)."""
-        return np.linalg.eigvals(self.closed_loop()[0])
+        return self._poles().copy()
+
+    @functools.lru_cache(maxsize=8)
+    def _poles(self) -> np.ndarray:
+        return np.linalg.eigvals(self._closed_loop()[0])
 
     def stable(self) -> bool:
         p = self.poles()
@@ -284,8 +294,11 @@ class ServoModel:
             return self.gain / (s * (1 + s * self.time_constant))
         phi, gamma = self.zoh(self.period)
         _, _, c = self.drive_matrices()
+        m = phi.shape[0]
         z = np.exp(1j * omega * self.period)
-        return self.gain * z ** (-self.delay) * (_resolvent_column(z, phi, gamma) @ c[0])
+        resolvent = z[:, None, None] * np.eye(m) - phi
+        out = np.linalg.solve(resolvent, np.broadcast_to(gamma, (z.size, m, 1)))[:, :, 0] @ c[0]
+        return self.gain * z ** (-self.delay) * out
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
         """(L, H) at ``omega`` [rad/s] (sampled: on the unit circle, below Nyquist)."""
@@ -610,23 +623,6 @@ def average_polygon_radius(radius: float, omega: float, reference_interval: floa
 def _trace(radius: float, feed: float, points: np.ndarray) -> CircleTrace:
     """The CircleTrace of path ``points`` (complex [m]) over one revolution."""
     return CircleTrace(radius, feed, np.angle(points), np.abs(points) - radius)
-
-
-def _resolvent_column(z: np.ndarray, phi: np.ndarray, gamma: np.ndarray) -> np.ndarray:
-    """(zI − Φ)⁻¹Γ at each complex z, rows (z.size, m), for the drive's own (Φ, Γ) (m × m,
-    m × 1). The drive has one or two states: Cramer's rule, elementwise over z (a batched
-    LAPACK solve cost ≈ 70 µs a call, and the minimum-radius refinements call it one
-    radius at a time); more states: LAPACK."""
-    m = phi.shape[0]
-    if m == 1:
-        return (gamma[0, 0] / (z - phi[0, 0]))[:, None]
-    if m == 2:
-        a, b = z - phi[0, 0], z - phi[1, 1]  # zI − Φ = [[a, −φ01], [−φ10, b]]
-        det = a * b - phi[0, 1] * phi[1, 0]
-        return np.column_stack([(b * gamma[0, 0] + phi[0, 1] * gamma[1, 0]) / det,
-                                (a * gamma[1, 0] + phi[1, 0] * gamma[0, 0]) / det])
-    resolvent = z[:, None, None] * np.eye(m) - phi
-    return np.linalg.solve(resolvent, np.broadcast_to(gamma, (z.size, m, 1)))[:, :, 0]
 
 
 def _first_rows(matrix: np.ndarray, count: int) -> np.ndarray:
