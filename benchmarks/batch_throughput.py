@@ -40,7 +40,9 @@ With ``--baseline REV`` it measures git revision REV's ``feedtune`` (exported wi
 times, each run in a fresh process, and prints the ratios mode by mode (current over
 baseline: specs/s, and CPU per spec the other way round, so > 1 is better for both),
 with the load average of each run: on a shared machine the runs of a pair see nearly the
-same load.
+same load. It then compares the two first runs' result files (the largest worker count's
+batch) field by field, clocks and provenance aside (:func:`compare_results`): a change
+meant to be faster only should leave every one equal.
 
     .venv/bin/python benchmarks/batch_throughput.py                 # 2000 specs
     .venv/bin/python benchmarks/batch_throughput.py --specs 300 --workers 1 2 --keep
