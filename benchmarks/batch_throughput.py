@@ -40,7 +40,9 @@ With ``--baseline REV`` it measures git revision REV's ``feedtune`` (exported wi
 times, each run in a fresh process, and prints the ratios mode by mode (current over
 baseline: specs/s, and CPU per spec the other way round, so > 1 is better for both),
 with the load average of each run: on a shared machine the runs of a pair see nearly the
-same load.
+same load. It then compares the two first runs' result files (the largest worker count's
+batch) field by field, clocks and provenance aside (:func:`compare_results`): a change
+meant to be faster only should leave every one equal.
 
     .venv/bin/python benchmarks/batch_throughput.py                 # 2000 specs
     .venv/bin/python benchmarks/batch_throughput.py --specs 300 --workers 1 2 --keep
@@ -250,6 +252,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=1,
                         help="with --baseline: pairs of runs (baseline, current)")
     parser.add_argument("--json", metavar="FILE", help=argparse.SUPPRESS)  # for --baseline
+    # for --baseline: keep the largest worker count's result files in this directory
+    parser.add_argument("--results", metavar="DIR", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.baseline:
         return compare(args, sys.argv[1:] if argv is None else argv)
@@ -281,6 +285,8 @@ def main(argv: list[str] | None = None) -> int:
         spawned = (batch(spec_dir, root / f"out-{last}-spawned", last, start="spawn")
                    if _chooses_start() else None)
         resumed = batch(spec_dir, root / f"out-{last}", last)
+        if args.results:
+            shutil.copytree(root / f"out-{last}", args.results, dirs_exist_ok=True)
         load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
         one = runs[1]["wall"] / runs[1]["count"]
@@ -330,6 +336,72 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+#: result fields that differ between any two runs (clocks, versions): not compared
+_UNCOMPARED = {"solve_time", "build_time", "evaluation_time", "time", "provenance"}
+
+
+def _leaves(value, path: str = ""):
+    """(path, leaf) of every number, string, bool and null in a result's JSON, list indices
+    kept, the run-dependent fields (:data:`_UNCOMPARED`) left out."""
+    if isinstance(value, dict):
+        for key, item in value.items():
+            if key not in _UNCOMPARED:
+                yield from _leaves(item, f"{path}/{key}")
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            yield from _leaves(item, f"{path}/{index}")
+    else:
+        yield path, value
+
+
+def compare_results(old_dir: Path, new_dir: Path) -> str:
+    """How the result files of two batch runs on the same specs differ: files equal in every
+    compared field, every non-numeric difference, and per field (list indices and the
+    metric names kept) the largest relative difference of its numbers,
+    |a − b| / max(|a|, |b|), with the absolute one beside it for values near 0."""
+    import re
+
+    names = sorted(p.name for p in old_dir.glob("*.json") if p.name != "summary.json")
+    equal, other, worst = 0, [], {}
+    for name in names:
+        new_path = new_dir / name
+        if not new_path.exists():
+            other.append(f"{name}: no result in the current run")
+            continue
+        old = dict(_leaves(json.loads((old_dir / name).read_text())))
+        new = dict(_leaves(json.loads(new_path.read_text())))
+        same = old.keys() == new.keys()
+        if not same:
+            other.append(f"{name}: fields differ: {sorted(old.keys() ^ new.keys())[:4]}")
+        for path in old.keys() & new.keys():
+            a, b = old[path], new[path]
+            if a == b:
+                continue
+            same = False
+            numbers = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in (a, b))
+            if not numbers:
+                other.append(f"{name}{path}: {a!r} → {b!r}")
+                continue
+            field = re.sub(r"/\d+(?=/|$)", "/#", path)
+            absolute = abs(a - b)
+            relative = absolute / max(abs(a), abs(b))
+            kept = worst.get(field, (0.0, 0.0, ""))
+            worst[field] = (max(kept[0], relative), max(kept[1], absolute),
+                            name if relative >= kept[0] else kept[2])
+        equal += same
+    lines = [f"results compared (run 1 of each, {len(names)} specs; clocks and provenance "
+             f"aside): {equal} equal in every field, {len(names) - equal} not"]
+    lines += [f"  {line}" for line in other[:20]]
+    if len(other) > 20:
+        lines.append(f"  ... {len(other) - 20} more non-numeric differences")
+    if worst:
+        lines.append("| field | largest relative difference | largest absolute | in |")
+        lines.append("|---|---|---|---|")
+        for field, (relative, absolute, name) in sorted(worst.items(), key=lambda kv: -kv[1][0]):
+            lines.append(f"| {field} | {relative:.2e} | {absolute:.2e} | {name} |")
+    return "\n".join(lines)
+
+
 def compare(args, argv: list[str]) -> int:
     """Run the benchmark on ``args.baseline``'s tree and on this one, alternately, and
     print the ratios per mode (see the module docstring)."""
@@ -353,8 +425,9 @@ def compare(args, argv: list[str]) -> int:
             for tree in (root, REPO):
                 out = root / f"run-{round_}-{'baseline' if tree == root else 'current'}.json"
                 env = {**os.environ, "FEEDTUNE_BENCH_TREE": str(tree)}
-                subprocess.run([sys.executable, __file__, *forwarded, "--json", str(out)],
-                               check=True, env=env)
+                results = root / f"results-{round_}-{'baseline' if tree == root else 'current'}"
+                subprocess.run([sys.executable, __file__, *forwarded, "--json", str(out),
+                                "--results", str(results)], check=True, env=env)
                 pair.append(json.loads(out.read_text()))
             pairs.append(pair)
         print()
@@ -374,6 +447,8 @@ def compare(args, argv: list[str]) -> int:
                       f"{new['load'][0]:.1f}–{new['load'][1]:.1f} |")
         for name, run in (("baseline", pairs[-1][0]), ("current", pairs[-1][1])):
             print(f"solver cache, single solves, {name}: {run['cache']}")
+        print()
+        print(compare_results(root / "results-0-baseline", root / "results-0-current"))
     finally:
         shutil.rmtree(root, ignore_errors=True)
     return 0

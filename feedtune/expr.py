@@ -26,8 +26,10 @@ def is_symbolic(*values) -> bool:
 def to_array(value) -> "np.ndarray":
     """The numbers of an expression of numbers (or of a number, a DM), as a float array
     of its shape; evaluated by ``casadi.evalf`` (check :func:`is_symbolic` first)."""
-    return np.array(ca.evalf(value if isinstance(value, (ca.SX, ca.MX)) else ca.MX(value)),
-                    dtype=float)
+    if isinstance(value, (ca.SX, ca.MX)):
+        return np.array(ca.evalf(value), dtype=float)
+    # a DM, or numbers a DM holds: what evalf would return, without building a Function
+    return np.array(value if isinstance(value, ca.DM) else ca.DM(value), dtype=float)
 
 
 def to_float(value) -> float:

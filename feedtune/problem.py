@@ -10,7 +10,6 @@ from typing import Callable, Literal, Mapping, get_args, get_origin
 
 import casadi as ca
 
-from feedtune.expr import is_symbolic
 from feedtune.loops.loop import HorizonError
 from feedtune.objectives import METRICS
 from feedtune.plants import DATA_PLANTS, plant_for
@@ -223,9 +222,15 @@ class Reports:
             value = ca.fabs(expr) if magnitude else expr
             if isinstance(value, (ca.MX, ca.DM, int, float)):
                 exprs[key] = ca.MX(value)
-        if not exprs or is_symbolic(*exprs.values()):
+        if not exprs:
             return {}
-        return dict(zip(exprs, ca.Function("reports", [], list(exprs.values())).call([])))
+        try:
+            reports = ca.Function("reports", [], list(exprs.values()))
+        except RuntimeError as exc:  # symbols of a loop inside the NLP (CasADi finds them
+            if "are free" in str(exc):  # while it builds: no second walk over the graphs)
+                return {}
+            raise
+        return dict(zip(exprs, reports.call([])))
 
 
 def _variants(default) -> list:

@@ -137,11 +137,11 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
     grid = np.log(log_grid(band))
     numbers = _number_functions(name, lambda w: fn(w) - level, 1)
     if numbers is not None:  # a loop of numbers: the same steps in floats, no graph to build
-        f, slope = (_Mapped(g) for g in numbers)
+        f, slope = (Mapped(g) for g in numbers)
         return ca.MX(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     if not free:  # a loop of numbers: the same steps in floats, without a graph to build
-        f, slope = _Mapped(f), _Mapped(slope)
+        f, slope = Mapped(f), Mapped(slope)
         return ca.MX(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
     below = values < 0
@@ -170,7 +170,7 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     """:func:`first_crossing` for a function of ln ω without free symbols: the lowest grid
     interval whose upper end is below 0, bisected and finished by Newton steps exactly as
     the symbolic version does, in floats (building its graph of ≈ 3 if_else nodes per grid
-    point cost 0.1 s a call on Bhatia's loop); ``f`` and ``slope`` are :class:`_Mapped`
+    point cost 0.1 s a call on Bhatia's loop); ``f`` and ``slope`` are :class:`Mapped`
     (SX-expanded, evaluated through CasADi's buffer). Returns ω [rad/s]."""
     below = np.flatnonzero(values[1:] < 0)
     if below.size == 0:
@@ -248,7 +248,7 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    f, slope, curvature = (_Mapped(fn) for fn in (f, slope, curvature))
+    f, slope, curvature = (Mapped(fn) for fn in (f, slope, curvature))
     f_grid = f(grid)
     if np.isnan(f_grid).any():
         return None
@@ -285,7 +285,7 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     return float(top), float(where[values == top].max())
 
 
-class _Mapped:
+class Mapped:
     """A Function of one scalar, SX-expanded once, evaluated at every element of a row.
 
     Through CasADi's evaluation buffer (``Function.buffer``: arguments and results in
@@ -300,8 +300,8 @@ class _Mapped:
     def __call__(self, x) -> np.ndarray:
         x = np.atleast_1d(np.asarray(x, dtype=float))
         row = self._rows.get(x.size)
-        if row is None:
-            buffer, trigger = self.fn.map(x.size).buffer()
+        if row is None:  # one point: the Function itself, no map of it
+            buffer, trigger = (self.fn if x.size == 1 else self.fn.map(x.size)).buffer()
             argument, result = np.zeros(x.size), np.zeros(x.size)
             buffer.set_arg(0, memoryview(argument))
             buffer.set_res(0, memoryview(result))

@@ -94,11 +94,22 @@ def _sample_step(order: int, name: str) -> ca.Function:
                        [nxt])
 
 
-@lru_cache(maxsize=64)
+@lru_cache(maxsize=256)
 def _sample_fold(order: int, name: str, samples: int) -> ca.Function:
     """:func:`_sample_step` folded over ``samples`` samples (2.5 ms to build: kept for the
     loops that follow, of the same structure)."""
     return _sample_step(order, name).fold(samples)
+
+
+def _binary_chunks(samples: int) -> list[int]:
+    """``samples`` as a sum of powers of two, largest first (13 → [8, 4, 1]).
+
+    A loop of numbers sums its horizon (a count that varies with every loop's spectral
+    radius) through folds of these sizes one after the other: the same samples in the same
+    order, so the same bits as one fold of ``samples``, but at most ≈ 20 folds per
+    structure are ever built (a fold of a new size cost ≈ 2.5 ms, on every spec of a batch).
+    """
+    return [1 << bit for bit in range(samples.bit_length() - 1, -1, -1) if samples >> bit & 1]
 
 
 @lru_cache(maxsize=None)
@@ -172,6 +183,18 @@ def _pole_pair() -> ca.Function:
                       ca.if_else(z2 > 0, real_zeta, nyquist_zeta))
     wn = ca.if_else(discriminant < 0, complex_wn, ca.if_else(z2 > 0, real_wn, nyquist_wn))
     return ca.Function("pole_pair", [c1, c0], [zeta, wn])
+
+
+def _numbers(values: list) -> list | None:
+    """``values`` (expressions) as DM numbers, evaluated in one Function; None when any
+    holds a symbol (a loop inside the NLP)."""
+    try:
+        function = ca.Function("numbers", [], [ca.MX(v) for v in values])
+    except RuntimeError as exc:
+        if "are free" in str(exc):
+            return None
+        raise
+    return function.call([])
 
 
 def _poly_on_circle(p: list, theta):
@@ -341,8 +364,13 @@ class _LoopBase(DeclaredCapabilities):
         by z = (1 + w)/(1 − w), so the same test reads the unit circle.
         """
         poly = self.characteristic_polynomial
+        numbers = _numbers(poly)
+        if numbers is not None:  # a loop of numbers: the same operations on DM, no graph
+            poly = numbers
         if self.discrete:
             poly = linalg.bilinear_to_continuous(poly)
+        if numbers is not None:
+            return linalg.hurwitz_conditions_of_numbers(poly)
         return linalg.hurwitz_conditions(poly)
 
 
@@ -400,10 +428,14 @@ class ContinuousLoop(_LoopBase):
         S(s) = −s·C(sI − A)⁻¹A⁻¹B.
         """
         n = self.order
-        settled = linalg.solve(self.state_matrix, self.input_matrix)  # A⁻¹B
-        re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), settled)
+        re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), self._settled)
         c_re, c_im = ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
         return omega * c_im, -omega * c_re  # −jω·(c_re + j c_im)
+
+    @cached_property
+    def _settled(self):
+        """A⁻¹B, built once per loop: every response of S reads the same expression."""
+        return linalg.solve(self.state_matrix, self.input_matrix)
 
     @property
     def has_exact_step_error(self) -> bool:
@@ -712,8 +744,13 @@ class SampledLoop(_SampledLoopBase):
         n = self.order
 
         def integral(name):
-            final = _sample_fold(n, name, samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx, kr,
-                                                    period, tau)
+            if radius is None:  # symbols: one fold of the whole horizon in the graph
+                final = _sample_fold(n, name, samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx,
+                                                        kr, period, tau)
+            else:  # numbers: the same samples in the same order, by folds of 2^k samples
+                final = ca.DM.zeros(n + 2)
+                for k in _binary_chunks(samples):
+                    final = _sample_fold(n, name, k)(final, phi, gamma_cl, kx, kr, period, tau)
             tail = _tail(n, name)(final[:n], final[n + 1], phi, gamma_cl, kx, period, tau)
             return final[n] + (tail if name == "ise" else ca.fabs(tail))
 

@@ -701,8 +701,13 @@ def has_sampled_step(loop) -> bool:
     return loop.offers(Capability.HELD_COMMAND)
 
 
+@lru_cache(maxsize=4)
 def sampled_step_error(loop) -> SampledStepError | None:
     """The exact step error of a sampled loop of numbers; None when it is unstable.
+
+    Kept for the last few loops (a loop hashes by identity, and is held here so its
+    identity stays its own): overshoot and settling time read the same response, which
+    is not changed after it is built.
 
     Raises
     ------

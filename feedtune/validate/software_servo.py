@@ -133,6 +133,12 @@ class ServoModel:
         Sampled state: [drive states, c(n−1), ..., c(n−d)]; the command held over sample n
         is c(n − d), c(n) = K(r − x(nT)).
         """
+        f, g = self._closed_loop()
+        return f.copy(), g.copy()
+
+    @functools.lru_cache(maxsize=8)
+    def _closed_loop(self):
+        """:meth:`closed_loop`, built once per model (its measurements ask ≈ 10 times)."""
         k = self.gain
         a, b, c = self.drive_matrices()
         m = a.shape[0]
@@ -157,7 +163,11 @@ class ServoModel:
 
     def poles(self) -> np.ndarray:
         """Closed-loop poles [1/s] (continuous) or [1] (z-plane)."""
-        return np.linalg.eigvals(self.closed_loop()[0])
+        return self._poles().copy()
+
+    @functools.lru_cache(maxsize=8)
+    def _poles(self) -> np.ndarray:
+        return np.linalg.eigvals(self._closed_loop()[0])
 
     def stable(self) -> bool:
         p = self.poles()

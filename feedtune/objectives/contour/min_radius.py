@@ -84,17 +84,13 @@ class MinRadius(Metric):
 
 
 def _vectorised(fn: ca.Function):
-    """``fn`` of one scalar as a function of a numpy array, mapped once per array size
-    (a scan maps hundreds of points, the refinements call it one point at a time)."""
-    maps = {}
+    """``fn`` of one scalar as a function of a numpy array: evaluated through CasADi's
+    buffer, one map per array size (:class:`feedtune.loops.frequency.Mapped`, ≈ 2 µs a
+    point for the refinements' scalar calls instead of ≈ 70 µs with DM conversions; the
+    same evaluation, so the same bits). A scan maps hundreds of points at once."""
+    from feedtune.loops.frequency import Mapped
 
-    def evaluate(u: np.ndarray) -> np.ndarray:
-        size = np.size(u)
-        if size not in maps:
-            maps[size] = fn if size == 1 else fn.map(size)
-        return np.array(maps[size](np.reshape(u, (1, size))), dtype=float).ravel()
-
-    return evaluate
+    return Mapped(fn)
 
 
 def _exact(excess, low: float) -> float:
