@@ -112,8 +112,16 @@ class ScenarioLoops:
 
     def __init__(self, loops: list):
         self.loops = loops
-        self.discrete = loops[0].discrete
-        self.unrolled_steps = max(loop.unrolled_steps for loop in loops)
+        self.exact_only = loops[0].exact_only
+        if not self.exact_only:  # what the NLP reads (a search reads only stability())
+            self.discrete = loops[0].discrete
+            self.unrolled_steps = max(loop.unrolled_steps for loop in loops)
+
+    def stability(self) -> dict:
+        """An exact-only loop's verdict (the search reads it): the nominal loop's block,
+        stable only when every scenario's loop is."""
+        blocks = [loop.stability() for loop in self.loops]
+        return {**blocks[0], "stable": all(block["stable"] for block in blocks)}
 
     def stability_conditions(self) -> list:
         return [c for loop in self.loops for c in loop.stability_conditions()]
@@ -225,14 +233,19 @@ class PointCheck:
         """(each constraint's value [its unit] or None, the stability block) at ``numbers``."""
         self.evaluations += 1
         loop = self.plant.loop({**self.tuned, **numbers}, self.box)
-        conditions = np.array([to_float(c) for c in loop.stability_conditions()])
-        matrices = {name: to_array(m) for name, m in loop.stability_matrices().items()}
-        stable, stability = feasibility([], [], conditions, matrices, loop.discrete)
+        if loop.exact_only:  # a simulation: its verdict and metrics are numbers already
+            stability = loop.stability()
+            stable = stability["stable"]
+        else:
+            conditions = np.array([to_float(c) for c in loop.stability_conditions()])
+            matrices = {name: to_array(m) for name, m in loop.stability_matrices().items()}
+            stable, stability = feasibility([], [], conditions, matrices, loop.discrete)
         values = []
         for metric, options, _, _ in self.constraints:
             try:
                 expr, magnitude = exact_value(metric.evaluate(loop, options))
-                value = to_float(ca.evalf(ca.fabs(expr) if magnitude else expr))
+                value = (float(expr) if loop.exact_only
+                         else to_float(ca.evalf(ca.fabs(expr) if magnitude else expr)))
             except HorizonError:
                 value = math.nan
             values.append(value if stable and math.isfinite(value) else None)
@@ -341,7 +354,8 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
     from feedtune.problem import _tune_once, _validation
 
     robust = spec.robust
-    nominal = {name: float(getattr(spec.plant, name)) for name in robust.parameters}
+    numbers = plant_for(spec.plant).numbers()
+    nominal = {name: float(numbers[name]) for name in robust.parameters}
     scenarios = initial_scenarios(robust, nominal)
     round_spec, rounds, converged, note = spec, 0, False, ""
     result = worst = None

@@ -13,6 +13,7 @@ never imports CasADi (tests/architecture).
 from __future__ import annotations
 
 from feedtune.schema.labels import metric_label
+from feedtune.schema.uncertainty import with_numbers
 from feedtune.validate.entries import poles_entry, stable_entry
 from feedtune.validate.measurements import Phase, measures
 from feedtune.validate.model import NotCovered
@@ -110,7 +111,7 @@ def _robust_checks(data: dict, plant: dict, tuned: dict) -> tuple[list[dict], li
     units = {m["metric"]: m.get("unit") for m in (data.get("metrics") or {}).values()}
     scenarios = []
     for scenario in robust.get("scenarios") or []:
-        model = model_for({**plant, **scenario["parameters"]}, tuned)
+        model = model_for(with_numbers(plant, scenario["parameters"]), tuned)
         view = {**data, "metrics": _constraint_records(constraints, scenario["constraints"], units),
                 "stability": {"stable": scenario["stable"]}}
         entries = _measure(model, view)
@@ -118,7 +119,7 @@ def _robust_checks(data: dict, plant: dict, tuned: dict) -> tuple[list[dict], li
                           "ok": all(e["ok"] for e in entries)})
     worst = []
     for i, case in enumerate(robust.get("worst_cases") or []):
-        model = model_for({**plant, **case["parameters"]}, tuned)
+        model = model_for(with_numbers(plant, case["parameters"]), tuned)
         values = [None] * len(constraints)
         values[i] = case["value"]
         view = {**data, "metrics": _constraint_records(constraints, values, units),
