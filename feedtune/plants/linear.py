@@ -576,9 +576,9 @@ class Linear(Plant):
         :meth:`loop` also takes them in ``values`` (as NLP parameters, or a robust
         scenario's values). A transfer function's coefficients from its first to its last
         nonzero one (``model.numerator.<i>``, ``model.denominator.<i>``; the zeros outside
-        them set its degree and its roots at s = 0, which shape the loop); a zpk model's gain, real roots but those
-        at s = 0 (``model.poles.<i>``) and pairs' parts (``model.poles.<i>.0`` re,
-        ``.1`` im); the dead time when it is not 0 [s]. None of a state-space model
+        them set its degree and its roots at s = 0, which shape the loop); a zpk model's
+        gain, real roots but those at s = 0 (``model.poles.<i>``) and pairs' parts
+        (``model.poles.<i>.0`` re, ``.1`` im); the dead time when it is not 0 [s]. None of a state-space model
         (which products of A, B, C vanish sets its transfer function's degree) or of a
         sampled loop (its drive is discretised once, of numbers): :meth:`not_uncertain`."""
         p = self.params

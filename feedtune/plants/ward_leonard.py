@@ -49,7 +49,6 @@ uses; see docs/ward-leonard.md).
 
 from __future__ import annotations
 
-import json
 from typing import Literal, Mapping
 
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
@@ -178,15 +177,6 @@ class WardLeonard(Plant):
             return (f"the range reaches L_a = {low:g} H, where the armature pole vanishes "
                     "and the drive's order drops; give a smallest value above 0")
         return None
-
-    def structure(self, box: Mapping[str, tuple[float, float]],
-                  horizon_scale: float = 1.0) -> str:
-        """The choices, which numbers are given, the box and the frequency band [rad/s]
-        the loop's graph embeds (see :meth:`feedtune.plants.base.Plant.structure`)."""
-        choices = self.params.model_dump(mode="json", exclude=set(self.numbers()))
-        return json.dumps([choices, sorted(self.numbers()),
-                           {name: list(bounds) for name, bounds in box.items()},
-                           list(self.frequency_band(box))], sort_keys=True)
 
     def velocity_per_volt(self, numbers: Mapping[str, object] | None = None
                           ) -> tuple[list, list, list]:
