@@ -338,11 +338,34 @@ def worst_cases(check: PointCheck, robust: RobustSpec, nominal: Mapping[str, flo
                 minimize(at, start, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(ranges),
                          options={"xatol": 1e-5, "fatol": 1e-9, "maxfev": 40 * len(ranges)})
         result.append(best)
+    search = _search_text(robust, len(points), check.evaluations)
     worst_unstable = None
     if unstable:
         worst_unstable = max(unstable, key=lambda row: row[1].get(
             "spectral_abscissa", row[1].get("spectral_radius", 0.0)))[0]
-    return result, worst_unstable
+    return result, worst_unstable, search
+
+
+def _search_text(robust: RobustSpec, points: int, evaluations: int) -> str:
+    """How :func:`worst_cases` searched the uncertainty, for the result."""
+    ranges = [name for name, p in robust.parameters.items() if p.is_range()]
+    sets = [name for name, p in robust.parameters.items() if not p.is_range()]
+    if not ranges:
+        dense = "every combination of the sets' values"
+    elif len(ranges) in GRID_POINTS:
+        size = GRID_POINTS[len(ranges)]
+        grid = f"{size}-point" if len(ranges) == 1 else f"{size} × {size}"
+        dense = (f"a {grid} grid over {', '.join(ranges)}"
+                 + (" at every combination of the sets" if sets else ""))
+    else:
+        dense = (f"{SEARCH_POINTS} Latin-hypercube points over {', '.join(ranges)}"
+                 + (" at every combination of the sets" if sets else ""))
+    local = ("" if not ranges else
+             "; from each constraint's worst point, " + ("bounded Brent over the range"
+                                                          if len(ranges) == 1 else
+                                                          "Nelder-Mead within the box"))
+    return (f"{dense} and every scenario ({points} points){local}; {evaluations} exact "
+            "evaluations of the tuned design")
 
 
 # -- the rounds ----------------------------------------------------------------------------
@@ -358,7 +381,7 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
     nominal = {name: float(numbers[name]) for name in robust.parameters}
     scenarios = initial_scenarios(robust, nominal)
     round_spec, rounds, converged, note = spec, 0, False, ""
-    result = worst = None
+    result = worst = search = None
     unstable = None
     while rounds < robust.max_rounds:
         rounds += 1
@@ -369,7 +392,7 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
             break
         tuned = {name: t.value for name, t in result.tuned.items()}
         check = PointCheck(spec, tuned)
-        worst, unstable = worst_cases(check, robust, nominal, scenarios)
+        worst, unstable, search = worst_cases(check, robust, nominal, scenarios)
         added = []
         if unstable is not None:
             added.append(("closed-loop stability", unstable))
@@ -398,7 +421,7 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
         note = (f"robust: after {rounds} rounds ({len(scenarios)} scenarios) a constraint is "
                 "still violated between the scenarios (robust.max_rounds)")
     return _robust_result(spec, result, scenarios, worst, unstable, rounds, converged, note,
-                          _validation)
+                          _validation, search)
 
 
 def _from(spec: Spec, result: TuneResult) -> Spec:
@@ -416,7 +439,8 @@ def _from(spec: Spec, result: TuneResult) -> Spec:
 
 
 def _robust_result(spec: Spec, result: TuneResult, scenarios: list[Scenario], worst, unstable,
-                   rounds: int, converged: bool, note: str, validation: Callable) -> TuneResult:
+                   rounds: int, converged: bool, note: str, validation: Callable,
+                   search: str | None) -> TuneResult:
     """The last round's result as the spec's own: the spec and its hash, the nominal
     loop's stability block, the robust block; success only when converged."""
     tuned = {name: t.value for name, t in result.tuned.items()}
@@ -442,7 +466,7 @@ def _robust_result(spec: Spec, result: TuneResult, scenarios: list[Scenario], wo
     block = RobustResult(
         objective=spec.robust.objective, parameters=spec.robust.parameters,
         scenarios=scenario_results, worst_cases=worst_results, rounds=rounds,
-        converged=converged, tolerance=ROBUST_TOL,
+        converged=converged, tolerance=ROBUST_TOL, search=search,
         unstable_parameters=dict(unstable) if unstable else None)
     success = result.success and converged
     data = {"spec": spec.model_dump(mode="json"), "provenance": provenance(spec.sha256()),

@@ -91,6 +91,8 @@ def test_ward_leonard_worst_inertia_lies_between_the_corners_and_the_rounds_find
     assert worst.value == pytest.approx(1.3, rel=ROBUST_TOL)
     assert robust.robust.rounds >= 2
     assert any(s.origin == "worst_case" for s in robust.robust.scenarios)
+    assert "41-point grid over inertia" in robust.robust.search
+    assert "bounded Brent" in robust.robust.search
 
 
 def test_ward_leonard_nominal_design_breaks_m_peak_in_the_range(ward_leonard):
