@@ -22,6 +22,7 @@ remembers which parameters it moved so that an error names the place the user wr
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 import types
@@ -241,8 +242,6 @@ def with_numbers(plant: dict, numbers: dict[str, float]) -> dict:
     """A copy of ``plant`` (a plant spec as JSON) with each of ``numbers`` (name or dotted
     path, :func:`number_path` → value) in its place; a path that does not exist in
     ``plant`` raises KeyError or IndexError."""
-    import copy
-
     out = copy.deepcopy(plant)
     for name, value in numbers.items():
         *head, last = number_path(name)
