@@ -338,12 +338,11 @@ def worst_cases(check: PointCheck, robust: RobustSpec, nominal: Mapping[str, flo
                 minimize(at, start, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(ranges),
                          options={"xatol": 1e-5, "fatol": 1e-9, "maxfev": 40 * len(ranges)})
         result.append(best)
-    search = _search_text(robust, len(points), check.evaluations)
     worst_unstable = None
     if unstable:
         worst_unstable = max(unstable, key=lambda row: row[1].get(
             "spectral_abscissa", row[1].get("spectral_radius", 0.0)))[0]
-    return result, worst_unstable, search
+    return result, worst_unstable
 
 
 def _search_text(robust: RobustSpec, points: int, evaluations: int) -> str:
@@ -392,7 +391,9 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
             break
         tuned = {name: t.value for name, t in result.tuned.items()}
         check = PointCheck(spec, tuned)
-        worst, unstable, search = worst_cases(check, robust, nominal, scenarios)
+        worst, unstable = worst_cases(check, robust, nominal, scenarios)
+        search = _search_text(robust, len(_search_points(robust, nominal)) + len(scenarios),
+                              check.evaluations)
         added = []
         if unstable is not None:
             added.append(("closed-loop stability", unstable))
