@@ -57,7 +57,7 @@ def frequency_data(truth, omega, rng):
     g = truth.response(omega)
     g = g + 0.01 * np.abs(g) * (rng.standard_normal(len(g)) + 1j * rng.standard_normal(len(g))) \
         / np.sqrt(2)
-    return FrequencyResponseData(omega, g, None, "V", "rad", "frf")
+    return FrequencyResponseData(omega, g, None, input_unit="V", output_unit="rad", source="frf")
 
 
 def problems(rng) -> dict:
@@ -74,8 +74,9 @@ def problems(rng) -> dict:
     return {
         "hydraulic FRF, 1000 pts": (frequency_data(HYDRAULIC, np.logspace(0, 3, 1000), rng),
                                     hydraulic, truth_h),
-        "hydraulic time, 100 000": (TimeSeriesData(np.arange(count) * period, u, y, "V",
-                                                   "rad/s", "time"), hydraulic, truth_h),
+        "hydraulic time, 100 000": (TimeSeriesData(np.arange(count) * period, u, y, input_unit="V",
+                                                   output_unit="rad/s", source="time"),
+                                    hydraulic, truth_h),
         "two-mass FRF, 1000 pts": (frequency_data(TWO_MASS, two_mass_band, rng), linear,
                                    truth_l),
         "two-mass, θ = 0.5 ms": (frequency_data(slow, two_mass_band, rng), linear,

@@ -589,6 +589,8 @@ def _robust_lines(result: TuneResult) -> list[str]:
     if robust.unstable_parameters:
         at = ", ".join(f"{n} = {_g(v)}" for n, v in robust.unstable_parameters.items())
         lines.append(f"  UNSTABLE at {at}")
+    if robust.search:
+        lines.append(f"  searched: {robust.search}")
     return lines
 
 

@@ -112,8 +112,16 @@ class ScenarioLoops:
 
     def __init__(self, loops: list):
         self.loops = loops
-        self.discrete = loops[0].discrete
-        self.unrolled_steps = max(loop.unrolled_steps for loop in loops)
+        self.exact_only = loops[0].exact_only
+        if not self.exact_only:  # what the NLP reads (a search reads only stability())
+            self.discrete = loops[0].discrete
+            self.unrolled_steps = max(loop.unrolled_steps for loop in loops)
+
+    def stability(self) -> dict:
+        """An exact-only loop's verdict (the search reads it): the nominal loop's block,
+        stable only when every scenario's loop is."""
+        blocks = [loop.stability() for loop in self.loops]
+        return {**blocks[0], "stable": all(block["stable"] for block in blocks)}
 
     def stability_conditions(self) -> list:
         return [c for loop in self.loops for c in loop.stability_conditions()]
@@ -225,14 +233,19 @@ class PointCheck:
         """(each constraint's value [its unit] or None, the stability block) at ``numbers``."""
         self.evaluations += 1
         loop = self.plant.loop({**self.tuned, **numbers}, self.box)
-        conditions = np.array([to_float(c) for c in loop.stability_conditions()])
-        matrices = {name: to_array(m) for name, m in loop.stability_matrices().items()}
-        stable, stability = feasibility([], [], conditions, matrices, loop.discrete)
+        if loop.exact_only:  # a simulation: its verdict and metrics are numbers already
+            stability = loop.stability()
+            stable = stability["stable"]
+        else:
+            conditions = np.array([to_float(c) for c in loop.stability_conditions()])
+            matrices = {name: to_array(m) for name, m in loop.stability_matrices().items()}
+            stable, stability = feasibility([], [], conditions, matrices, loop.discrete)
         values = []
         for metric, options, _, _ in self.constraints:
             try:
                 expr, magnitude = exact_value(metric.evaluate(loop, options))
-                value = to_float(ca.evalf(ca.fabs(expr) if magnitude else expr))
+                value = (float(expr) if loop.exact_only
+                         else to_float(ca.evalf(ca.fabs(expr) if magnitude else expr)))
             except HorizonError:
                 value = math.nan
             values.append(value if stable and math.isfinite(value) else None)
@@ -332,6 +345,28 @@ def worst_cases(check: PointCheck, robust: RobustSpec, nominal: Mapping[str, flo
     return result, worst_unstable
 
 
+def _search_text(robust: RobustSpec, points: int, evaluations: int) -> str:
+    """How :func:`worst_cases` searched the uncertainty, for the result."""
+    ranges = [name for name, p in robust.parameters.items() if p.is_range()]
+    sets = [name for name, p in robust.parameters.items() if not p.is_range()]
+    if not ranges:
+        dense = "every combination of the sets' values"
+    elif len(ranges) in GRID_POINTS:
+        size = GRID_POINTS[len(ranges)]
+        grid = f"{size}-point" if len(ranges) == 1 else f"{size} × {size}"
+        dense = (f"a {grid} grid over {', '.join(ranges)}"
+                 + (" at every combination of the sets" if sets else ""))
+    else:
+        dense = (f"{SEARCH_POINTS} Latin-hypercube points over {', '.join(ranges)}"
+                 + (" at every combination of the sets" if sets else ""))
+    local = ("" if not ranges else
+             "; from each constraint's worst point, " + ("bounded Brent over the range"
+                                                          if len(ranges) == 1 else
+                                                          "Nelder-Mead within the box"))
+    return (f"{dense} and every scenario ({points} points){local}; {evaluations} exact "
+            "evaluations of the tuned design")
+
+
 # -- the rounds ----------------------------------------------------------------------------
 
 def tune_robust(spec: Spec, progress: Callable | None = None,
@@ -341,10 +376,11 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
     from feedtune.problem import _tune_once, _validation
 
     robust = spec.robust
-    nominal = {name: float(getattr(spec.plant, name)) for name in robust.parameters}
+    numbers = plant_for(spec.plant).numbers()
+    nominal = {name: float(numbers[name]) for name in robust.parameters}
     scenarios = initial_scenarios(robust, nominal)
     round_spec, rounds, converged, note = spec, 0, False, ""
-    result = worst = None
+    result = worst = search = None
     unstable = None
     while rounds < robust.max_rounds:
         rounds += 1
@@ -356,6 +392,8 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
         tuned = {name: t.value for name, t in result.tuned.items()}
         check = PointCheck(spec, tuned)
         worst, unstable = worst_cases(check, robust, nominal, scenarios)
+        search = _search_text(robust, len(_search_points(robust, nominal)) + len(scenarios),
+                              check.evaluations)
         added = []
         if unstable is not None:
             added.append(("closed-loop stability", unstable))
@@ -384,7 +422,7 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
         note = (f"robust: after {rounds} rounds ({len(scenarios)} scenarios) a constraint is "
                 "still violated between the scenarios (robust.max_rounds)")
     return _robust_result(spec, result, scenarios, worst, unstable, rounds, converged, note,
-                          _validation)
+                          _validation, search)
 
 
 def _from(spec: Spec, result: TuneResult) -> Spec:
@@ -402,7 +440,8 @@ def _from(spec: Spec, result: TuneResult) -> Spec:
 
 
 def _robust_result(spec: Spec, result: TuneResult, scenarios: list[Scenario], worst, unstable,
-                   rounds: int, converged: bool, note: str, validation: Callable) -> TuneResult:
+                   rounds: int, converged: bool, note: str, validation: Callable,
+                   search: str | None) -> TuneResult:
     """The last round's result as the spec's own: the spec and its hash, the nominal
     loop's stability block, the robust block; success only when converged."""
     tuned = {name: t.value for name, t in result.tuned.items()}
@@ -428,7 +467,7 @@ def _robust_result(spec: Spec, result: TuneResult, scenarios: list[Scenario], wo
     block = RobustResult(
         objective=spec.robust.objective, parameters=spec.robust.parameters,
         scenarios=scenario_results, worst_cases=worst_results, rounds=rounds,
-        converged=converged, tolerance=ROBUST_TOL,
+        converged=converged, tolerance=ROBUST_TOL, search=search,
         unstable_parameters=dict(unstable) if unstable else None)
     success = result.success and converged
     data = {"spec": spec.model_dump(mode="json"), "provenance": provenance(spec.sha256()),

@@ -67,8 +67,31 @@ def output_kind(unit: str) -> OutputKind:
     return "position" if unit in POSITION_UNITS else "velocity"
 
 
+@dataclass(frozen=True, eq=False, kw_only=True)
+class AxisData:
+    """What every data set of an axis declares besides its numbers (given by keyword).
+
+    Attributes
+    ----------
+    input_unit : str
+        The command's unit as declared (``V``, ``A``, ``N·m``…).
+    output_unit : str
+        The output's: ``m``, ``rad`` (a position) or ``m/s``, ``rad/s`` (a velocity).
+    source : str
+        The file it was read from.
+    """
+
+    input_unit: str
+    output_unit: str
+    source: str
+
+    @property
+    def output_kind(self) -> OutputKind:
+        return output_kind(self.output_unit)
+
+
 @dataclass(frozen=True, eq=False)
-class TimeSeriesData:
+class TimeSeriesData(AxisData):
     """A uniformly sampled response of the axis to its command.
 
     Attributes
@@ -79,22 +102,11 @@ class TimeSeriesData:
         The drive's input at each sample [``input_unit``].
     output : ndarray
         Position [m or rad] or velocity [m/s or rad/s] at each sample (``output_unit``).
-    input_unit, output_unit : str
-        The command's unit as declared; the output's (``m``, ``rad``, ``m/s``, ``rad/s``).
-    source : str
-        The file it was read from.
     """
 
     time_s: np.ndarray
     command: np.ndarray
     output: np.ndarray
-    input_unit: str
-    output_unit: str
-    source: str
-
-    @property
-    def output_kind(self) -> OutputKind:
-        return output_kind(self.output_unit)
 
     @property
     def sample_period(self) -> float:
@@ -103,7 +115,7 @@ class TimeSeriesData:
 
 
 @dataclass(frozen=True, eq=False)
-class FrequencyResponseData:
+class FrequencyResponseData(AxisData):
     """A measured frequency response G(jω) from the command to the position or velocity.
 
     Attributes
@@ -114,22 +126,11 @@ class FrequencyResponseData:
         G(jω) [``output_unit``/``input_unit``].
     coherence : ndarray or None
         γ²(ω) in [0, 1] [1], when the file gives it.
-    input_unit, output_unit : str
-        The command's unit; the output's (``m``, ``rad``, ``m/s``, ``rad/s``).
-    source : str
-        The file it was read from.
     """
 
     frequency_rad_s: np.ndarray
     response: np.ndarray
     coherence: np.ndarray | None
-    input_unit: str
-    output_unit: str
-    source: str
-
-    @property
-    def output_kind(self) -> OutputKind:
-        return output_kind(self.output_unit)
 
 
 MeasuredData = TimeSeriesData | FrequencyResponseData
@@ -466,7 +467,7 @@ def _time_series(reader: _Reader, by_name: dict[str, _Column]) -> TimeSeriesData
                                     "uniformly")
     command = by_name["command"]
     return TimeSeriesData(time.values * scale, command.values, output.values,
-                          command.unit, output.unit, reader.path)
+                          input_unit=command.unit, output_unit=output.unit, source=reader.path)
 
 
 def _response_unit(reader: _Reader, column: _Column) -> tuple[str, str]:
@@ -520,5 +521,5 @@ def _frequency(reader: _Reader, by_name: dict[str, _Column]) -> FrequencyRespons
         if outside.size:
             reader.fail(column.locate(int(outside[0])), "coherence must be within [0, 1]")
         coherence = column.values
-    return FrequencyResponseData(frequency.values * scale, response, coherence, inp, out,
-                                 reader.path)
+    return FrequencyResponseData(frequency.values * scale, response, coherence,
+                                 input_unit=inp, output_unit=out, source=reader.path)

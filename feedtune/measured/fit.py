@@ -9,7 +9,9 @@ Two stages (docs/design.md, "Identification"):
    the equation error of the derivatives of command and output seen through a
    state-variable filter 1/(s/λ + 1)^N (Young's SVF), which needs no noisy derivatives.
    Constraints: a_i ≥ 0 (necessary for a stable a(s), sufficient up to second order) and,
-   for the physical drives, a positive gain b_0 ≥ 0. The least-squares problem is
+   for the physical drives, a positive gain b_0 ≥ 0. Above second order an unstable
+   result has its unstable poles reflected into the left half-plane (|a(jω)| unchanged)
+   and its numerator refitted by linear least squares. The least-squares problem is
    compressed by a QR factorisation to its p×p triangle first, so its size in cvxpy does
    not grow with the number of points; cvxpy solves it when a constraint is active (the
    unconstrained minimiser is the answer otherwise). A dead time is found on a grid (phase steps of
@@ -18,7 +20,9 @@ Two stages (docs/design.md, "Identification"):
    the output (it multiplies the noise by a(s)); the output error (the model's response
    against the data, relative at each frequency) is the maximum-likelihood fit for
    independent Gaussian output noise, and its Jacobian at the optimum gives the
-   parameters' standard errors, cov = s²(JᵀJ)⁻¹ with s² the residual variance.
+   parameters' standard errors, cov = s²(JᵀJ)⁻¹ with s² the residual variance. Should
+   its optimum be unstable (above second order), it is fitted again over denominators
+   written as products of second-order factors with positive coefficients, all stable.
 
 References
 ----------
@@ -33,6 +37,7 @@ covariance of a prediction-error estimate).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
@@ -113,6 +118,7 @@ class Fit:
     degrees_of_freedom: int
     linear_iterations: int
     output_error_evaluations: int
+    stabilisation: str = ""
 
 
 def band(data: list[MeasuredData]) -> tuple[float, float]:
@@ -342,32 +348,195 @@ def output_error_cost(data, structure, omega0, x) -> float:
     return float(r @ r) if np.all(np.isfinite(r)) else np.inf
 
 
+def hurwitz(a: np.ndarray) -> bool:
+    """Whether 1 + a_1 s + … + a_n s^n (``a`` = a_1 … a_n) has every root in the open left
+    half-plane: a stable model."""
+    roots = np.polynomial.polynomial.polyroots(np.concatenate([[1.0], a]))
+    return bool(np.all(roots.real < 0))
+
+
+def reflected(a: np.ndarray) -> np.ndarray:
+    """a_1 … a_n of 1 + a_1 s + … + a_n s^n with every root r in the closed right
+    half-plane replaced by −r̄ (its mirror image in the imaginary axis): |a(jω)| is
+    unchanged at every ω, so the magnitude the fit matched is kept and only the phase
+    moves (an all-pass factor)."""
+    roots = np.polynomial.polynomial.polyroots(np.concatenate([[1.0], a]))
+    roots = np.where(roots.real >= 0, -np.abs(roots.real) + 1j * roots.imag, roots)
+    poly = np.polynomial.polynomial.polyfromroots(roots).real
+    return poly[1:] / poly[0]
+
+
+def refit_numerator(data: list[MeasuredData], structure: Structure, omega0: float,
+                    x: np.ndarray) -> np.ndarray:
+    """``x`` (scaled parameters) with b_0 … b_m chosen by linear least squares on the
+    output error, the denominator and dead time held: the output error is affine in b and
+    in the time series' offsets, so its Jacobian in them is exact from one evaluation per
+    parameter (scipy ``lsq_linear``, b_0 ≥ 0 for a positive gain)."""
+    n, m = structure.poles, structure.zeros
+    offsets = [d.output[0] for d in data if isinstance(d, TimeSeriesData)]
+    start = np.concatenate([x, offsets])
+    free = list(range(n, n + m + 1)) + list(range(len(x), len(start)))
+    weights = _initial_weights(data)
+
+    def residual(values):
+        z = start.copy()
+        z[free] = values
+        return _residuals(z, data, structure, omega0, weights)
+
+    base = residual(np.zeros(len(free)))
+    jac = np.column_stack([residual(unit) - base for unit in np.eye(len(free))])
+    lower = np.full(len(free), -np.inf)
+    if structure.positive_gain:
+        lower[0] = 0.0
+    solution = optimize.lsq_linear(jac, -base, bounds=(lower, np.inf)).x
+    out = x.copy()
+    out[n:n + m + 1] = solution[:m + 1]
+    return out
+
+
+#: the lightest damping ratio a fitted mode may have in the factored fit [1]: lighter than
+#: any machine-tool structure's (steel weldments and castings: 0.002-0.05), so it binds
+#: only where the data would otherwise place a pole on or across the imaginary axis
+MIN_DAMPING = 1e-3
+
+
+@dataclass(frozen=True)
+class Factors:
+    """A denominator of order n written as a product of second-order factors (and one
+    first-order factor when n is odd), in the scaled variable ν:
+
+        a(ν) = Π_k (1 + 2ζ_k ν/ω_k + ν²/ω_k²) · (1 + ν/p),
+
+    parameters (ζ_k, ln ω_k) per pair and ln p, with ζ_k ≥ :data:`MIN_DAMPING`. Each
+    factor with ζ > 0 has its roots in the left half-plane (a quadratic's Routh array), so
+    every model of this parametrisation is stable, with a decay rate of at least ζ_min·ω_k
+    per mode: the output-error fit searched over it keeps the stability that a_i ≥ 0
+    guarantees only up to order 2."""
+
+    poles: int
+
+    def _factors(self, f: np.ndarray) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+        """Each factor's ascending coefficients and their derivatives in its parameters."""
+        out = []
+        for k in range(self.poles // 2):
+            zeta, inverse = f[2 * k], np.exp(-f[2 * k + 1])
+            out.append((np.array([1.0, 2 * zeta * inverse, inverse ** 2]),
+                        [np.array([0.0, 2 * inverse, 0.0]),
+                         np.array([0.0, -2 * zeta * inverse, -2 * inverse ** 2])]))
+        if self.poles % 2:
+            inverse = np.exp(-f[-1])
+            out.append((np.array([1.0, inverse]), [np.array([0.0, -inverse])]))
+        return out
+
+    def lower(self) -> np.ndarray:
+        """The parameters' lower bounds: ζ_k ≥ MIN_DAMPING, the logarithms free."""
+        bounds = [MIN_DAMPING, -np.inf] * (self.poles // 2)
+        return np.array(bounds + [-np.inf] * (self.poles % 2))
+
+    def coefficients(self, f: np.ndarray) -> np.ndarray:
+        """a_1 … a_n of the product."""
+        poly = np.array([1.0])
+        for factor, _ in self._factors(f):
+            poly = np.polynomial.polynomial.polymul(poly, factor)
+        return poly[1:]
+
+    def jacobian(self, f: np.ndarray) -> np.ndarray:
+        """∂(a_1 … a_n)/∂f (n × n): each factor's derivative times the others' product."""
+        factors = self._factors(f)
+        columns = []
+        for k, (_, derivatives) in enumerate(factors):
+            others = np.array([1.0])
+            for i, (other, _) in enumerate(factors):
+                if i != k:
+                    others = np.polynomial.polynomial.polymul(others, other)
+            for d in derivatives:  # polymul drops trailing zeros: pad back to degree n
+                product = np.polynomial.polynomial.polymul(d, others)
+                columns.append(np.pad(product, (0, self.poles + 1 - len(product)))[1:])
+        return np.column_stack(columns)
+
+    def of(self, a: np.ndarray) -> np.ndarray:
+        """The parameters of a_1 … a_n (roots in the left half-plane; a lighter damping is
+        raised to MIN_DAMPING): complex roots paired with their conjugates, real roots in
+        order of size (two real roots make a factor with ζ ≥ 1), the fastest real root
+        alone when n is odd."""
+        roots = np.polynomial.polynomial.polyroots(np.concatenate([[1.0], a]))
+        pairs = [(r, np.conj(r)) for r in sorted((r for r in roots if r.imag > 0), key=abs)]
+        real = sorted((r.real for r in roots if r.imag == 0), key=abs)
+        single = real.pop() if self.poles % 2 else None
+        pairs += [(real[i], real[i + 1]) for i in range(0, len(real), 2)]
+        f = []
+        for r1, r2 in pairs:  # (1 − ν/r1)(1 − ν/r2) = 1 + 2ζν/ω + ν²/ω²
+            omega = float(np.sqrt(np.real(r1 * r2)))
+            f += [max(float(np.real(-(r1 + r2))) / (2 * omega), MIN_DAMPING), np.log(omega)]
+        if single is not None:
+            f.append(np.log(abs(single)))
+        return np.array(f)
+
+
 def output_error_fit(data: list[MeasuredData], structure: Structure, omega0: float,
                      x0: np.ndarray, solves: int) -> Fit:
-    """Stage 2: least_squares on the output error from the linear fit x0; with several
-    data sets, each set is weighted by its own residual RMS and the fit repeated once (its
-    noise level is not known beforehand)."""
-    p = len(structure.names())
+    """Stage 2: least_squares on the output error from the linear fit x0.
+
+    The linear fit's a_i ≥ 0 makes a(s) stable only up to order 2. Above it, an unstable
+    x0 has its unstable poles reflected into the left half-plane and its numerator refitted
+    (:func:`reflected`, :func:`refit_numerator`); the output error is then fitted in the
+    coefficients as before, and if that optimum is unstable, again over the stable
+    factored denominators (:class:`Factors`), whose optimum is stable by construction.
+    """
+    stabilisation = ""
+    if structure.poles > 2 and not hurwitz(x0[:structure.poles]):
+        x0 = x0.copy()
+        x0[:structure.poles] = reflected(x0[:structure.poles])
+        x0 = refit_numerator(data, structure, omega0, x0)
+        stabilisation = ("the linear fit's unstable poles reflected into the left "
+                         "half-plane, its numerator refitted")
+    result = _output_error(data, structure, omega0, x0, solves, None)
+    if structure.poles > 2 and not hurwitz(result.parameters[:structure.poles]):
+        result = _output_error(data, structure, omega0, x0, solves, Factors(structure.poles))
+        stabilisation = "; ".join(filter(None, [
+            stabilisation, "the output error fitted over stable second-order factors of "
+                           "the denominator (the coefficients' optimum was unstable)"]))
+    return dataclasses.replace(result, stabilisation=stabilisation)
+
+
+def _output_error(data: list[MeasuredData], structure: Structure, omega0: float,
+                  x0: np.ndarray, solves: int, factors: Factors | None) -> Fit:
+    """:func:`output_error_fit`'s least squares, over the denominator's coefficients
+    (``factors`` None) or its stable factors. With several data sets, each set is weighted
+    by its own residual RMS and the fit repeated once (its noise level is not known
+    beforehand). The covariance is of the coefficients either way (the factors' Jacobian
+    mapped through ∂a/∂f)."""
+    p, n = len(structure.names()), structure.poles
     offsets = [d.output[0] for d in data if isinstance(d, TimeSeriesData)]
     x = np.concatenate([x0, offsets])
+    if factors is not None:
+        x[:n] = factors.of(x[:n])
+
+    def coefficients(z):
+        if factors is None:
+            return z
+        return np.concatenate([factors.coefficients(z[:n]), z[n:]])
+
+    def residuals(z, weights):
+        return _residuals(coefficients(z), data, structure, omega0, weights)
+
     lower = np.full(len(x), -np.inf)
-    lower[:structure.poles] = 0.0
+    lower[:n] = 0.0 if factors is None else factors.lower()
     if structure.positive_gain:
-        lower[structure.poles] = 0.0
+        lower[n] = 0.0
     if structure.dead_time:
         lower[p - 1] = 0.0
     x = np.maximum(x, lower)
     weights = _initial_weights(data)
     evaluations = 0
     for attempt in range(2 if len(data) > 1 else 1):
-        result = optimize.least_squares(_residuals, x, bounds=(lower, np.inf), x_scale="jac",
-                                        args=(data, structure, omega0), kwargs={"weights":
-                                                                               weights},
-                                        method="trf", xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        result = optimize.least_squares(residuals, x, bounds=(lower, np.inf), x_scale="jac",
+                                        args=(weights,), method="trf", xtol=1e-12,
+                                        ftol=1e-12, gtol=1e-12)
         evaluations += result.nfev
         x = result.x
         if attempt == 0 and len(data) > 1:
-            r = _residuals(x, data, structure, omega0, [1.0] * len(data))
+            r = residuals(x, [1.0] * len(data))
             weights = [float(np.sqrt(np.mean(part ** 2))) or 1.0
                        for part in _split(r, data)]
     r = result.fun
@@ -376,6 +545,14 @@ def output_error_fit(data: list[MeasuredData], structure: Structure, omega0: flo
         raise FitError(f"{len(r)} residuals for {len(x)} parameters: give more points")
     variance = float(r @ r) / dof
     jac = result.jac
+    if factors is not None:  # J_a = J_f (∂a/∂f)⁻¹
+        jac = jac.copy()
+        try:
+            jac[:, :n] = linalg.solve(factors.jacobian(x[:n]).T, jac[:, :n].T).T
+        except np.linalg.LinAlgError:
+            raise FitError("the fitted denominator has repeated factors: its coefficients' "
+                           "uncertainty is undefined; fit fewer poles") from None
+        x = coefficients(x)
     _, sv, vt = np.linalg.svd(jac, full_matrices=False)
     if sv[-1] <= sv[0] * 1e-12:
         raise FitError("the parameters are not identifiable from these data (singular "

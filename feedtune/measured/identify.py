@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedtune.measured.data import DataError, FrequencyResponseData, MeasuredData
-from feedtune.measured.fit import Fit, FitError, fit
+from feedtune.measured.fit import Fit, FitError, fit, hurwitz
 from feedtune.measured.models import Model
 
 #: relative step of the central differences that carry the coefficients' covariance to the
@@ -79,6 +79,7 @@ class Identification:
                     "output_error_evaluations": self.fit.output_error_evaluations,
                     "residual_variance": self.fit.residual_variance,
                     "degrees_of_freedom": self.fit.degrees_of_freedom,
+                    "stabilisation": self.fit.stabilisation or None,
                     "uncertainty": UNCERTAINTY},
         }
 
@@ -159,8 +160,7 @@ def identify(data: list[MeasuredData], model: Model, max_dead_time: float | None
 
     units = _units(data, model)
     result = fit(data, model.structure, max_dead_time)
-    denominator = result.model.denominator
-    if np.any(np.roots(denominator[::-1]).real >= 0):
+    if not hurwitz(result.model.denominator[1:]):  # a_0 = 1
         raise FitError("the fitted model is unstable (a pole in the right half-plane): "
                        "the data do not support this model; try another order")
     structure = model.structure

@@ -57,6 +57,18 @@ class Plant:
         gives them [their units]: ``loop`` also takes them in ``values``. None here."""
         return {}
 
+    def not_uncertain(self) -> dict[str, str]:
+        """Parameters (or dotted paths into them) a spec might expect to give as a set or
+        a range that this plant cannot take so, each with why (the spec error names it).
+        None here: the generic reason is given."""
+        return {}
+
+    def uncertainty_problem(self, name: str, low: float, high: float) -> str | None:
+        """Why :meth:`numbers`' ``name`` cannot take every value in [low, high] [its unit]
+        in one loop of the same structure (a value there would change the model's order or
+        type), or None. None here."""
+        return None
+
     def not_tunable(self) -> dict[str, str]:
         """Tunables of the plant type that this configuration fixes, each with the reason a
         spec may not free it. None here."""

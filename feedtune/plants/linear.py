@@ -71,6 +71,7 @@ from feedtune.plants.controllers import Law, Structure, controller, controller_t
 from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
 from feedtune.plants.software_servo import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS
 from feedtune.schema.model import SpecModel
+from feedtune.schema.uncertainty import with_numbers
 
 #: default box of the sampling period T [s]: 10 µs (a fast drive's current loop) to 0.5 s
 PERIOD_BOUNDS = (1e-5, 0.5)
@@ -87,6 +88,13 @@ def _trim(p: list[float]) -> list[float]:
     while i < len(p) - 1 and p[i] == 0:
         i += 1
     return list(p[i:])
+
+
+def _nonzero_ends(p: list[float]) -> tuple[int, int]:
+    """(first, last) index of ``p``'s nonzero coefficients: the zeros outside them set the
+    polynomial's degree and its roots at s = 0."""
+    nonzero = [i for i, c in enumerate(p) if c != 0]
+    return nonzero[0], nonzero[-1]
 
 
 def _trailing(p: list[float]) -> tuple[float, int]:
@@ -563,16 +571,116 @@ class Linear(Plant):
                                    f"= {model.period!r} s): the sampling period is fixed to "
                                    "it, not tunable; leave sampling_period out"}
 
-    def drive_polynomials(self) -> tuple[list, list, list | None, list]:
+    def numbers(self) -> dict[str, float]:
+        """The numbers of a continuous loop (each in its unit), by name or dotted path:
+        :meth:`loop` also takes them in ``values`` (as NLP parameters, or a robust
+        scenario's values). A transfer function's coefficients from its first to its last
+        nonzero one (``model.numerator.<i>``, ``model.denominator.<i>``; the zeros outside
+        them set its degree and its roots at s = 0, which shape the loop); a zpk model's
+        gain, real roots but those at s = 0 (``model.poles.<i>``) and pairs' parts
+        (``model.poles.<i>.0`` re, ``.1`` im); the dead time when it is not 0 [s]. None of a state-space model
+        (which products of A, B, C vanish sets its transfer function's degree) or of a
+        sampled loop (its drive is discretised once, of numbers): :meth:`not_uncertain`."""
+        p = self.params
+        if p.implementation == "sampled" or isinstance(p.model, StateSpace):
+            return {}
+        found: dict[str, float] = {}
+        model = p.model
+        if isinstance(model, TransferFunction):
+            for field in ("numerator", "denominator"):
+                coefficients = getattr(model, field)
+                first, last = _nonzero_ends(coefficients)
+                found.update({f"model.{field}.{i}": c for i, c in enumerate(coefficients)
+                              if first <= i <= last})
+        else:
+            found["model.gain"] = model.gain
+            for field in ("poles", "zeros"):
+                for i, root in enumerate(getattr(model, field)):
+                    if isinstance(root, list):
+                        found[f"model.{field}.{i}.0"], found[f"model.{field}.{i}.1"] = root
+                    elif root != 0:
+                        found[f"model.{field}.{i}"] = root
+        if p.dead_time > 0:
+            found["dead_time"] = p.dead_time
+        return found
+
+    def not_uncertain(self) -> dict[str, str]:
+        """Why a sampled loop's or a state-space model's numbers, and a zero dead time,
+        cannot be uncertain."""
+        p = self.params
+        if p.implementation == "sampled":
+            reason = ("a sampled loop discretises the drive once, of numbers (its ZOH "
+                      "transition matrices e^{AT}), so its numbers cannot vary inside one "
+                      "NLP; use implementation 'continuous' for a robust design")
+            return {"model": reason, "dead_time": reason}
+        reasons = {"dead_time": "it is 0: a dead time changes the order of the loop's Padé "
+                                "approximant; give a nonzero nominal dead time [s]"}
+        if isinstance(p.model, StateSpace):
+            reasons["model"] = ("the transfer function of a state-space model has a degree "
+                                "set by which products of A, B and C vanish, so its entries "
+                                "cannot vary in one loop; give the model as a "
+                                "transfer_function or zpk to make its numbers uncertain")
+        else:
+            reasons["model"] = ("a zero at either end of a coefficient list, or a root at "
+                                "s = 0, sets the model's degree or type and is not a number "
+                                "of the loop")
+        return reasons
+
+    def uncertainty_problem(self, name: str, low: float, high: float) -> str | None:
+        """Why values in [low, high] [the number's unit] would change the model's structure:
+        a dead time, a pair's imaginary part reaching 0; a gain, a real root, or a transfer
+        function's first or last coefficient whose values include 0 (its degree, a root at
+        s = 0)."""
+        if name == "dead_time":
+            return None if low > 0 else (
+                f"the dead time reaches {low:g} s, where the loop's Padé approximant changes "
+                "order; give a smallest value above 0")
+        reaches_zero = low <= 0 <= high
+        parts = name.split(".")
+        if name == "model.gain":
+            return "the gain's values include 0, where the drive stops responding" \
+                if reaches_zero else None
+        if parts[1] in ("poles", "zeros"):
+            if len(parts) == 4:  # a pair's re (.0) or im (.1)
+                return ("a pair's imaginary part must stay above 0 (at 0 the pair is a double "
+                        "real root)") if parts[3] == "1" and low <= 0 else None
+            return ("the root's values include 0, where it becomes an integrator or a "
+                    "differentiator") if reaches_zero else None
+        if reaches_zero and int(parts[2]) in _nonzero_ends(getattr(self.params.model, parts[1])):
+            return ("the coefficient's values include 0, where the model's degree or its "
+                    "roots at s = 0 change (the first and last nonzero coefficients)")
+        return None
+
+    def model_polynomials(self, numbers: Mapping[str, object] | None = None
+                          ) -> tuple[list, list]:
+        """P's (numerator, denominator), highest power first, of the spec's model with each
+        of ``numbers`` (:meth:`numbers`' names → number or expression) in its place; a
+        transfer function's numerator trimmed of its leading zeros, which are not numbers."""
+        model = self.params.model
+        given = {name.removeprefix("model."): v for name, v in (numbers or {}).items()
+                 if name.startswith("model.")}
+        if not given:
+            return model.polynomials()
+        data = with_numbers(model.model_dump(), given)
+        if isinstance(model, TransferFunction):
+            lead = len(model.numerator) - len(_trim(model.numerator))
+            return data["numerator"][lead:], data["denominator"]
+        return ZerosPolesGain.model_construct(**data).polynomials()
+
+    def drive_polynomials(self, numbers: Mapping[str, object] | None = None
+                          ) -> tuple[list, list, list | None, list]:
         """(n_g, d_g, n_x, q): velocity per input n_g/d_g, position per input n_x/(q·d_g)
-        (n_x None: the same as n_g), without the dead time; a pole or zero at s = 0 that
-        the differentiation or integration meets is cancelled exactly."""
-        num, den = self.params.model.polynomials()
+        (n_x None: the same as n_g), without the dead time, with ``numbers`` in place
+        (:meth:`model_polynomials`); a pole or zero at s = 0 that the differentiation or
+        integration meets is cancelled exactly (at s = 0 in the spec's own model: such a
+        root is never a number)."""
+        nominal_num, nominal_den = self.params.model.polynomials()
+        num, den = self.model_polynomials(numbers)
         if self.params.position_output:
-            if den[-1] == 0:  # an integrating drive: velocity n/(d/s), position n/(s·d/s)
+            if nominal_den[-1] == 0:  # an integrating drive: velocity n/(d/s), position n/(s·d/s)
                 return num, den[:-1], None, [1, 0]
             return num + [0.0], den, num, [1]  # velocity s·n/d
-        if num[-1] == 0:  # a velocity output with a zero at s = 0: position (n/s)/d
+        if nominal_num[-1] == 0:  # a velocity output with a zero at s = 0: position (n/s)/d
             return num, den, num[:-1], [1]
         return num, den, None, [1, 0]
 
@@ -643,24 +751,27 @@ class Linear(Plant):
         p = self.params
         if p.implementation == "sampled":
             return self.sampled_loop(values, box, horizon_scale)
-        n_g, d_g, n_x, q = self.drive_polynomials()
+        numbers = {name: values[name] for name in self.numbers() if name in values}
+        n_g, d_g, n_x, q = self.drive_polynomials(numbers)
+        dead_time = numbers.get("dead_time", p.dead_time)
         position_structure, velocity_structure = self._structures()
         position = controller("position", position_structure, values)
         velocity = (None if velocity_structure is None
                     else controller("velocity", velocity_structure, values))
         gains = [c for c in (position, velocity) if c is not None]
         parts = [(c.gain, c.numerator, c.denominator) for c in gains]
-        pn, pd = pade(p.dead_time)
+        pn, pd = pade(dead_time) if p.dead_time > 0 else ([1.0], [1.0])
         delayed_x = None if n_x is None else linalg.poly_mul(n_x, pn)
         closed = close_loops(linalg.poly_mul(n_g, pn), linalg.poly_mul(d_g, pd), parts[0],
                              parts[1] if len(parts) > 1 else None, delayed_x, q,
                              p.velocity_feedforward)
         blocks = None
         if p.dead_time > 0:
-            blocks = Blocks(n_g, d_g, n_g if n_x is None else n_x, q, p.dead_time, parts[0],
+            blocks = Blocks(n_g, d_g, n_g if n_x is None else n_x, q, dead_time, parts[0],
                             parts[1] if len(parts) > 1 else None, p.velocity_feedforward)
         product = None
-        if d_g[-1] != 0 and n_g[-1] != 0:  # Bhatia's |G(0) K'_v K'_p| with the k_p's
+        nominal_n, nominal_d, _, _ = self.drive_polynomials()
+        if nominal_d[-1] != 0 and nominal_n[-1] != 0:  # Bhatia's |G(0) K'_v K'_p| with the k_p's
             product = position.gain
             if velocity is not None:
                 product = product * velocity.gain

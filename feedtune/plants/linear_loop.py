@@ -39,8 +39,9 @@ def pade(dead_time: float, order: int = PADE_ORDER) -> tuple[list, list]:
     """(numerator, denominator) of the [n/n] Padé approximant of e^{−sθ}, highest power first.
 
     Coefficient of s^k: (2n − k)! n! / ((2n)! k! (n − k)!) · (∓θ)^k (Baker §1.2); θ = 0 gives 1.
+    θ may be an expression (a robust scenario's dead time, never 0 there).
     """
-    if dead_time == 0:
+    if isinstance(dead_time, (int, float)) and dead_time == 0:
         return [1.0], [1.0]
     c = [math.factorial(2 * order - k) * math.factorial(order)
          / (math.factorial(2 * order) * math.factorial(k) * math.factorial(order - k))

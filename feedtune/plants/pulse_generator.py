@@ -113,6 +113,25 @@ class PulseGenerator(Plant):
                 1.0, 1e5)
         return tunables
 
+    def numbers(self) -> dict[str, float]:
+        """The number the simulation reads as given (in its unit): the pulse equivalent δ
+        [rad or m per pulse], or v_max [rad/s or m/s] when δ follows the frequency.
+        :meth:`loop` also takes it in ``values`` (a robust scenario's value)."""
+        p = self.params
+        if p.pulse_equivalent is not None:
+            return {"pulse_equivalent": p.pulse_equivalent}
+        return {"max_velocity": p.max_velocity}
+
+    def not_uncertain(self) -> dict[str, str]:
+        """Why the command and the motor's table cannot be uncertain."""
+        command = ("it describes the command, not the drive: the step, ramp or sine and "
+                   "its length set the simulated horizon; tune one spec per command")
+        return {**{name: command for name in ("amplitude", "ramp_velocity", "sine_frequency",
+                                              "sine_cycles", "duration")},
+                "motor_characteristic": "the motor's torque-frequency table is a piecewise "
+                                        "linear curve read by the margin metric, not a "
+                                        "number of the simulation; give one spec per motor"}
+
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]] | None = None,
              horizon_scale: float = 1.0) -> PulseLoop:
         """The controller at ``values`` (numbers; symbols give a loop whose response raises).
@@ -122,7 +141,8 @@ class PulseGenerator(Plant):
         """
         p = self.params
         frequency = values["sampling_frequency"]
-        delta = p.pulse_equivalent if p.pulse_equivalent is not None else p.max_velocity / frequency
+        n = {**self.numbers(), **{name: values[name] for name in self.numbers() if name in values}}
+        delta = n["pulse_equivalent"] if "pulse_equivalent" in n else n["max_velocity"] / frequency
         command = PulseInput(p.input, amplitude=p.amplitude, velocity=p.ramp_velocity,
                              angular_frequency=p.sine_frequency)
         motor = (MotorCharacteristic.from_table(p.motor_characteristic)

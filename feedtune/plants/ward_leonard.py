@@ -125,22 +125,6 @@ class WardLeonardParams(SpecModel):
         """τ_fg = L_fg/R_fg [s] (App. B eq 3)."""
         return self.generator_field_inductance / self.generator_field_resistance
 
-    def field_gain(self) -> float:
-        """K'_c/R_fg [V/V]: generated emf per field volt at DC (App. B eq 3)."""
-        return self.generator_gain / self.generator_field_resistance
-
-    def motor_polynomial(self) -> list:
-        """D(s) = (R_a + L_a s)(J_t s + B_m) + k_t k_b [V·s/rad · N·m/A], highest power first."""
-        la, ra = self.armature_inductance, self.armature_resistance
-        jt, bm = self.inertia, self.viscous_damping
-        d = [la * jt, la * bm + ra * jt, ra * bm + self.torque_constant * self.back_emf_constant]
-        return d if la > 0 else d[1:]
-
-    def armature_polynomial(self) -> list:
-        """n_l(s) = R_a(1 + τ_a s) = L_a s + R_a [Ω]: the load-torque path of App. B eq 1."""
-        la, ra = self.armature_inductance, self.armature_resistance
-        return [la, ra] if la > 0 else [ra]
-
 
 class WardLeonard(Plant):
     """Plant ``ward_leonard``: position loop around a tachogenerator velocity loop (Fig 13)."""
@@ -167,11 +151,55 @@ class WardLeonard(Plant):
                                              "position loop"))
         return tunables
 
-    def velocity_per_volt(self) -> tuple[list, list, list]:
-        """G(s) = θ̇/e [rad/(s·V)] as (numerator, field denominator 1 + τ_fg s, D(s))."""
+    def numbers(self) -> dict[str, float]:
+        """The parameters that enter the loop only through arithmetic, as the spec gives
+        them (each in its unit): :meth:`loop` also takes them in ``values`` (as NLP
+        parameters, or a robust scenario's values). All nine machine constants, but L_a
+        when it is 0 (it then removes the armature pole: the drive's order)."""
         p = self.params
-        return ([p.torque_constant * p.field_gain()], [p.field_time_constant(), 1],
-                p.motor_polynomial())
+        names = ["generator_gain", "generator_field_resistance", "generator_field_inductance",
+                 "armature_resistance", "armature_inductance", "torque_constant",
+                 "back_emf_constant", "inertia", "viscous_damping"]
+        return {name: getattr(p, name) for name in names
+                if name != "armature_inductance" or p.armature_inductance > 0}
+
+    def not_uncertain(self) -> dict[str, str]:
+        """L_a = 0 neglects the armature's pole (a second-order drive, App. B eq 1)."""
+        if self.params.armature_inductance > 0:
+            return {}
+        return {"armature_inductance": "it is 0, which neglects the armature pole and makes "
+                                       "the drive second order; give a nonzero nominal L_a "
+                                       "[H] to make it uncertain"}
+
+    def uncertainty_problem(self, name: str, low: float, high: float) -> str | None:
+        """L_a must stay above 0 over its range: at 0 the drive loses a pole (its order)."""
+        if name == "armature_inductance" and low <= 0:
+            return (f"the range reaches L_a = {low:g} H, where the armature pole vanishes "
+                    "and the drive's order drops; give a smallest value above 0")
+        return None
+
+    def velocity_per_volt(self, numbers: Mapping[str, object] | None = None
+                          ) -> tuple[list, list, list]:
+        """G(s) = θ̇/e [rad/(s·V)] as (numerator, field denominator 1 + τ_fg s, D(s)), of
+        the spec's numbers with each of ``numbers`` (name → number or expression) in its
+        place (App. B eqs 1-3)."""
+        n = {**self.numbers(), **(numbers or {})}
+        la = n.get("armature_inductance", 0.0)
+        ra, jt, bm = n["armature_resistance"], n["inertia"], n["viscous_damping"]
+        rfg = n["generator_field_resistance"]
+        d_m = [ra * jt, ra * bm + n["torque_constant"] * n["back_emf_constant"]]
+        if self.params.armature_inductance > 0:  # D(s) = (R_a + L_a s)(J_t s + B_m) + k_t k_b
+            d_m = [la * jt, la * bm + d_m[0], d_m[1]]
+        return ([n["torque_constant"] * n["generator_gain"] / rfg],
+                [n["generator_field_inductance"] / rfg, 1], d_m)
+
+    def armature_polynomial(self, numbers: Mapping[str, object] | None = None) -> list:
+        """n_l(s) = R_a(1 + τ_a s) = L_a s + R_a [Ω] (the load-torque path of App. B eq 1),
+        of the spec's numbers with ``numbers`` in their place."""
+        n = {**self.numbers(), **(numbers or {})}
+        if self.params.armature_inductance > 0:
+            return [n["armature_inductance"], n["armature_resistance"]]
+        return [n["armature_resistance"]]
 
     def dc_velocity_gain(self) -> float:
         """G(0) = k_t (K'_c/R_fg)/(R_a B_m + k_t k_b) [rad/(s·V)]."""
@@ -180,11 +208,14 @@ class WardLeonard(Plant):
 
     def loop(self, values: Mapping[str, object], box: Mapping[str, tuple[float, float]],
              horizon_scale: float = 1.0) -> TransferLoop:
-        """The closed loop at ``values`` (expressions or numbers per tunable name)."""
+        """The closed loop at ``values`` (expressions or numbers per tunable name, and for
+        any of :meth:`numbers`, which then replace the spec's own in the arithmetic)."""
         p = self.params
-        n_g, d_f, d_m = self.velocity_per_volt()
+        numbers = {name: values[name] for name in self.numbers() if name in values}
+        n_g, d_f, d_m = self.velocity_per_volt(numbers)
         # θ̇ per T_L = −(R_a + L_a s)/D(s) (App. B eqs 1–2)
-        return cascade_loop(n_g, d_f, d_m, p.armature_polynomial(), values, p.velocity_compensator,
+        return cascade_loop(n_g, d_f, d_m, self.armature_polynomial(numbers), values,
+                            p.velocity_compensator,
                             p.position_compensator, p.stable_velocity_loop, self.frequency_band(box))
 
     def frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:

@@ -156,6 +156,10 @@ class RobustResult(ResultModel):
     unstable_parameters: dict[str, float] | None = Field(
         None, description="The most unstable numbers found by the last search; null: the "
                           "loop is stable at every point searched [each its unit]")
+    search: str | None = Field(
+        None, description="How the last search looked for each constraint's worst case: the "
+                          "dense sample, the local refinement and the exact evaluations "
+                          "[text]; null: no solve to search around")
 
 
 class Provenance(ResultModel):

@@ -26,7 +26,8 @@ from feedtune.plants import DATA_PLANTS, PLANTS, plant_for
 from feedtune.plants.linear import MODEL_TYPES
 from feedtune.schema.model import SpecModel
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
-                                         plant_pointer, scenario_count)
+                                         number_path, plant_pointer, scenario_count,
+                                         with_numbers)
 
 MAX_SPEC_BYTES = 1_000_000
 MAX_JSON_DEPTH = 32
@@ -643,8 +644,8 @@ def _robust_errors(raw: dict, plant_params, plant, moved: set[str]) -> list[tupl
         return []
 
     def where(name: str, *inner) -> str:
-        base = ("plant",) if name in moved else ("robust", "parameters")
-        return "/" + "/".join(_escape(part) for part in (*base, name, *inner))
+        base = ("plant", *number_path(name)) if name in moved else ("robust", "parameters", name)
+        return "/" + "/".join(_escape(str(part)) for part in (*base, *inner))
 
     if not robust.parameters:
         return [("/robust/parameters", "no uncertain plant parameter: give one here or in "
@@ -654,25 +655,37 @@ def _robust_errors(raw: dict, plant_params, plant, moved: set[str]) -> list[tupl
         errors.append(("/robust", "robust tuning and integer_ratio are not solved together "
                                   "(each rounds its own way): give one of them"))
     numbers = plant.numbers()
+    certain = plant.not_uncertain()
     nominal = plant_params.model_dump()
     for name, uncertain in robust.parameters.items():
-        if name not in type(plant_params).model_fields or name == "type":
+        field = number_path(name)[0]
+        if name not in numbers and (field not in type(plant_params).model_fields
+                                    or field == "type"):
             errors.append((where(name), f"unknown parameter of plant {plant_params.type!r}"))
             continue
         if name not in numbers:
+            reason = certain.get(name) or certain.get(field) or (
+                "it does not enter the loop as a number (it is not given, unused, or it "
+                "shapes the model)")
             errors.append((where(name), (
-                f"{name} cannot be uncertain in this plant configuration: it does not enter "
-                "the loop as a number (it is not given, unused, or it shapes the model); "
+                f"{name} cannot be uncertain in this plant configuration: {reason}; "
                 f"uncertain parameters here: {', '.join(sorted(numbers)) or 'none'}")))
             continue
-        if not uncertain.contains(nominal[name]):
-            errors.append((where(name), f"the nominal value {nominal[name]} (in /plant/{name}) "
+        pointer = "/" + "/".join(_escape(str(part)) for part in ("plant", *number_path(name)))
+        if not uncertain.contains(numbers[name]):
+            errors.append((where(name), f"the nominal value {numbers[name]} (in {pointer}) "
                                         "is not one of its values"))
+        low, high = ((uncertain.min, uncertain.max) if uncertain.is_range()
+                     else (min(uncertain.values), max(uncertain.values)))
+        problem = plant.uncertainty_problem(name, low, high)
+        if problem is not None:
+            errors.append((where(name), problem))
+            continue
         values = ({"min": uncertain.min, "max": uncertain.max} if uncertain.is_range()
                   else {str(i): v for i, v in enumerate(uncertain.values)})
         for inner, value in values.items():
             try:
-                type(plant_params).model_validate({**nominal, name: value})
+                type(plant_params).model_validate(with_numbers(nominal, {name: value}))
             except ValidationError as exc:
                 message = "; ".join(e["msg"].removeprefix("Value error, ") for e in exc.errors())
                 if name in moved and not uncertain.is_range():

@@ -1,12 +1,16 @@
 """Uncertain plant parameters in a spec: a set of values or a range, for robust tuning.
 
 A plant parameter that enters the loop only through arithmetic (the plant's
-:meth:`~feedtune.plants.base.Plant.numbers`) may be given, in ``plant``, as
+:meth:`~feedtune.plants.base.Plant.numbers`: a field, or a coefficient inside one named by
+its dotted path, ``model.denominator.1``) may be given, in ``plant``, as
 
 * a number (today's form): known exactly;
 * a list of numbers ``[v₁, v₂, …]``: each is a possible value, the first the nominal one;
 * a range ``{"min": a, "max": b}``, optionally with ``"nominal"`` (default (a + b)/2);
 * a tolerance ``{"nominal": n, "tolerance_percent": p}``: the range n·(1 ± p/100).
+
+Inside a field that is not a number (a model's coefficient lists) only the two object
+forms are read, since a list there is data (a root [re, im], a matrix row).
 
 The canonical spec (what a result holds and ``feedtune schema`` describes) keeps the
 nominal value in ``plant`` and the uncertainty in ``robust.parameters``, as ``{"values":
@@ -18,6 +22,7 @@ remembers which parameters it moved so that an error names the place the user wr
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 import types
@@ -180,7 +185,13 @@ def move_inline_forms(raw: Any, plant_models: dict) -> tuple[Any, set[str], list
     problems = []
     for name, value in raw["plant"].items():
         info = model.model_fields.get(name)
-        if info is None or not _is_number_field(info.annotation) or not inline_form(value):
+        if info is None:
+            continue
+        if not _is_number_field(info.annotation):
+            if isinstance(value, (dict, list)):  # a model's coefficients, a table's entries
+                plant[name] = _move_nested(value, (name,), moved, problems)
+            continue
+        if not inline_form(value):
             continue
         plant[name], moved[name], problem = split_form(value)
         if problem is not None:
@@ -199,11 +210,56 @@ def move_inline_forms(raw: Any, plant_models: dict) -> tuple[Any, set[str], list
     return dict(raw, plant=plant, robust=robust), set(moved), problems
 
 
+def _move_nested(value: Any, path: tuple, moved: dict, problems: list) -> Any:
+    """``value`` (a plant field that is not a number: a model, a list of coefficients) with
+    every object form inside it (``{"min", "max"}``, ``{"nominal", "tolerance_percent"}``)
+    replaced by its nominal value and recorded in ``moved`` under its dotted path
+    (``model.denominator.1``, :func:`number_path`). A list inside it is data (a root
+    [re, im], a matrix row), never a set of values: a set is written in
+    ``robust.parameters``."""
+    if isinstance(value, dict) and inline_form(value) and "values" not in value:
+        nominal, entry, problem = split_form(value)
+        name = ".".join(map(str, path))
+        moved[name] = entry
+        if problem is not None:
+            problems.append((("plant", *path, problem[0]), problem[1]))
+        return nominal
+    if isinstance(value, dict):
+        return {k: _move_nested(v, (*path, k), moved, problems) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_move_nested(v, (*path, i), moved, problems) for i, v in enumerate(value)]
+    return value
+
+
+def number_path(name: str) -> tuple:
+    """The place of an uncertain number in ``plant``: a field's name, or a dotted path into
+    a field (``model.denominator.1``: the second coefficient of the model's denominator),
+    list indices as ints."""
+    return tuple(int(part) if part.isdigit() else part for part in name.split("."))
+
+
+def with_numbers(plant: dict, numbers: dict[str, float]) -> dict:
+    """A copy of ``plant`` (a plant spec as JSON) with each of ``numbers`` (name or dotted
+    path, :func:`number_path` → value) in its place; a path that does not exist in
+    ``plant`` raises KeyError or IndexError."""
+    out = copy.deepcopy(plant)
+    for name, value in numbers.items():
+        *head, last = number_path(name)
+        container = out
+        for part in head:
+            container = container[part]
+        if isinstance(container, list) and not 0 <= last < len(container):
+            raise IndexError(f"{name}: no such entry")
+        container[last] = value
+    return out
+
+
 def plant_pointer(loc: tuple, moved: set[str]) -> tuple:
     """An error location in the canonical spec as the user wrote it: ``robust.parameters.
-    <name>...`` of a parameter moved from ``plant`` is ``plant.<name>...``."""
+    <name>...`` of a parameter moved from ``plant`` is ``plant.<name>...`` (a dotted name
+    its path)."""
     if len(loc) >= 3 and loc[:2] == ("robust", "parameters") and loc[2] in moved:
-        return ("plant", *loc[2:])
+        return ("plant", *number_path(loc[2]), *loc[3:])
     return loc
 
 

@@ -29,6 +29,7 @@ from scipy import optimize
 
 from feedtune.schema.status import ACCEPTABLE, INFEASIBLE, ITERATION_LIMIT, OPTIMAL, TIME_LIMIT
 from feedtune.tuner.nlp import Problem
+from feedtune.tuner.scenarios import objective_value
 from feedtune.tuner.types import (Bound, Outcome, Settings, StartOutcome, Term, Variable,
                                   within as _within)
 
@@ -85,10 +86,9 @@ class SearchProblem:
     def measure(self, values: Mapping[str, float]):
         """(loop, objective or None, constraint values, stable) at ``values``, simulated now."""
         loop = self.make_loop(dict(values))
-        objective = 0.0
-        for term in self.objective:
-            value = _value(term.value(loop))
-            objective = None if value is None or objective is None else objective + term.weight * value
+        objective = objective_value([term.weight for term in self.objective],
+                                    [_value(term.value(loop)) for term in self.objective],
+                                    [term.group for term in self.objective])
         bounds = [_value(b.value(loop)) for b in self.bounds]
         stable = bool(loop.stability()["stable"])
         return loop, objective, bounds, stable

@@ -13,6 +13,7 @@ never imports CasADi (tests/architecture).
 from __future__ import annotations
 
 from feedtune.schema.labels import metric_label
+from feedtune.schema.uncertainty import with_numbers
 from feedtune.validate.entries import poles_entry, stable_entry
 from feedtune.validate.frequency_data import validate_measured
 from feedtune.validate.measurements import Phase, measures
@@ -116,12 +117,14 @@ def _constraint_records(constraints: list[dict], values: list, units: dict) -> d
 def _robust_checks(data: dict, plant: dict, tuned: dict) -> tuple[list[dict], list[dict]]:
     """Every scenario of a robust result, and every constraint's worst case, re-measured
     on the validator's own model of the plant with those numbers: the constraints as the
-    tuner reported them there and the stability verdict (feedtune.robust)."""
+    tuner reported them there and the stability verdict (feedtune.robust). A pulse
+    generator's scenarios are simulated over the nominal loop's horizon (the result's
+    stability block)."""
     robust, constraints = data["robust"], (data.get("spec") or {}).get("constraints") or []
     units = {m["metric"]: m.get("unit") for m in (data.get("metrics") or {}).values()}
     scenarios = []
     for scenario in robust.get("scenarios") or []:
-        model = model_for({**plant, **scenario["parameters"]}, tuned)
+        model = model_for(with_numbers(plant, scenario["parameters"]), tuned, data.get("stability"))
         view = {**data, "metrics": _constraint_records(constraints, scenario["constraints"], units),
                 "stability": {"stable": scenario["stable"]}}
         entries = _measure(model, view)
@@ -129,7 +132,7 @@ def _robust_checks(data: dict, plant: dict, tuned: dict) -> tuple[list[dict], li
                           "ok": all(e["ok"] for e in entries)})
     worst = []
     for i, case in enumerate(robust.get("worst_cases") or []):
-        model = model_for({**plant, **case["parameters"]}, tuned)
+        model = model_for(with_numbers(plant, case["parameters"]), tuned, data.get("stability"))
         values = [None] * len(constraints)
         values[i] = case["value"]
         view = {**data, "metrics": _constraint_records(constraints, values, units),

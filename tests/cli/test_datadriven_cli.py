@@ -143,7 +143,8 @@ def test_plant_block_from_measured_files_is_a_spec_feedtune_takes(example, tmp_p
     for item in example["plant"]["sets"][:2]:
         omega = np.array(item["frequency"])
         data = FrequencyResponseData(omega, np.array(item["real"]) + 1j * np.array(item["imag"]),
-                                     None, "V", "rad", item["name"])
+                                     None, input_unit="V", output_unit="rad",
+                                     source=item["name"])
         path = tmp_path / f"{item['name']}.csv"
         path.write_bytes(to_csv(data))
         paths.append(path)
@@ -160,7 +161,8 @@ def test_a_velocity_response_is_integrated():
     """rad/s/V becomes rad/V: G_position = G_velocity/(jω), exactly."""
     omega = np.logspace(0, 3, 20)
     velocity = 1 / (1j * omega * 0.01 + 1)
-    data = FrequencyResponseData(omega, velocity, None, "V", "rad/s", "v.csv")
+    data = FrequencyResponseData(omega, velocity, None, input_unit="V", output_unit="rad/s",
+                                 source="v.csv")
     block = frd_plant_block([data])
     assert block["output_unit"] == "rad" and block["sets"][0]["name"] == "v"
     got = np.array(block["sets"][0]["real"]) + 1j * np.array(block["sets"][0]["imag"])

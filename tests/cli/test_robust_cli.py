@@ -46,6 +46,9 @@ def test_tune_writes_the_robust_block_and_its_validation(tmp_path):
     assert "robust (nominal objective): 5 scenarios (1 nominal, 2 corner, 2 interior), " \
            "1 round(s), converged" in proc.stderr
     assert "worst damping_ratio = 0.7 [1] at time_constant = 0.02" in proc.stderr
+    assert robust["search"].startswith("a 41-point grid over time_constant and every scenario (46 points)"
+                                       "; from each constraint's worst point, bounded Brent")
+    assert f"  searched: {robust['search']}" in proc.stderr.splitlines()
 
 
 def test_validate_accepts_a_robust_spec(tmp_path):

@@ -196,7 +196,8 @@ def test_time_series_round_trip(tmp_path, count, period, start, data, velocity):
     command = np.array(data.draw(st.lists(finite, min_size=count, max_size=count)))
     output = np.array(data.draw(st.lists(finite, min_size=count, max_size=count)))
     time = start + period * np.arange(count)
-    original = TimeSeriesData(time, command, output, "V", "m/s" if velocity else "m", "x")
+    original = TimeSeriesData(time, command, output, input_unit="V",
+                              output_unit="m/s" if velocity else "m", source="x")
     path = tmp_path / "round.csv"
     path.write_bytes(to_csv(original, "generated"))
     back = read_data(path)
@@ -217,7 +218,8 @@ def test_frequency_response_round_trip(tmp_path, frequencies, data):
     count = len(omega)
     re = np.array(data.draw(st.lists(finite, min_size=count, max_size=count)))
     im = np.array(data.draw(st.lists(finite, min_size=count, max_size=count)))
-    original = FrequencyResponseData(omega, re + 1j * im, None, "V", "rad", "x")
+    original = FrequencyResponseData(omega, re + 1j * im, None, input_unit="V", output_unit="rad",
+                                     source="x")
     path = tmp_path / "round.csv"
     path.write_bytes(to_csv(original))
     back = read_data(path)

@@ -88,12 +88,14 @@ def simulated(name: str, kind: str, seed: int, points: int | None = None):
     if kind == "frequency":
         omega = np.logspace(np.log10(lo), np.log10(hi), points or 400)
         g = make_data.frequency_response(num, den, dead_time, omega, 0, rng)
-        return FrequencyResponseData(omega, g, None, inp, unit, f"{name}-frf")
+        return FrequencyResponseData(omega, g, None, input_unit=inp, output_unit=unit,
+                                     source=f"{name}-frf")
     count = points or 20000
     u = make_data.random_steps(count, hold, rng)
     samples = int(round(dead_time / period))
     y = make_data.time_response(num, den, samples, u, period, 1, rng)
-    return TimeSeriesData(np.arange(count) * period, u, y, inp, f"{unit}/s", f"{name}-time")
+    return TimeSeriesData(np.arange(count) * period, u, y, input_unit=inp, output_unit=f"{unit}/s",
+                          source=f"{name}-time")
 
 
 def true_values(name: str) -> np.ndarray:
