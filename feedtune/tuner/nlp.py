@@ -35,7 +35,7 @@ from feedtune.expr import to_array, to_float
 from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build, cached_structure, store_structure
-from feedtune.tuner.evaluation import smallest_magnitudes
+from feedtune.tuner.evaluation import Seen, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scenarios import objective_value, worst_group
 from feedtune.tuner.scalar import ScalarSearch
@@ -116,7 +116,7 @@ class Problem:
         self.evaluator = structure.evaluator.with_weights([t.weight for t in objective])
         self.param_values = builder.param_values
         self.starts = starting_points(variables, settings.multistart)
-        self._seen: dict[bytes, object] = {}  # what the NLP sees, by point (_seen_at)
+        self._seen: dict[bytes, Seen] = {}  # what the NLP sees, by point (_seen_at)
         scales = smallest_magnitudes([self._seen_at(z0) for z0 in self.starts])
         self.f_scale = scale(scales.objective)
         groups: list[ExchangeGroup] = []
@@ -239,7 +239,7 @@ class Problem:
             self._solvers[hessian, True] = solver
         return solver
 
-    def _seen_at(self, z_value):
+    def _seen_at(self, z_value) -> Seen:
         """:class:`~feedtune.tuner.evaluation.Seen` at ``z_value``, evaluated once per point:
         a start is seen for the scales and again for its objective scale, an end point for
         its feasibility and again for the model gap (each a numeric scan of every peak and
