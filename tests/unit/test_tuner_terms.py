@@ -123,3 +123,41 @@ def test_the_next_hessian_goes_on_from_a_stable_end_point(monkeypatch):
     second_end = calls[1][1][0]
     optimum = np.log([2.0, 4.0])
     assert np.linalg.norm(second_end - optimum) < np.linalg.norm(first_end - optimum)
+
+
+def _two_gains_problem() -> Problem:
+    """min (k1 − 2)² + (k2 − 3)² from one start (two tunables: IPOPT, not the scalar search)."""
+    variables = [Variable("k1", 0.5, 10.0, initial=1.0), Variable("k2", 0.5, 10.0, initial=1.0)]
+    return Problem(variables, {}, Loop,
+                   [Term("f", lambda loop: (loop.values["k1"] - 2) ** 2
+                         + (loop.values["k2"] - 3) ** 2)], [], {}, Settings(multistart=1))
+
+
+def test_the_solvers_build_no_gradient_for_parameter_multipliers():
+    """The tuner reads x, lam_g and lam_x of a solve, never the parameters' multipliers:
+    CasADi's nlp_grad (the Lagrangian's gradient, 165k SX instructions on the bundled
+    Ward-Leonard spec) is built by neither the cold nor the warm-start solver."""
+    problem = _two_gains_problem()
+    assert problem.solve().success
+    for warm in (False, True):
+        solver = problem._solver(problem.hessians[0], warm)
+        assert solver.has_function("nlp_jac_g") and not solver.has_function("nlp_grad")
+
+
+def test_what_the_nlp_sees_is_evaluated_once_per_point(monkeypatch):
+    """The start is seen for the scales and for its objective scale, the end point for its
+    feasibility and for the model gap: one numeric evaluation each (a scan of every peak
+    and crossing on a frequency-domain problem)."""
+    from feedtune.tuner.evaluation import Evaluator
+
+    points = []
+    evaluate = Evaluator.__call__
+
+    def spy(self, z, p):
+        points.append(np.asarray(z, dtype=float).tobytes())
+        return evaluate(self, z, p)
+
+    monkeypatch.setattr(Evaluator, "__call__", spy)
+    outcome = _two_gains_problem().solve()
+    assert outcome.success and outcome.values["k1"] == pytest.approx(2.0, rel=1e-6)
+    assert len(points) == 2 and len(set(points)) == 2  # the start and the end point
