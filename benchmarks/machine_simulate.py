@@ -5,21 +5,28 @@ program. Prints CPU and wall times and the ratio.
 
     .venv/bin/python benchmarks/machine_simulate.py [--ccc] [--no-tune]
 
-``--ccc`` also times Koren's cross-coupled controller on the 10 000-block program (the
-coupled axes stepped sample by sample); ``--no-tune`` leaves the tuning out.
+``--ccc`` also times Koren's cross-coupled controller (PI, K_c = 5, T_i = 50 ms) on two
+10 000-block programs, the zig-zag of lines and a meander of lines and tangent arcs
+(R 5–20 mm, where the estimate's quadratic arc term makes the vectorised simulation take
+Newton passes): ``simulate_coupled`` (vectorised) beside ``simulate_coupled_stepped`` (the
+coupled loop stepped sample by sample), with the largest difference; ``--no-tune`` leaves
+the tuning out.
 """
 
 from __future__ import annotations
 
+import math
+import os
 import sys
 import time
 
 import numpy as np
 
-from feedtune.machine.path import Line, Path
+from feedtune.machine.path import Arc, Line, Path
 from feedtune.machine.contour import SegmentTable
 from feedtune.machine.run import axis_models, nominal_setting, path_direction, run
-from feedtune.machine.simulate import CrossCoupling, simulate_coupled, simulate_independent
+from feedtune.machine.simulate import (CrossCoupling, simulate_coupled, simulate_coupled_stepped,
+                                       simulate_independent)
 from feedtune.machine.spec import parse_machine
 from feedtune.machine.tune import tune_machine
 
@@ -29,6 +36,28 @@ def zigzag(blocks: int, feed: float = 0.05) -> Path:
     rng = np.random.default_rng(1)
     points = np.cumsum(np.vstack([np.zeros(3), 1e-3 * rng.normal(size=(blocks, 3))]), axis=0)
     return Path(tuple(Line(points[k], points[k + 1], feed) for k in range(blocks)))
+
+
+def meander(blocks: int, feed: float = 0.05) -> Path:
+    """``blocks`` alternating 1 mm lines and tangent arcs in XY (R 5–20 mm, sweep
+    0.05–0.5 rad, left or right at random)."""
+    rng = np.random.default_rng(2)
+    p, heading, segs = np.zeros(3), 0.0, []
+    for k in range(blocks):
+        d = np.array([math.cos(heading), math.sin(heading), 0.0])
+        if k % 2 == 0:
+            q = p + 1e-3 * d
+            segs.append(Line(p, q, feed))
+        else:
+            radius, turn = rng.uniform(5e-3, 20e-3), rng.choice([-1, 1])
+            sweep = rng.uniform(0.05, 0.5)
+            centre = p + radius * turn * np.array([-d[1], d[0], 0.0])
+            a1 = math.atan2(p[1] - centre[1], p[0] - centre[0]) + turn * sweep
+            q = centre + radius * np.array([math.cos(a1), math.sin(a1), 0.0])
+            segs.append(Arc(p, q, centre, ccw=turn > 0, feed=feed))
+            heading += turn * sweep
+        p = q
+    return Path(tuple(segs))
 
 
 def machine(tuned: bool):
@@ -76,12 +105,20 @@ def main():
           f"{c2:.3f} s CPU ({w2:.3f} wall): {c2 / c1:.0f}x; largest difference "
           f"{np.max(np.abs(fast - slow)):.2e} m")
     if "--ccc" in sys.argv:
-        tangent, curvature = path_direction(SegmentTable.of(path), result.arc_length,
-                                        result.segment)
-        _, c3, w3 = timed(simulate_coupled, models, reference, tangent, curvature,
-                          CrossCoupling(5.0, 0.05))
-        print(f"cross-coupled (3 axes, x-y coupled), per-sample stepping: {c3:.3f} s CPU "
-              f"({w3:.3f} wall)")
+        ccc = CrossCoupling(5.0, 0.05)
+        for name, program in (("zig-zag of lines", path), ("meander of lines and arcs",
+                                                           meander(10_000))):
+            done = result if program is path else run(spec, program, detail=False)
+            tangent, curvature = path_direction(SegmentTable.of(program), done.arc_length,
+                                                done.segment)
+            commanded = done.commanded
+            fast, c3, w3 = timed(simulate_coupled, models, commanded, tangent, curvature, ccc)
+            slow, c4, w4 = timed(simulate_coupled_stepped, models, commanded, tangent,
+                                 curvature, ccc)
+            print(f"cross-coupled, {name} ({len(commanded)} samples, 3 axes, x-y coupled): "
+                  f"vectorised {c3:.3f} s CPU ({w3:.3f} wall), per-sample {c4:.3f} s CPU "
+                  f"({w4:.3f} wall): {c4 / c3:.1f}x; largest difference "
+                  f"{np.max(np.abs(fast - slow)):.2e} m")
     if "--no-tune" in sys.argv:
         return
     tuned, cpu, wall = timed(tune_machine, machine(True), zigzag(1_000))
@@ -92,3 +129,4 @@ def main():
 
 if __name__ == "__main__":
     main()
+    print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
