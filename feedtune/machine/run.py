@@ -55,10 +55,11 @@ class MachineRun:
     commanded, actual : ndarray (N, 3) [m]
     arc_length : ndarray (N,) [m], the commanded arc length
     segment : ndarray of int (N,)
-    tangent : ndarray (N, 3)
-        The path's unit tangent at the commanded point.
-    contour_error : ndarray (N,) [m]
-        The tool's distance from the path at each sample.
+    tangent : ndarray (N, 3) or None
+        The path's unit tangent at the commanded point (None: not computed, see
+        :func:`run`).
+    contour_error : ndarray (N,) [m] or None
+        The tool's distance from the path at each sample (None: not computed).
     metrics : dict
         :func:`~feedtune.machine.contour.contour_metrics`, plus ``stable`` true.
     """
@@ -70,8 +71,8 @@ class MachineRun:
     actual: np.ndarray
     arc_length: np.ndarray
     segment: np.ndarray
-    tangent: np.ndarray
-    contour_error: np.ndarray
+    tangent: np.ndarray | None
+    contour_error: np.ndarray | None
     metrics: dict
 
 
@@ -144,10 +145,47 @@ def rise_time(model: AxisModel, samples: int) -> float:
     return float(reached[0] * model.period) if reached.size else float(samples * model.period)
 
 
+@dataclass(frozen=True)
+class Axes:
+    """What a setting's gains and sampling period fix, whatever the feed: each axis'
+    discrete closed loop, its velocity lag 1/C_v [s] (0 without a C_v), its 2 % step
+    settling time [s], and the corner rule's time constant τ [s] (None without the rule)."""
+
+    models: list[AxisModel]
+    lags: list[float]
+    settling: list[float]
+    corner_time_constant: float | None
+
+
+def prepare_axes(spec: MachineSpec, setting: Setting) -> Axes:
+    """The :class:`Axes` of ``spec`` at ``setting`` (a tuner keeps them while only the
+    feed changes).
+
+    Raises
+    ------
+    UnstableAxis
+        An axis' closed loop is unstable at the setting.
+    """
+    axes = _axes(spec, setting)
+    models = [model for model, _ in axes]
+    probe = run_out_samples(models, 10**6)
+    settling = [step_settling_time(m, probe) for m in models]
+    interp = spec.interpolator
+    tau = None
+    if interp.corner_tolerance is not None:
+        tau = interp.time_constant or max(rise_time(m, probe) for m in models)
+    return Axes(models, [lag for _, lag in axes], settling, tau)
+
+
 def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
-        detail: bool = True) -> MachineRun:
+        detail: bool = True, *, axes: Axes | None = None, rms: bool = True) -> MachineRun:
     """Simulate ``path`` on the machine at ``setting`` (default :func:`nominal_setting`);
-    ``detail`` False leaves out the corners, stops and deceleration blocks.
+    ``detail`` False leaves out the corners, stops and deceleration blocks, and ``rms``
+    False (with ``detail`` False) the RMS contour error too: the largest is then found
+    without measuring every sample (:func:`~feedtune.machine.contour.
+    largest_contour_distance`), and ``contour_error`` and ``tangent`` are None (the
+    tangent is computed only for the report and the cross-coupled controller).
+    ``axes``: :func:`prepare_axes` of this setting, when the caller has it.
 
     Raises
     ------
@@ -158,18 +196,14 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     """
     setting = setting or nominal_setting(spec)
     names = tuple(spec.axes.named())
-    axes = _axes(spec, setting)
-    models = [model for model, _ in axes]
-    probe = run_out_samples(models, 10**6)
-    settling = [step_settling_time(m, probe) for m in models]
+    axes = axes or prepare_axes(spec, setting)
+    models = axes.models
     interp = spec.interpolator
-    tau = None
-    if interp.corner_tolerance is not None:
-        tau = interp.time_constant or max(rise_time(m, probe) for m in models)
     ratio = round(interp.period / setting.period) if interp.period else 1
     reference = interpolate(path, period=ratio * setting.period,
                             max_acceleration=interp.max_acceleration,
-                            corner_tolerance=interp.corner_tolerance, time_constant=tau,
+                            corner_tolerance=interp.corner_tolerance,
+                            time_constant=axes.corner_time_constant,
                             feed_override=setting.feed_override)
     if "z" not in names and np.any(reference.position[:, 2] != reference.position[0, 2]):
         raise ValueError("the path moves z; the machine has no z axis")
@@ -181,19 +215,22 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     arc = np.concatenate([arc, np.full(extra, arc[-1])])
     segment = np.concatenate([segment, np.full(extra, segment[-1])])
     commanded = position[:, :len(names)]
-    tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
-    if setting.cross_coupling is None or setting.cross_coupling.gain == 0:
-        actual = simulate_independent(models, commanded)
-    else:
+    coupled = setting.cross_coupling is not None and setting.cross_coupling.gain != 0
+    tangent = None
+    if coupled or detail or rms:
+        tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
+    if coupled:
         actual = simulate_coupled(models, commanded, tangent, curvature,
                                   setting.cross_coupling)
+    else:
+        actual = simulate_independent(models, commanded)
     full = np.zeros_like(position)
     full[:, :len(names)] = actual
     if len(names) < 3:
         full[:, 2] = position[:, 2]
     metrics, error = contour_metrics(path, time, position, full, arc, segment, program_end,
-                              settling, max(lag for _, lag in axes), names,
-                              setting.feed_override, detail)
+                                     axes.settling, max(axes.lags), names,
+                                     setting.feed_override, detail, rms)
     return MachineRun(path, names, time, position, full, arc, segment, tangent, error,
                       metrics)
 

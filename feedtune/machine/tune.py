@@ -20,7 +20,8 @@ import numpy as np
 from scipy.optimize import brentq, minimize, minimize_scalar
 
 from feedtune.expr import to_float
-from feedtune.machine.run import Setting, axis_box, axis_loop, nominal_setting, run
+from feedtune.machine.run import (Axes, Setting, axis_box, axis_loop, nominal_setting,
+                                  prepare_axes, run)
 from feedtune.machine.simulate import UnstableAxis
 from feedtune.machine.spec import SAMPLING_PERIOD, MachineSpec
 from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL
@@ -52,6 +53,7 @@ class MachineTuner:
         self.feed_box = None if f.value is not None else (f.min, f.max)
         self.cv_box = self._cv_box() if spec.tuning.matched else None
         self.last_feed = math.log(self.start.feed_override)
+        self._axes: dict = {}
 
     # -- the variables ---------------------------------------------------------------------
     def bounds(self) -> list[tuple[float, float]]:
@@ -110,16 +112,31 @@ class MachineTuner:
         return math.exp(brentq(gap, a, b, xtol=1e-12))
 
     # -- the objective ---------------------------------------------------------------------
+    def axes(self, setting: Setting) -> Axes | None:
+        """:func:`prepare_axes` at ``setting``'s gains and period (None: unstable), kept
+        for the setting's other feeds: the feed search changes only the reference."""
+        key = (tuple((axis, tuple(sorted(values.items())))
+                     for axis, values in sorted(setting.values.items())), setting.period)
+        if key not in self._axes:
+            try:
+                self._axes = {key: prepare_axes(self.spec, setting)}  # the last gains only
+            except UnstableAxis:
+                self._axes = {key: None}
+        return self._axes[key]
+
     def simulate(self, setting: Setting) -> dict | None:
         """Metrics at ``setting``, or None for an unstable loop."""
         if self.evaluations >= self.budget:
             raise _Budget
         self.evaluations += 1
-        try:
-            # the search reads the largest error and the cycle time; the answer all
-            return run(self.spec, self.path, setting, detail=math.isinf(self.budget)).metrics
-        except UnstableAxis:
+        axes = self.axes(setting)
+        if axes is None:
             return None
+        # the search reads the largest error (the RMS only when it is the objective) and
+        # the cycle time; the answer all
+        final = math.isinf(self.budget)
+        return run(self.spec, self.path, setting, detail=final, axes=axes,
+                   rms=final or self.spec.tuning.objective == "rms_contour_error").metrics
 
     def score(self, z) -> float:
         setting = self.setting(z)
@@ -153,7 +170,9 @@ class MachineTuner:
         found = {}
 
         def gap(u):
-            metrics = self.simulate(replace(setting, feed_override=math.exp(u)))
+            # Brent starts from the bracket's ends, already simulated: not again
+            metrics = found[u] if u in found else self.simulate(
+                replace(setting, feed_override=math.exp(u)))
             found[u] = metrics
             return math.inf if metrics is None else math.log(metrics["max_contour_error"] / tol)
 
