@@ -91,11 +91,10 @@ def largest_contour_distance(table: SegmentTable, points: np.ndarray,
         return 0, 0.0, 0.0
     ends = table.begin + table.length
     last = len(ends) - 1
-    at, near = commanded[candidates], reach[candidates]
-    lo = np.clip(np.searchsorted(ends, at - near, side="left"), 0, last)
-    hi = np.clip(np.maximum(np.searchsorted(table.begin, at + near, side="right") - 1, lo),
-                 0, last)
-    base = np.clip(np.searchsorted(ends, at, side="left"), lo, hi)
+    at = commanded[candidates]
+    # the first segment ending at or after s: in every window (its start is before s,
+    # its end after s − reach), as in contour_distance
+    base = np.minimum(np.searchsorted(ends, at, side="left"), last)
     bound, _ = table.distance(base, points[candidates])
     state = {"best": -math.inf, "index": 0, "where": 0.0}
 
@@ -113,7 +112,9 @@ def largest_contour_distance(table: SegmentTable, points: np.ndarray,
     measure(np.argpartition(-bound, k - 1)[:k])
     keep = np.flatnonzero(bound >= state["best"])
     before = base[keep] - 1
-    inside = before >= lo[keep]
+    # in the window when it ends within reach of s (contour_distance's first segment)
+    inside = (before >= 0) & (ends[np.maximum(before, 0)]
+                              >= at[keep] - reach[candidates[keep]])
     if inside.any():
         tighter, _ = table.distance(before[inside], points[candidates[keep[inside]]])
         bound[keep[inside]] = np.minimum(bound[keep[inside]], tighter)

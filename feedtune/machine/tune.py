@@ -54,6 +54,7 @@ class MachineTuner:
         self.cv_box = self._cv_box() if spec.tuning.matched else None
         self.last_feed = math.log(self.start.feed_override)
         self._axes: dict = {}
+        self.feeds: dict = {}  # the feed found at each point searched
 
     # -- the variables ---------------------------------------------------------------------
     def bounds(self) -> list[tuple[float, float]]:
@@ -153,6 +154,7 @@ class MachineTuner:
                     return INFEASIBLE + excess
             return value
         feed, metrics = self.fastest(setting)
+        self.feeds[tuple(z)] = feed
         if metrics is None:
             return 2 * INFEASIBLE
         excess = metrics["max_contour_error"] / tuning.contour_tolerance - 1
@@ -209,8 +211,10 @@ class MachineTuner:
 
         try:
             if len(bounds) == 1:
+                # with a free feed the objective is resolved to FEED_RTOL in feed (so in
+                # cycle time): finer steps of the variable would chase that resolution
                 minimize_scalar(lambda u: objective([u]), bounds=bounds[0], method="bounded",
-                                options={"xatol": 1e-4})
+                                options={"xatol": FEED_RTOL if self.feed_box else 1e-4})
             elif bounds:
                 minimize(objective, self.initial(), method="Nelder-Mead", bounds=bounds,
                          options={"xatol": 1e-4, "fatol": 0.0})
@@ -223,7 +227,9 @@ class MachineTuner:
         setting = self.setting(best["z"])
         self.budget = math.inf  # the answer's own runs are outside the budget
         if self.feed_box is not None:
-            setting = replace(setting, feed_override=self.fastest(setting)[0])
+            feed = self.feeds.get(tuple(best["z"]))
+            setting = replace(setting, feed_override=feed if feed is not None
+                              else self.fastest(setting)[0])
         self.answer = setting
         final = self.simulate(setting)
         return {"name": self.spec.name, "kind": "machine", "status": status,
