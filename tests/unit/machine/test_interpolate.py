@@ -266,3 +266,25 @@ def test_junction_speeds_on_short_blocks_follow_the_acceleration_from_both_stops
     np.testing.assert_allclose(junction_speeds(path, max_acceleration=a), expected, atol=1e-9)
     ref = interpolate(path, period=1e-4, max_acceleration=a)
     assert np.abs(np.diff(speeds(ref))).max() / 1e-4 <= a + ACCEL
+
+
+@pytest.mark.parametrize("value", [1.0, 0.5, 0.3, 1.0 - 2**-52, 1e-3])
+def test_vf_counters_without_recursion_are_the_recursion(value):
+    """Error limit ≤ one pulse, no acceleration law: the counters are taken as the command
+    (interpolate._vf_counters' induction) and equal, pulse for pulse, Tian's V-F recursion
+    period by period (``feedtune.loops.pulse_train._track``) on commands that move at most
+    one pulse a period: random walks with holds, reversals and runs of one pulse a period,
+    three axes, starting away from zero."""
+    from feedtune.loops.pulse_train import _track
+    from feedtune.machine.interpolate import _vf_counters
+
+    rng = np.random.default_rng(int(value * 1000))
+    steps = rng.choice([-1, 0, 1], size=(20_000, 3), p=[0.3, 0.3, 0.4])
+    steps[0] = 0  # from rest at 1234 pulses
+    steps[5000:7000] = 1  # the fastest the generator follows
+    command = 1234 + np.cumsum(steps, axis=0)
+    fast = _vf_counters(command, value, None)
+    for axis in range(3):
+        pulses, _ = _track(command[:, axis] - command[0, axis], value, None)
+        assert np.array_equal(fast[:, axis], command[0, axis] + np.cumsum(pulses))
+    assert np.array_equal(fast, command)
