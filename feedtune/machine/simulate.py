@@ -180,14 +180,28 @@ def simulate_lti(phi, gamma, c, d, u, x0=None, block: int = BLOCK) -> np.ndarray
     # the state one block on: Φ^L x + Σ_j Φ^{L−1−j} Γ u(j)
     reach = np.einsum("jnk,km->jmn", powers[size - 1::-1], gamma).reshape(size * m, n)
     pushed = blocks.reshape(count, size * m) @ reach
-    starts = np.empty((count, n))
     x = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
-    step = powers[size]
-    for k in range(count):
-        starts[k] = x
-        x = step @ x + pushed[k]
+    starts = _block_starts(powers[size], pushed, x, block)
     y = forced + starts @ rows.T
     return y.reshape(-1)[:total]
+
+
+def _block_starts(step: np.ndarray, pushed: np.ndarray, x0: np.ndarray,
+                  block: int) -> np.ndarray:
+    """The states s_b (count, n) of s_{b+1} = Φ^L s_b + p_b from s_0 = ``x0``: itself an
+    LTI recursion (inputs p_b, state read out row by row), so many blocks are simulated
+    by :func:`simulate_lti` in blocks again; few by a loop."""
+    count, n = pushed.shape
+    if count <= 4 * block:
+        starts = np.empty((count, n))
+        x = x0
+        for k in range(count):
+            starts[k] = x
+            x = step @ x + pushed[k]
+        return starts
+    eye = np.eye(n)
+    return np.column_stack([simulate_lti(step, eye, eye[i], np.zeros(n), pushed, x0=x0,
+                                         block=block) for i in range(n)])
 
 
 def run_out_samples(models, program_samples: int) -> int:
@@ -231,10 +245,14 @@ def simulate_independent(models, reference: np.ndarray) -> np.ndarray:
     each starting at rest at the reference's first point."""
     out = np.empty_like(reference)
     for i, model in enumerate(models):
-        u = axis_inputs(reference[:, i])
-        out[:, i] = simulate_lti(model.phi, model.gamma[:, :2], model.c,
-                                 np.array([model.d, 0.0]), u,
-                                 x0=rest_state(model, reference[0, i]))
+        x0 = rest_state(model, reference[0, i])
+        if model.continuous:
+            out[:, i] = simulate_lti(model.phi, model.gamma[:, :2], model.c,
+                                     np.array([model.d, 0.0]), axis_inputs(reference[:, i]),
+                                     x0=x0)
+        else:  # a sampled loop reads r(k) only (its r(k + 1) column is zero)
+            out[:, i] = simulate_lti(model.phi, model.gamma[:, :1], model.c,
+                                     np.array([model.d]), reference[:, i, None], x0=x0)
     return out
 
 
