@@ -177,15 +177,40 @@ def prepare_axes(spec: MachineSpec, setting: Setting) -> Axes:
     return Axes(models, [lag for _, lag in axes], settling, tau)
 
 
+def commanded_samples(spec: MachineSpec, path: Path, setting: Setting, axes: Axes):
+    """The interpolated reference at the sampling instants, before the run-out: time [s]
+    (N,), position [m] (N, 3), arc length [m] (N,), segment (N,). It depends on the
+    setting's feed override and period and on the corner rule's τ only, not on the gains.
+
+    Raises
+    ------
+    ValueError
+        The path moves z on a machine without a z axis, or the interpolator refuses it.
+    """
+    interp = spec.interpolator
+    ratio = round(interp.period / setting.period) if interp.period else 1
+    reference = interpolate(path, period=ratio * setting.period,
+                            max_acceleration=interp.max_acceleration,
+                            corner_tolerance=interp.corner_tolerance,
+                            time_constant=axes.corner_time_constant,
+                            feed_override=setting.feed_override)
+    if "z" not in spec.axes.named() and np.any(reference.position[:, 2]
+                                               != reference.position[0, 2]):
+        raise ValueError("the path moves z; the machine has no z axis")
+    return _resampled(reference, ratio)
+
+
 def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
-        detail: bool = True, *, axes: Axes | None = None, rms: bool = True) -> MachineRun:
+        detail: bool = True, *, axes: Axes | None = None, rms: bool = True,
+        samples: tuple | None = None) -> MachineRun:
     """Simulate ``path`` on the machine at ``setting`` (default :func:`nominal_setting`);
     ``detail`` False leaves out the corners, stops and deceleration blocks, and ``rms``
     False (with ``detail`` False) the RMS contour error too: the largest is then found
     without measuring every sample (:func:`~feedtune.machine.contour.
     largest_contour_distance`), and ``contour_error`` and ``tangent`` are None (the
     tangent is computed only for the report and the cross-coupled controller).
-    ``axes``: :func:`prepare_axes` of this setting, when the caller has it.
+    ``axes``: :func:`prepare_axes` of this setting, and ``samples``:
+    :func:`commanded_samples` of it, when the caller has them.
 
     Raises
     ------
@@ -198,16 +223,7 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     names = tuple(spec.axes.named())
     axes = axes or prepare_axes(spec, setting)
     models = axes.models
-    interp = spec.interpolator
-    ratio = round(interp.period / setting.period) if interp.period else 1
-    reference = interpolate(path, period=ratio * setting.period,
-                            max_acceleration=interp.max_acceleration,
-                            corner_tolerance=interp.corner_tolerance,
-                            time_constant=axes.corner_time_constant,
-                            feed_override=setting.feed_override)
-    if "z" not in names and np.any(reference.position[:, 2] != reference.position[0, 2]):
-        raise ValueError("the path moves z; the machine has no z axis")
-    time, position, arc, segment = _resampled(reference, ratio)
+    time, position, arc, segment = samples or commanded_samples(spec, path, setting, axes)
     program_end = float(time[-1])
     extra = run_out_samples(models, len(time))
     time = np.concatenate([time, time[-1] + setting.period * np.arange(1, extra + 1)])

@@ -20,8 +20,8 @@ import numpy as np
 from scipy.optimize import brentq, minimize, minimize_scalar
 
 from feedtune.expr import to_float
-from feedtune.machine.run import (Axes, Setting, axis_box, axis_loop, nominal_setting,
-                                  prepare_axes, run)
+from feedtune.machine.run import (Axes, Setting, axis_box, axis_loop, commanded_samples,
+                                  nominal_setting, prepare_axes, run)
 from feedtune.machine.simulate import UnstableAxis
 from feedtune.machine.spec import SAMPLING_PERIOD, MachineSpec
 from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL
@@ -30,6 +30,8 @@ from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL
 INFEASIBLE = 1e6
 #: relative accuracy of the feed found for a point [1]
 FEED_RTOL = 1e-3
+#: interpolated references kept by the tuner (the oldest dropped) [count]
+KEPT_REFERENCES = 4
 
 
 class _Budget(Exception):
@@ -54,6 +56,7 @@ class MachineTuner:
         self.cv_box = self._cv_box() if spec.tuning.matched else None
         self.last_feed = math.log(self.start.feed_override)
         self._axes: dict = {}
+        self._samples: dict = {}
         self.feeds: dict = {}  # the feed found at each point searched
 
     # -- the variables ---------------------------------------------------------------------
@@ -137,7 +140,18 @@ class MachineTuner:
         # the cycle time; the answer all
         final = math.isinf(self.budget)
         return run(self.spec, self.path, setting, detail=final, axes=axes,
-                   rms=final or self.spec.tuning.objective == "rms_contour_error").metrics
+                   rms=final or self.spec.tuning.objective == "rms_contour_error",
+                   samples=self.samples(setting, axes)).metrics
+
+    def samples(self, setting: Setting, axes: Axes):
+        """:func:`commanded_samples` at ``setting``, kept for the next points: a new point
+        of the gains starts its feed search at the last point's feed."""
+        key = (setting.feed_override, setting.period, axes.corner_time_constant)
+        if key not in self._samples:
+            if len(self._samples) >= KEPT_REFERENCES:
+                del self._samples[next(iter(self._samples))]
+            self._samples[key] = commanded_samples(self.spec, self.path, setting, axes)
+        return self._samples[key]
 
     def score(self, z) -> float:
         setting = self.setting(z)
