@@ -23,7 +23,8 @@ Independent axes are simulated by :func:`simulate_lti`: the samples are cut into
 of L; the zero-state response inside every block is one matrix product with the
 lower-triangular Toeplitz matrix of the Markov parameters C Φ^{j−1} Γ, the free response
 one product with the observability rows C Φ^i, and only the L-times fewer block-start
-states are a recursion (numpy over blocks). This is the state recursion reorganised, not
+states are a recursion (an LTI system in the block index, simulated by blocks again when
+the blocks are many). This is the state recursion reorganised, not
 an approximation: it agrees with the per-sample recursion to rounding
 (``tests/unit/machine/test_simulate.py``). Cross-coupled axes are the independent
 axes' response plus the response to the correction (the loops are linear), the latter an
