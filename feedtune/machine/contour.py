@@ -38,6 +38,9 @@ CORNER_ANGLE = math.radians(0.1)
 WINDOW_ERRORS = 4.0
 #: a speed within this fraction of a feed has reached it [1] (Bhatia's 2 % settling)
 SETTLED = 0.02
+#: relative margin on :func:`_segment_bound` [1] (and that fraction of a µm): far above the
+#: few roundings that separate it from the table's formula, far below any distance told
+BOUND_MARGIN = 1e-9
 #: samples measured exactly first, and in the first round after, by
 #: :func:`largest_contour_distance` (doubling each round) [count]
 EXACT_CHUNK = 256
@@ -95,7 +98,7 @@ def largest_contour_distance(table: SegmentTable, points: np.ndarray,
     # the first segment ending at or after s: in every window (its start is before s,
     # its end after s − reach), as in contour_distance
     base = np.minimum(np.searchsorted(ends, at, side="left"), last)
-    bound, _ = table.distance(base, points[candidates])
+    bound = _segment_bound(table, base, points[candidates])
     state = {"best": -math.inf, "index": 0, "where": 0.0}
 
     def measure(chosen):
@@ -116,7 +119,7 @@ def largest_contour_distance(table: SegmentTable, points: np.ndarray,
     inside = (before >= 0) & (ends[np.maximum(before, 0)]
                               >= at[keep] - reach[candidates[keep]])
     if inside.any():
-        tighter, _ = table.distance(before[inside], points[candidates[keep[inside]]])
+        tighter = _segment_bound(table, before[inside], points[candidates[keep[inside]]])
         bound[keep[inside]] = np.minimum(bound[keep[inside]], tighter)
     keep = keep[bound[keep] >= state["best"]]
     order = keep[np.argsort(-bound[keep], kind="stable")]
@@ -126,6 +129,28 @@ def largest_contour_distance(table: SegmentTable, points: np.ndarray,
         done += chunk
         chunk *= 2
     return state["index"], state["best"], state["where"]
+
+
+def _segment_bound(table: SegmentTable, index: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """At least the distance [m] of each point (n, 3) from segment ``index`` (n,) as
+    :meth:`SegmentTable.distance` computes it: lines by the projection on the segment
+    written for this (no arc length), arcs by the table; raised by
+    :data:`BOUND_MARGIN` of itself so that the two formulas' roundings cannot put it
+    below the table's."""
+    out = np.empty(len(index))
+    is_arc = table.arc[index]
+    if is_arc.any():
+        out[is_arc], _ = table.distance(index[is_arc], points[is_arc])
+    line = ~is_arc
+    k = index[line]
+    start = table.start[k]
+    d = table.end[k] - start
+    dd = np.einsum("ij,ij->i", d, d)
+    w = points[line] - start
+    u = np.clip(np.einsum("ij,ij->i", w, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    w -= u[:, None] * d
+    out[line] = np.sqrt(np.einsum("ij,ij->i", w, w))
+    return out * (1 + BOUND_MARGIN) + BOUND_MARGIN * 1e-6
 
 
 def _nearer(table, points, centre, radius, alive, j, lo, hi, best, where) -> None:
