@@ -12,9 +12,16 @@ blocks (forward and backward passes) and every sample with its own block search 
 (largest distance between the two at equal sample index), and CPU (process_time) and wall
 times printed with the ratio and the load average.
 
+``--pulses`` adds Tian's V-F pulse generation (``pulse_reference``) on the same program at
+BLU 10 µm and T = 0.1 ms (the fastest block, 4000 mm/min, moves 6.7 µm a period: at most
+one pulse): the counters of ``interpolate._vf_counters`` (error limit one BLU, no
+acceleration law: the command itself, no recursion) beside Tian's recursion period by
+period on every axis (``feedtune.loops.pulse_train._track``, what ``pulse_reference`` ran
+before), checked equal pulse for pulse.
+
 Usage::
 
-    .venv/bin/python benchmarks/machine_interpolate.py [--blocks 10000] [--period 1e-3]
+    .venv/bin/python benchmarks/machine_interpolate.py [--blocks 10000] [--period 1e-3] [--pulses]
 """
 
 from __future__ import annotations
@@ -27,7 +34,8 @@ import time
 import numpy as np
 
 from feedtune.machine.gcode import parse_program
-from feedtune.machine.interpolate import corner_speed, interpolate
+from feedtune.loops.pulse_train import _track
+from feedtune.machine.interpolate import _vf_counters, corner_speed, interpolate, pulse_reference
 from feedtune.machine.path import Arc
 
 ACCEL, EPS, TAU = 2.0, 5e-6, 0.01
@@ -114,6 +122,31 @@ def naive(path, period: float):
     return out
 
 
+def recursion(command: np.ndarray) -> np.ndarray:
+    """Every axis' counter by Tian's V-F recursion period by period (error limit one BLU,
+    no acceleration law)."""
+    out = np.empty_like(command)
+    for axis in range(command.shape[1]):
+        pulses, _ = _track(command[:, axis] - command[0, axis], 1.0, None)
+        out[:, axis] = command[0, axis] + np.cumsum(pulses, dtype=np.int64)
+    return out
+
+
+def pulses(path) -> None:
+    blu, period = 1e-5, 1e-4
+    ref = interpolate(path, period=period, max_acceleration=ACCEL, corner_tolerance=EPS,
+                      time_constant=TAU)
+    command = np.rint(ref.position / blu).astype(np.int64)
+    fast, f_cpu, f_wall = timed(_vf_counters, command, 1.0, None)
+    slow, s_cpu, s_wall = timed(recursion, command)
+    print(f"V-F counters, {len(command)} periods x 3 axes (BLU {blu:g} m, T = {period:g} s): "
+          f"vectorised {f_cpu:.4f} s CPU ({f_wall:.4f} wall), recursion {s_cpu:.3f} s CPU "
+          f"({s_wall:.3f} wall): {s_cpu / max(f_cpu, 1e-6):.0f}x; equal pulse for pulse: "
+          f"{bool(np.array_equal(fast, slow))}")
+    _, p_cpu, p_wall = timed(pulse_reference, ref, pulse_equivalent=blu)
+    print(f"pulse_reference (counters, run-out, checks): {p_cpu:.3f} s CPU, {p_wall:.3f} s wall")
+
+
 def timed(fn, *args, **kw):
     wall, cpu = time.perf_counter(), time.process_time()
     value = fn(*args, **kw)
@@ -125,6 +158,7 @@ def main() -> None:
     parser.add_argument("--blocks", type=int, default=10_000, help="program blocks [count]")
     parser.add_argument("--period", type=float, default=1e-3, help="interpolation period T [s]")
     parser.add_argument("--repeats", type=int, default=3, help="runs of the vectorised one [count]")
+    parser.add_argument("--pulses", action="store_true", help="also Tian's V-F pulse generation")
     args = parser.parse_args()
     text = program_text(args.blocks)
     program, p_cpu, p_wall = timed(parse_program, text, source="benchmark.ngc")
@@ -144,6 +178,8 @@ def main() -> None:
     print(f"ratio naive/vectorised: {b_cpu / best[0]:.1f}x CPU, {b_wall / best[1]:.1f}x wall")
     diff = np.abs(base - ref.position).max()
     print(f"largest difference between the two references: {diff:.3g} m")
+    if args.pulses:
+        pulses(path)
     print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
 

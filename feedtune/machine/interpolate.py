@@ -65,8 +65,10 @@ takes no time beyond stopping the reference.
 
 V-F pulses (Tian et al.): :func:`pulse_reference` turns a reference into the position
 each axis' pulse counter reaches under Tian's V-F transformation (``feedtune.loops.
-pulse_train``), for pulse-driven axes; that recursion is sequential (one period at a
-time, exactly as the pulse simulation of one axis).
+pulse_train``), for pulse-driven axes. With an error limit of at most one BLU and no
+acceleration law the counter is the rounded command itself, exactly (no recursion run);
+otherwise the recursion is sequential (one period at a time, exactly as the pulse
+simulation of one axis).
 
 References
 ----------
@@ -401,6 +403,31 @@ def join(path: Path, pieces: list[Reference], holds) -> Reference:
                      summary={**pieces[0].summary, "in_position": stops})
 
 
+def _vf_counters(command: np.ndarray, value: float, step_limit: float | None) -> np.ndarray:
+    """Each axis' V-F pulse counter [pulses] (N, axes) under the whole-pulse command
+    ``command`` (N, axes), which moves at most one pulse a period, from rest on its first
+    row; ``value`` and ``step_limit`` in pulses (Tian §2, ``feedtune.loops.pulse_train``).
+
+    With an error limit of at most one pulse and no acceleration law the counter is the
+    command itself, exactly, so no recursion is run: by induction, if the counter equals
+    the command and the accumulator is 0 after period i − 1, the raw error of period i is
+    the command's step, −1, 0 or 1; clipped to ±value it is 0 or ±value, and the
+    accumulator 0 ± value reaches ±value exactly (no rounding: a float plus zero), so one
+    pulse leaves in that period and the accumulator is 0 again. Otherwise the recursion
+    runs period by period (``_track``). ``tests/unit/machine/test_interpolate.py`` holds
+    both equal, pulse for pulse, to the recursion."""
+    from feedtune.loops.pulse_train import _track
+
+    if step_limit is None and value <= 1.0:
+        return command.copy()
+    out = np.empty_like(command)
+    for axis in range(command.shape[1]):
+        base = command[0, axis]
+        pulses, _ = _track(command[:, axis] - base, value, step_limit)
+        out[:, axis] = base + np.cumsum(pulses, dtype=np.int64)
+    return out
+
+
 def pulse_reference(reference: Reference, *, pulse_equivalent: float,
                     error_limit: float | None = None,
                     acceleration_ratio: float | None = None) -> Reference:
@@ -431,8 +458,6 @@ def pulse_reference(reference: Reference, *, pulse_equivalent: float,
         When an axis is commanded faster than one pulse per period, δ/T [m/s] (the V-F
         generator sends at most one pulse a period, Tian §2, and would lag).
     """
-    from feedtune.loops.pulse_train import _track
-
     delta = _positive(pulse_equivalent, "pulse_equivalent", "m")
     value = 1.0 if error_limit is None else _positive(error_limit, "error_limit", "m") / delta
     step_limit = None if acceleration_ratio is None else value / _positive(
@@ -447,11 +472,7 @@ def pulse_reference(reference: Reference, *, pulse_equivalent: float,
     extra = 16 + int(math.ceil(4 * value * (1 if acceleration_ratio is None else acceleration_ratio)))
     while True:
         command = np.concatenate([counts, np.repeat(counts[-1:], extra, axis=0)])
-        out = np.empty_like(command)
-        for axis in range(3):
-            base = command[0, axis]
-            pulses, _ = _track(command[:, axis] - base, value, step_limit)
-            out[:, axis] = base + np.cumsum(pulses, dtype=np.int64)
+        out = _vf_counters(command, value, step_limit)
         settled = np.flatnonzero(np.any(out != command[-1], axis=1))
         last = len(counts) - 1 if settled.size == 0 else max(len(counts) - 1, int(settled[-1]) + 1)
         if last < len(command) - 1 or len(command) > MAX_SAMPLES:

@@ -56,10 +56,11 @@ class MachineRun:
     commanded, actual : ndarray (N, 3) [m]
     arc_length : ndarray (N,) [m], the commanded arc length
     segment : ndarray of int (N,)
-    tangent : ndarray (N, 3)
-        The path's unit tangent at the commanded point.
-    contour_error : ndarray (N,) [m]
-        The tool's distance from the path at each sample.
+    tangent : ndarray (N, 3) or None
+        The path's unit tangent at the commanded point (None: not computed, see
+        :func:`run`).
+    contour_error : ndarray (N,) [m] or None
+        The tool's distance from the path at each sample (None: not computed).
     metrics : dict
         :func:`~feedtune.machine.contour.contour_metrics`, plus ``stable`` true.
     """
@@ -71,8 +72,8 @@ class MachineRun:
     actual: np.ndarray
     arc_length: np.ndarray
     segment: np.ndarray
-    tangent: np.ndarray
-    contour_error: np.ndarray
+    tangent: np.ndarray | None
+    contour_error: np.ndarray | None
     metrics: dict
 
 
@@ -145,10 +146,81 @@ def rise_time(model: AxisModel, samples: int) -> float:
     return float(reached[0] * model.period) if reached.size else float(samples * model.period)
 
 
+@dataclass(frozen=True)
+class Axes:
+    """What a setting's gains and sampling period fix, whatever the feed: each axis'
+    discrete closed loop, its velocity lag 1/C_v [s] (0 without a C_v), its 2 % step
+    settling time [s], and the corner rule's time constant τ [s] (None without the rule)."""
+
+    models: list[AxisModel]
+    lags: list[float]
+    settling: list[float]
+    corner_time_constant: float | None
+
+
+def prepare_axes(spec: MachineSpec, setting: Setting) -> Axes:
+    """The :class:`Axes` of ``spec`` at ``setting`` (a tuner keeps them while only the
+    feed changes).
+
+    Raises
+    ------
+    UnstableAxis
+        An axis' closed loop is unstable at the setting.
+    """
+    axes = _axes(spec, setting)
+    models = [model for model, _ in axes]
+    probe = run_out_samples(models, 10**6)
+    settling = [step_settling_time(m, probe) for m in models]
+    interp = spec.interpolator
+    tau = None
+    if interp.corner_tolerance is not None:
+        tau = interp.time_constant or max(rise_time(m, probe) for m in models)
+    return Axes(models, [lag for _, lag in axes], settling, tau)
+
+
+def commanded_samples(spec: MachineSpec, path: Path, setting: Setting, axes: Axes):
+    """The interpolated reference at the sampling instants, before the run-out: time [s]
+    (N,), position [m] (N, 3), arc length [m] (N,), segment (N,), and the interpolator's
+    summary (dict). It depends on the setting's feed override and period and on the corner
+    rule's τ only, not on the gains, unless the interpolator waits in position at exact
+    stops (``interpolator.in_position``): its holds follow from the axes' loops.
+
+    Raises
+    ------
+    ValueError
+        The path moves z on a machine without a z axis, or the interpolator refuses it.
+    """
+    interp = spec.interpolator
+    ratio = round(interp.period / setting.period) if interp.period else 1
+    options = dict(period=ratio * setting.period, max_acceleration=interp.max_acceleration,
+                   corner_tolerance=interp.corner_tolerance,
+                   time_constant=axes.corner_time_constant,
+                   feed_override=setting.feed_override,
+                   max_normal_acceleration=interp.max_normal_acceleration)
+    if interp.in_position is None:
+        reference = interpolate(path, **options)
+    else:
+        reference = settled_reference(axes.models, path, band=interp.in_position,
+                                      ratio=ratio, **options)
+    if "z" not in spec.axes.named() and np.any(reference.position[:, 2]
+                                               != reference.position[0, 2]):
+        raise ValueError("the path moves z; the machine has no z axis")
+    sampled = reference.resampled(ratio)
+    return (sampled.time, sampled.position, sampled.arc_length, sampled.segment,
+            reference.summary)
+
+
 def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
-        detail: bool = True) -> MachineRun:
+        detail: bool = True, *, axes: Axes | None = None, rms: bool = True,
+        samples: tuple | None = None) -> MachineRun:
     """Simulate ``path`` on the machine at ``setting`` (default :func:`nominal_setting`);
-    ``detail`` False leaves out the corners, stops and deceleration blocks.
+    ``detail`` False leaves out the corners, stops and deceleration blocks, and ``rms``
+    False (with ``detail`` False) the RMS contour error too: the largest is then found
+    without measuring every sample (:func:`~feedtune.machine.contour.
+    largest_contour_distance`), and ``contour_error`` and ``tangent`` are None (the
+    tangent is computed only for the report and the cross-coupled controller).
+    ``axes``: :func:`prepare_axes` of this setting, and ``samples``:
+    :func:`commanded_samples` of it, when the caller has them.
 
     Raises
     ------
@@ -159,29 +231,10 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     """
     setting = setting or nominal_setting(spec)
     names = tuple(spec.axes.named())
-    axes = _axes(spec, setting)
-    models = [model for model, _ in axes]
-    probe = run_out_samples(models, 10**6)
-    settling = [step_settling_time(m, probe) for m in models]
-    interp = spec.interpolator
-    tau = None
-    if interp.corner_tolerance is not None:
-        tau = interp.time_constant or max(rise_time(m, probe) for m in models)
-    ratio = round(interp.period / setting.period) if interp.period else 1
-    options = dict(period=ratio * setting.period, max_acceleration=interp.max_acceleration,
-                   corner_tolerance=interp.corner_tolerance, time_constant=tau,
-                   feed_override=setting.feed_override,
-                   max_normal_acceleration=interp.max_normal_acceleration)
-    if interp.in_position is None:
-        reference = interpolate(path, **options)
-    else:
-        reference = settled_reference(models, path, band=interp.in_position, ratio=ratio,
-                                      **options)
-    if "z" not in names and np.any(reference.position[:, 2] != reference.position[0, 2]):
-        raise ValueError("the path moves z; the machine has no z axis")
-    sampled = reference.resampled(ratio)
-    time, position, arc, segment = (sampled.time, sampled.position, sampled.arc_length,
-                                    sampled.segment)
+    axes = axes or prepare_axes(spec, setting)
+    models = axes.models
+    time, position, arc, segment, summary = (samples
+                                             or commanded_samples(spec, path, setting, axes))
     program_end = float(time[-1])
     extra = run_out_samples(models, len(time))
     time = np.concatenate([time, time[-1] + setting.period * np.arange(1, extra + 1)])
@@ -189,21 +242,24 @@ def run(spec: MachineSpec, path: Path, setting: Setting | None = None,
     arc = np.concatenate([arc, np.full(extra, arc[-1])])
     segment = np.concatenate([segment, np.full(extra, segment[-1])])
     commanded = position[:, :len(names)]
-    tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
-    if setting.cross_coupling is None or setting.cross_coupling.gain == 0:
-        actual = simulate_independent(models, commanded)
-    else:
+    coupled = setting.cross_coupling is not None and setting.cross_coupling.gain != 0
+    tangent = None
+    if coupled or detail or rms:
+        tangent, curvature = path_direction(SegmentTable.of(path), arc, segment)
+    if coupled:
         actual = simulate_coupled(models, commanded, tangent, curvature,
                                   setting.cross_coupling)
+    else:
+        actual = simulate_independent(models, commanded)
     full = np.zeros_like(position)
     full[:, :len(names)] = actual
     if len(names) < 3:
         full[:, 2] = position[:, 2]
     metrics, error = contour_metrics(path, time, position, full, arc, segment, program_end,
-                              settling, max(lag for _, lag in axes), names,
-                              setting.feed_override, detail)
-    if reference.summary:
-        metrics["interpolation"] = reference.summary
+                                     axes.settling, max(axes.lags), names,
+                                     setting.feed_override, detail, rms)
+    if summary:
+        metrics["interpolation"] = summary
     return MachineRun(path, names, time, position, full, arc, segment, tangent, error,
                       metrics)
 

@@ -20,7 +20,8 @@ import numpy as np
 from scipy.optimize import brentq, minimize, minimize_scalar
 
 from feedtune.expr import to_float
-from feedtune.machine.run import Setting, axis_box, axis_loop, nominal_setting, run
+from feedtune.machine.run import (Axes, Setting, axis_box, axis_loop, commanded_samples,
+                                  nominal_setting, prepare_axes, run)
 from feedtune.machine.simulate import UnstableAxis
 from feedtune.machine.spec import SAMPLING_PERIOD, MachineSpec
 from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL
@@ -29,6 +30,8 @@ from feedtune.schema.status import INFEASIBLE, ITERATION_LIMIT, OPTIMAL
 INFEASIBLE = 1e6
 #: relative accuracy of the feed found for a point [1]
 FEED_RTOL = 1e-3
+#: interpolated references kept by the tuner (the oldest dropped) [count]
+KEPT_REFERENCES = 4
 
 
 class _Budget(Exception):
@@ -52,6 +55,9 @@ class MachineTuner:
         self.feed_box = None if f.value is not None else (f.min, f.max)
         self.cv_box = self._cv_box() if spec.tuning.matched else None
         self.last_feed = math.log(self.start.feed_override)
+        self._axes: dict = {}
+        self._samples: dict = {}
+        self.feeds: dict = {}  # the feed found at each point searched
 
     # -- the variables ---------------------------------------------------------------------
     def bounds(self) -> list[tuple[float, float]]:
@@ -110,16 +116,46 @@ class MachineTuner:
         return math.exp(brentq(gap, a, b, xtol=1e-12))
 
     # -- the objective ---------------------------------------------------------------------
+    def axes(self, setting: Setting) -> Axes | None:
+        """:func:`prepare_axes` at ``setting``'s gains and period (None: unstable), kept
+        for the setting's other feeds: the feed search changes only the reference."""
+        key = (tuple((axis, tuple(sorted(values.items())))
+                     for axis, values in sorted(setting.values.items())), setting.period)
+        if key not in self._axes:
+            try:
+                self._axes = {key: prepare_axes(self.spec, setting)}  # the last gains only
+            except UnstableAxis:
+                self._axes = {key: None}
+        return self._axes[key]
+
     def simulate(self, setting: Setting) -> dict | None:
         """Metrics at ``setting``, or None for an unstable loop."""
         if self.evaluations >= self.budget:
             raise _Budget
         self.evaluations += 1
-        try:
-            # the search reads the largest error and the cycle time; the answer all
-            return run(self.spec, self.path, setting, detail=math.isinf(self.budget)).metrics
-        except UnstableAxis:
+        axes = self.axes(setting)
+        if axes is None:
             return None
+        # the search reads the largest error (the RMS only when it is the objective) and
+        # the cycle time; the answer all
+        final = math.isinf(self.budget)
+        return run(self.spec, self.path, setting, detail=final, axes=axes,
+                   rms=final or self.spec.tuning.objective == "rms_contour_error",
+                   samples=self.samples(setting, axes)).metrics
+
+    def samples(self, setting: Setting, axes: Axes):
+        """:func:`commanded_samples` at ``setting``, kept for the next points: a new point
+        of the gains starts its feed search at the last point's feed. With an in-position
+        wait the holds depend on the gains, so they are part of the key."""
+        key = (setting.feed_override, setting.period, axes.corner_time_constant)
+        if self.spec.interpolator.in_position is not None:
+            key += tuple((name, tuple(sorted(values.items())))
+                         for name, values in sorted(setting.values.items()))
+        if key not in self._samples:
+            if len(self._samples) >= KEPT_REFERENCES:
+                del self._samples[next(iter(self._samples))]
+            self._samples[key] = commanded_samples(self.spec, self.path, setting, axes)
+        return self._samples[key]
 
     def score(self, z) -> float:
         setting = self.setting(z)
@@ -136,6 +172,7 @@ class MachineTuner:
                     return INFEASIBLE + excess
             return value
         feed, metrics = self.fastest(setting)
+        self.feeds[tuple(z)] = feed
         if metrics is None:
             return 2 * INFEASIBLE
         excess = metrics["max_contour_error"] / tuning.contour_tolerance - 1
@@ -153,7 +190,9 @@ class MachineTuner:
         found = {}
 
         def gap(u):
-            metrics = self.simulate(replace(setting, feed_override=math.exp(u)))
+            # Brent starts from the bracket's ends, already simulated: not again
+            metrics = found[u] if u in found else self.simulate(
+                replace(setting, feed_override=math.exp(u)))
             found[u] = metrics
             return math.inf if metrics is None else math.log(metrics["max_contour_error"] / tol)
 
@@ -190,8 +229,10 @@ class MachineTuner:
 
         try:
             if len(bounds) == 1:
+                # with a free feed the objective is resolved to FEED_RTOL in feed (so in
+                # cycle time): finer steps of the variable would chase that resolution
                 minimize_scalar(lambda u: objective([u]), bounds=bounds[0], method="bounded",
-                                options={"xatol": 1e-4})
+                                options={"xatol": FEED_RTOL if self.feed_box else 1e-4})
             elif bounds:
                 minimize(objective, self.initial(), method="Nelder-Mead", bounds=bounds,
                          options={"xatol": 1e-4, "fatol": 0.0})
@@ -204,7 +245,9 @@ class MachineTuner:
         setting = self.setting(best["z"])
         self.budget = math.inf  # the answer's own runs are outside the budget
         if self.feed_box is not None:
-            setting = replace(setting, feed_override=self.fastest(setting)[0])
+            feed = self.feeds.get(tuple(best["z"]))
+            setting = replace(setting, feed_override=feed if feed is not None
+                              else self.fastest(setting)[0])
         self.answer = setting
         final = self.simulate(setting)
         return {"name": self.spec.name, "kind": "machine", "status": status,

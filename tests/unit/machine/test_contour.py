@@ -88,3 +88,28 @@ def test_bhatia_fig38_corner_b_against_the_slow_blocks():
     assert len(slow) == 2
     assert at_b["max_contour_error"] > 0.0001 * 0.0254
     assert all(at_b["max_contour_error"] > 10 * c["max_contour_error"] for c in slow)
+
+
+@pytest.mark.parametrize("program, gains", [
+    (PROGRAM, (20.0, 28.0)),
+    ((REPO / "examples" / "machine" / "arch-pocket.ngc").read_text(), (20.0, 28.0)),
+    ((REPO / "examples" / "machine" / "slot-30deg.ngc").read_text(), (40.0, 12.0)),
+], ids=["lines-arcs-feed-drop", "arch-pocket", "slot-30deg"])
+def test_largest_contour_error_by_bounds_is_the_full_maximum(program, gains):
+    """What the tuner reads (``rms=False``: the largest error found by bounds, without
+    measuring every sample) is, bit for bit, the largest of the per-sample windowed
+    distances, at the same sample: the bounds only decide which samples are measured,
+    each measured as contour_distance measures it. Programs with lines, arcs, corners and
+    a rapid; a stiff and a soft axis so the worst sample lies at different places."""
+    axes = {name: {"plant": {"type": "software_servo", "technique": "sampled_data",
+                             "time_constant": 0.02},
+                   "tunables": {"position_gain": {"value": k}}}
+            for name, k in zip("xy", gains)}
+    spec = parse_machine({"name": "t", "axes": axes, "sampling_period": {"value": 1e-3},
+                          "interpolator": {"max_acceleration": 2.0}})
+    path = parse_program(program, source="t.ngc").path
+    full = run(spec, path, detail=False).metrics
+    fast = run(spec, path, detail=False, rms=False)
+    assert fast.contour_error is None and "rms_contour_error" not in fast.metrics
+    assert fast.metrics["max_contour_error"] == full["max_contour_error"] > 1e-6
+    assert fast.metrics["max_contour_error_at"] == full["max_contour_error_at"]

@@ -120,3 +120,28 @@ def test_run_reports_the_waits_and_the_cycle_includes_them():
     assert "interpolation" not in plain
     overshoot = {s["segment"]: s["overshoot"] for s in waited["stops"]}
     assert overshoot[0] > 1e-6
+
+
+def test_the_tuner_keeps_no_reference_across_gains_when_it_waits_in_position():
+    """The holds follow from the loops, so the tuner's kept reference (MachineTuner.samples)
+    must be the one of the setting's gains: at the same feed and period, gains 60/45 and
+    30/30 1/s give the references that commanded_samples gives for each (a reference kept
+    by feed and period alone would hand the second setting the first one's holds)."""
+    from dataclasses import replace
+
+    from feedtune.machine.run import commanded_samples, prepare_axes
+    from feedtune.machine.tune import MachineTuner
+
+    spec = machine({"in_position": 1e-6})
+    path = stops(None)
+    tuner = MachineTuner(spec, path)
+    first = nominal_setting(spec)
+    second = replace(first, values={"x": {**first.values["x"], "position_gain": 30.0},
+                                    "y": {**first.values["y"], "position_gain": 30.0}})
+    for setting in (first, second):
+        axes = prepare_axes(spec, setting)
+        kept = tuner.samples(setting, axes)
+        fresh = commanded_samples(spec, path, setting, axes)
+        assert len(kept[0]) == len(fresh[0])
+        assert np.array_equal(kept[1], fresh[1])
+    assert len(tuner.samples(first, prepare_axes(spec, first))[0]) != len(fresh[0])

@@ -335,3 +335,23 @@ def test_normal_acceleration_limit_in_a_machine_run():
     assert arc["line"] == 2 and arc["radius"] == pytest.approx(0.002, abs=1e-12)
     extra = math.pi * 0.001 * (1 / math.sqrt(0.5 * 0.002) - 1 / 0.05)
     assert slow.metrics["cycle_time"] - fast.metrics["cycle_time"] == pytest.approx(extra, abs=1e-3)
+@pytest.mark.parametrize("value", [1.0, 0.5, 0.3, 1.0 - 2**-52, 1e-3])
+def test_vf_counters_without_recursion_are_the_recursion(value):
+    """Error limit ≤ one pulse, no acceleration law: the counters are taken as the command
+    (interpolate._vf_counters' induction) and equal, pulse for pulse, Tian's V-F recursion
+    period by period (``feedtune.loops.pulse_train._track``) on commands that move at most
+    one pulse a period: random walks with holds, reversals and runs of one pulse a period,
+    three axes, starting away from zero."""
+    from feedtune.loops.pulse_train import _track
+    from feedtune.machine.interpolate import _vf_counters
+
+    rng = np.random.default_rng(int(value * 1000))
+    steps = rng.choice([-1, 0, 1], size=(20_000, 3), p=[0.3, 0.3, 0.4])
+    steps[0] = 0  # from rest at 1234 pulses
+    steps[5000:7000] = 1  # the fastest the generator follows
+    command = 1234 + np.cumsum(steps, axis=0)
+    fast = _vf_counters(command, value, None)
+    for axis in range(3):
+        pulses, _ = _track(command[:, axis] - command[0, axis], value, None)
+        assert np.array_equal(fast[:, axis], command[0, axis] + np.cumsum(pulses))
+    assert np.array_equal(fast, command)
