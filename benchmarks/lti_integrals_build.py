@@ -77,7 +77,8 @@ def main() -> None:
                     built[label] = module._functions(key, name)
                     cpu[label] += time.process_time() - start
                 for f_old, f_new in zip(built["old"], built["new"]):
-                    point = [0.3 * rng.uniform(-1, 1, f_old.size_in(i)) for i in range(f_old.n_in())]
+                    point = [0.3 * rng.uniform(-1, 1, f_old.size_in(i))
+                             for i in range(f_old.n_in())]
                     a, b = (np.array(f(*point), dtype=float) for f in (f_old, f_new))
                     identical &= bool(np.array_equal(a, b, equal_nan=True))
     print(f"{len(keys)} loop structures × 3 integrals × {args.rounds} rounds")
