@@ -126,6 +126,19 @@ def _substep(coefficients, end, scale, t_start, name):
     return scale * total
 
 
+@lru_cache(maxsize=None)
+def _substep_function(name: str):
+    """:func:`_substep` of generic coefficients, end, scale and start time, as an SX
+    Function. Called on SX arguments, it writes the same operations into the caller's graph
+    (constants folded by the same double operations) in C++, where building them in Python
+    again for every sub-step of every sample cost ≈ 1.7 s of CPU per integral Function on
+    a long period box (``benchmarks/README.md``, issue 15)."""
+    coefficients = ca.SX.sym("c", DEGREE + 1)
+    end, scale, t_start = ca.SX.sym("end"), ca.SX.sym("scale"), ca.SX.sym("t_start")
+    value = _substep([coefficients[k] for k in range(DEGREE + 1)], end, scale, t_start, name)
+    return ca.Function(f"lti_substep_{name}", [coefficients, end, scale, t_start], [value])
+
+
 class _Structure:
     """The numbers of one loop's intersample integration: the rows giving the error's and the
     state's Taylor coefficients from ξ (from F's scaled powers), the sub-steps per segment."""
@@ -160,7 +173,7 @@ class _Structure:
             for _ in range(self.substeps):
                 xi = ca.vertcat(x, u, reference)
                 coefficients = [ca.mtimes(row, xi) for row in self.error_rows]
-                total += _substep(coefficients, end, self.h, t, name)
+                total += _substep_function(name)(ca.vertcat(*coefficients), end, self.h, t)
                 x = ca.mtimes(transition, xi)
                 t = t + end * self.h
         return total

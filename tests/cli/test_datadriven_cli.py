@@ -1,16 +1,14 @@
 """A spec of measured frequency responses from the command line: the bundled example
 (examples/datadriven/hydraulic-three-loads.json) tunes by the convex technique through
-``python -m feedtune``, bad data is exit 2 naming its field, and nothing is written on
-failure; the plant block from measured files (frd_plant_block) is a spec feedtune takes."""
+the real entry point (tests/feedtune_cli.py), bad data is exit 2 naming its field, and
+nothing is written on failure; the plant block from measured files (frd_plant_block) is a spec feedtune takes."""
 
 from __future__ import annotations
 
 import base64
 import copy
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -26,9 +24,9 @@ EXAMPLE = REPO / "examples" / "datadriven" / "hydraulic-three-loads.json"
 
 
 def run(*args: str, stdin: bytes = b"") -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], input=stdin,
-                          capture_output=True, cwd=REPO, timeout=600,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (bytes out;
+    tests/feedtune_cli.py): nothing here tests the process itself."""
+    return run_cli(*args, stdin=stdin, cwd=REPO)
 
 
 @pytest.fixture(scope="module")

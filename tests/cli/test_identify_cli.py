@@ -1,25 +1,26 @@
-"""``feedtune identify`` through the real entry point (``python -m feedtune``): the bundled
-example data identify, the plant block written with ``-o`` tunes unchanged, bad data is
-exit 2 naming file, line and column with nothing written, and the report is drawn."""
+"""``feedtune identify`` through the real entry point (``feedtune.__main__.run`` in the test
+process, tests/feedtune_cli.py): the bundled example data identify, the plant block written
+with ``-o`` tunes unchanged, bad data is exit 2 naming file, line and column with nothing
+written, and the report is drawn."""
 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 DATA = REPO / "examples" / "data"
 
 
 def run(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          cwd=cwd or REPO, timeout=300, text=True,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (text out;
+    tests/feedtune_cli.py): nothing here tests the process itself."""
+    return run_cli(*args, cwd=cwd or REPO, text=True)
 
 
 def test_help_names_units():

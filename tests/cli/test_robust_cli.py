@@ -1,15 +1,15 @@
-"""Robust tuning through the real entry point (``python -m feedtune``): a spec with an
-uncertain time constant tunes to a result with its robust block and validated scenarios,
+"""Robust tuning through the real entry point (``feedtune.__main__.run`` in the test process,
+tests/feedtune_cli.py): a spec with an uncertain time constant tunes to a result with its robust block and validated scenarios,
 the summary says so, ``validate`` accepts it, and a malformed range exits 2 naming the
 place it was written."""
 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 #: Koren's reference-pulse servo with τ anywhere in 10-20 ms, ζ ≥ 0.7 (solves in ~0.1 s)
@@ -24,9 +24,9 @@ SPEC = {"name": "robust-servo-cli",
 
 
 def feedtune(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          text=True, cwd=REPO, timeout=300,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (text out;
+    tests/feedtune_cli.py): nothing here tests the process itself."""
+    return run_cli(*args, cwd=REPO, text=True)
 
 
 def test_tune_writes_the_robust_block_and_its_validation(tmp_path):

@@ -4,10 +4,10 @@ point: stdout is the JSON only, bad input is exit 2 naming the field by JSON poi
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
+
+from feedtune_cli import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 MACHINE = REPO / "examples" / "machine" / "two-axes.json"
@@ -15,9 +15,9 @@ PROGRAM = REPO / "examples" / "machine" / "arch-pocket.ngc"
 
 
 def run(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          cwd=REPO, timeout=600,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+    """``feedtune ARGS`` through the real entry point in this process (bytes out;
+    tests/feedtune_cli.py): nothing here tests the process itself."""
+    return run_cli(*args, cwd=REPO)
 
 
 def test_simulate_writes_the_metrics(tmp_path):

@@ -305,8 +305,13 @@ def stability_sample(config: PlantConfig) -> list[dict[str, float]]:
 
 
 def as_array(x) -> np.ndarray:
+    """A number, DM or expression of numbers as a 2-D float array (an expression evaluated
+    by ``ca.evalf``; a DM read as it is, without building a Function to evaluate it: the
+    stability contract reads ≈ 20 000 matrices)."""
     if isinstance(x, (int, float)):
         return np.array([[float(x)]])
+    if isinstance(x, ca.DM):
+        return np.array(x, dtype=float)
     return np.array(ca.evalf(ca.MX(x)), dtype=float)
 
 
@@ -439,9 +444,17 @@ def exact_metric_cases() -> list[tuple[PlantConfig, str, object]]:
 
 
 @lru_cache(maxsize=None)
-def numeric_metric(config: PlantConfig, name: str, options):
-    """(metric value, loop) on the loop of numbers at the nominal point, in its factor-2
-    box: evaluated once for every test that needs it."""
+def numeric_loop(config: PlantConfig):
+    """The loop of numbers at the nominal point, in its factor-2 box: one per configuration,
+    shared by its metrics (as the validator evaluates every metric of a spec on one loop;
+    what they share, such as the gain crossover, is located once on it). Read it only."""
     point = nominal(config)
-    loop = config.plant.loop(point, narrow_box(config, point))
+    return config.plant.loop(point, narrow_box(config, point))
+
+
+@lru_cache(maxsize=None)
+def numeric_metric(config: PlantConfig, name: str, options):
+    """(metric value, loop) on :func:`numeric_loop`: evaluated once for every test that
+    needs it."""
+    loop = numeric_loop(config)
     return METRICS[name]().evaluate(loop, options), loop

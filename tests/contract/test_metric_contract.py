@@ -6,6 +6,7 @@ configuration and option set it says it ``supports``.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 
@@ -15,7 +16,8 @@ import pytest
 
 from contract_cases import (CONFIGS, OPTION_SAMPLES, as_float, exact_expr, exact_metric_cases,
                             log_point, metric_cases,
-                            narrow_box, nominal, numeric_metric, option_variants, symbolic_loop)
+                            narrow_box, nominal, numeric_loop, numeric_metric, option_variants,
+                            symbolic_loop)
 from feedtune.expr import Crossing, PoleRegion, Supremum
 from feedtune.loops.loop import HorizonError
 from feedtune.objectives import METRICS
@@ -28,6 +30,22 @@ CASE_IDS = [f"{name}-{config.id}-{options.model_dump()}" for config, name, optio
 
 def _expr(value):
     return exact_expr(value)
+
+
+@functools.lru_cache(maxsize=None)
+def _symbolic_loop(config):
+    """(z, loop): the loop of log-tunable symbols in the factor-2 box around the nominal
+    point, one per configuration and shared by its metrics' cases, as the tuner builds one
+    loop for all of a spec's metrics: what they share is located once on it (the gain
+    crossover of the crossover frequency, phase and gain margins). Metrics only read it."""
+    return symbolic_loop(config, narrow_box(config, nominal(config)))
+
+
+@functools.lru_cache(maxsize=None)
+def _default_box_loop(config):
+    """The loop of numbers at the nominal point with the plant's default bounds, one per
+    configuration and shared by its metrics' cases (as :func:`_symbolic_loop`)."""
+    return config.plant.loop(nominal(config), config.default_box)
 
 
 # -- declarations ------------------------------------------------------------------------------
@@ -81,13 +99,12 @@ def test_metric_is_finite_with_finite_gradient(config, name, options):
     """
     metric = METRICS[name]()
     point = nominal(config)
-    box = narrow_box(config, point)
 
     numeric_value, numeric_loop = numeric_metric(config, name, options)
     numeric = as_float(numeric_value)
     assert math.isfinite(numeric)
 
-    z, loop = symbolic_loop(config, box)
+    z, loop = _symbolic_loop(config)
     optimisable = metric.optimisable(loop, options)
     assert isinstance(optimisable, bool) and metric.optimisable(numeric_loop, options) == optimisable
     if not optimisable:
@@ -136,8 +153,7 @@ def _reformulated(config, name, options) -> bool:
 
     Decided at collection, in every test worker: a metric the tuner cannot optimise is not
     evaluated here (≈ 1.7 s of CPU for the time-domain ones), only asked on the same loop."""
-    point = nominal(config)
-    if not METRICS[name]().optimisable(config.plant.loop(point, narrow_box(config, point)), options):
+    if not METRICS[name]().optimisable(numeric_loop(config), options):
         return False
     value, _ = numeric_metric(config, name, options)
     return isinstance(value, (Supremum, Crossing))
@@ -157,8 +173,7 @@ def test_reformulated_metric_is_consistent_with_its_exact_value(config, name, op
     location (what the tuner's exchange step adds) lies below b.
     """
     point = nominal(config)
-    box = narrow_box(config, point)
-    z, loop = symbolic_loop(config, box)
+    z, loop = _symbolic_loop(config)
     value = METRICS[name]().evaluate(loop, options)
     omega = ca.MX.sym("omega")
     if isinstance(value, Supremum):
@@ -203,7 +218,7 @@ def test_reformulated_metric_is_consistent_with_its_exact_value(config, name, op
 def test_metric_on_the_default_box_is_finite_or_a_horizon_error(config, name, options):
     """With the plant's default bounds a metric either evaluates or says the horizon is too long."""
     metric = METRICS[name]()
-    loop = config.plant.loop(nominal(config), config.default_box)
+    loop = _default_box_loop(config)
     try:
         value = as_float(metric.evaluate(loop, options))
     except HorizonError as error:

@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import casadi as ca
@@ -459,17 +460,27 @@ def test_sampled_damping_has_finite_exact_derivatives(gain, period):
             assert values[1] == pytest.approx(numeric, rel=1e-5, abs=1e-9)
 
 
+@functools.lru_cache(maxsize=None)
+def _step_integral_functions(period: float, delay: int) -> list:
+    """ln K ↦ (integral, gradient, Hessian) for each step integral of the sampled loop, the
+    gain a symbol, as an MX Function and expanded to SX: built once per period and delay and
+    evaluated at every gain below (the graph does not depend on the gain; building and
+    expanding it is most of the test's CPU)."""
+    z = ca.MX.sym("z")
+    loop = SampledLoop(IntegratorLag(TAU), ca.exp(z), ca.MX(period), delay=delay,
+                       horizon=20 * (2 * TAU + (delay + 1) * period), period_min=period)
+    functions = [ca.Function("f", [z], [expr, ca.gradient(expr, z), ca.hessian(expr, z)[0]])
+                 for expr in loop.step_error_integrals]
+    return [(f, f.expand()) for f in functions]
+
+
 @pytest.mark.parametrize("gain, period, delay", [(33.5, 1 / 64, 0), (18.0, 1 / 64, 1),
                                                  (5.0, 0.01, 0), (120.0, 1 / 64, 0)])
 def test_sampled_step_integrals_have_finite_exact_derivatives(gain, period, delay):
     """The step integrals as the NLP sees them (symbolic, and expanded to SX): value, gradient
     and Hessian w.r.t. ln K finite, gradient equal to a central difference."""
-    z = ca.MX.sym("z")
-    loop = SampledLoop(IntegratorLag(TAU), ca.exp(z), ca.MX(period), delay=delay,
-                       horizon=20 * (2 * TAU + (delay + 1) * period), period_min=period)
-    for expr in loop.step_error_integrals:
-        f = ca.Function("f", [z], [expr, ca.gradient(expr, z), ca.hessian(expr, z)[0]])
-        for fn in (f, f.expand()):
+    for functions in _step_integral_functions(period, delay):
+        for fn in functions:
             values = [float(v) for v in fn(math.log(gain))]
             assert all(math.isfinite(v) for v in values), values
             numeric = (float(fn(math.log(gain) + 1e-6)[0]) - float(fn(math.log(gain) - 1e-6)[0])) / 2e-6

@@ -1,0 +1,90 @@
+"""Building the sampled LTI loop's step-integral Functions, new against a git revision's
+``feedtune/loops/sampled_lti_integrals.py``, side by side in one process (issue 15).
+
+For every ``implementation: sampled`` configuration of the contract tests
+(``tests/contract/contract_cases.py``), on its default box and on the factor-2 box around its
+nominal point, each of IAE, ISE and ITAE: the CPU of ``_functions`` (the per-sample step
+Function and the tail Function, built from scratch: the cache cleared) with the baseline's
+module and with this checkout's, and whether both give the same bits at random arguments.
+
+    .venv/bin/python benchmarks/lti_integrals_build.py [--baseline main] [--rounds 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+MODULE = "feedtune/loops/sampled_lti_integrals.py"
+
+
+def baseline_module(revision: str):
+    """``revision``'s sampled_lti_integrals.py loaded under another name (it imports only
+    feedtune.lazy and feedtune.loops.linalg, which it shares with this checkout)."""
+    text = subprocess.run(["git", "-C", str(REPO), "show", f"{revision}:{MODULE}"],
+                          capture_output=True, text=True, check=True).stdout
+    path = Path(tempfile.mkdtemp()) / "baseline_sampled_lti_integrals.py"
+    path.write_text(text)
+    spec = importlib.util.spec_from_file_location("baseline_sampled_lti_integrals", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", default="main", help="git revision of the old module")
+    parser.add_argument("--rounds", type=int, default=2, help="alternating rounds")
+    args = parser.parse_args()
+    sys.path.insert(0, str(REPO / "tests" / "contract"))
+    from feedtune.__main__ import pin_blas_threads
+
+    pin_blas_threads()
+    import numpy as np
+
+    import contract_cases as cc
+    import feedtune.loops.sampled_lti_integrals as new
+
+    old = baseline_module(args.baseline)
+    keys = []
+    for config in cc.CONFIGS:
+        if "implementation=sampled" not in config.id:
+            continue
+        for label, box in (("default", config.default_box),
+                           ("narrow", cc.narrow_box(config, cc.nominal(config)))):
+            loop = config.plant.loop(cc.nominal(config), box)
+            try:
+                samples = loop.horizon_samples
+            except ValueError:
+                continue  # a horizon over the sample limit: no Functions to build
+            keys.append((f"{config.id} {label}", new._key(loop, samples)))
+    rng = np.random.default_rng(0)
+    cpu = {"old": 0.0, "new": 0.0}
+    identical = True
+    for _ in range(args.rounds):
+        for _, key in keys:
+            for name in ("iae", "ise", "itae"):
+                built = {}
+                for label, module in (("old", old), ("new", new)):
+                    module._functions.cache_clear()
+                    start = time.process_time()
+                    built[label] = module._functions(key, name)
+                    cpu[label] += time.process_time() - start
+                for f_old, f_new in zip(built["old"], built["new"]):
+                    point = [0.3 * rng.uniform(-1, 1, f_old.size_in(i))
+                             for i in range(f_old.n_in())]
+                    a, b = (np.array(f(*point), dtype=float) for f in (f_old, f_new))
+                    identical &= bool(np.array_equal(a, b, equal_nan=True))
+    print(f"{len(keys)} loop structures × 3 integrals × {args.rounds} rounds")
+    print(f"CPU building the Functions: old {cpu['old']:.2f} s, new {cpu['new']:.2f} s, "
+          f"new/old {cpu['new'] / cpu['old']:.2f}; identical values: {identical}")
+
+
+if __name__ == "__main__":
+    main()
