@@ -289,15 +289,18 @@ def _stops(path, table, time, reference, position, arc_length, slowest) -> list[
     segs = path.segments
     out = []
     ends = table.begin + table.length
+    # the first sample at or past each stop by bisection (O(log N) a stop, not a scan of
+    # every sample): the running maximum's first crossing of a level is the arc length's
+    reached = np.maximum.accumulate(arc_length)
+    hold = max(slowest, time[1] - time[0])
     for i, seg in enumerate(segs):
         last = i == len(segs) - 1
         if not (last or seg.exact_stop or table.rapid[i]):
             continue
-        arrived = np.flatnonzero(arc_length >= ends[i] - 1e-12)
-        if arrived.size == 0:
+        k0 = int(np.searchsorted(reached, ends[i] - 1e-12, side="left"))
+        if k0 == len(reached):
             continue
-        k0 = int(arrived[0])
-        window = (time >= time[k0]) & (time <= time[k0] + max(slowest, time[1] - time[0]))
+        window = slice(k0, int(np.searchsorted(time, time[k0] + hold, side="right")))
         direction = seg.tangent_at(seg.length)[0]
         stop = table.end[i]
         past = (position[window] - stop) @ direction

@@ -113,3 +113,31 @@ def test_largest_contour_error_by_bounds_is_the_full_maximum(program, gains):
     assert fast.contour_error is None and "rms_contour_error" not in fast.metrics
     assert fast.metrics["max_contour_error"] == full["max_contour_error"] > 1e-6
     assert fast.metrics["max_contour_error_at"] == full["max_contour_error_at"]
+
+
+def test_stops_found_by_bisection_are_those_of_a_scan_of_every_sample():
+    """Every exact stop of a G61 program with a rapid (11 stops) gets the overshoot that a
+    scan of all samples gives (the definition: the first sample whose commanded arc length
+    reaches the stop, the window of the slowest settling time after it), bit for bit: both
+    read the same samples, so no tolerance."""
+    program = "G21 G90 G61\nG1 X5 Y0 F1200\nG1 X5 Y3\nG1 X1 Y4\nG0 X0 Y0\n" + "".join(
+        f"G1 X{x} Y{y}\n" for x, y in ((2, 1), (3, 3), (1, 2), (4, 0), (0, 1), (2, 2), (0, 0)))
+    path = parse_program(program, source="t.ngc").path
+    result = run(machine(), path)
+    stops = result.metrics["stops"]
+    table = SegmentTable.of(path)
+    ends = table.begin + table.length
+    slowest = result.metrics["slowest_axis_settling_time"]
+    time, arc = result.time, result.arc_length
+    scanned = []
+    for i, seg in enumerate(path.segments):
+        if not (i == len(path.segments) - 1 or seg.exact_stop or table.rapid[i]):
+            continue
+        k0 = int(np.flatnonzero(arc >= ends[i] - 1e-12)[0])
+        window = (time >= time[k0]) & (time <= time[k0] + max(slowest, time[1] - time[0]))
+        direction = seg.tangent_at(seg.length)[0]
+        past = (result.actual[window] - table.end[i]) @ direction
+        commanded = np.maximum(0.0, (result.commanded[window] - table.end[i]) @ direction)
+        scanned.append((i, float(time[k0]), float(max(0.0, np.max(past - commanded)))))
+    assert len(scanned) == 11
+    assert [(s["segment"], s["time"], s["overshoot"]) for s in stops] == scanned
