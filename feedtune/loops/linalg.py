@@ -167,25 +167,37 @@ def _hurwitz_conditions(coefficients: list) -> list:
     few ms; measured 2026-11-27 on the user-defined PID + notch drive, load 6–15). The
     values are the minors' up to rounding: within 1e-13 relative of the determinants on
     seeded random polynomials up to degree 12 (tests/unit/test_linalg.py). A pivot r_k
-    that is exactly 0 (Δ_k = 0: not stable) is replaced by the smallest normal number,
-    as :func:`feedtune.objectives.poles.pole_region.routh_column` does; the minors after
-    it are then not finite or not positive, and the verdict stays "not stable".
+    that is exactly 0 (Δ_k = 0: not stable) is replaced by the smallest normal number
+    (:func:`routh_first_column`); the minors after it are then not finite or not
+    positive, and the verdict stays "not stable".
     """
     n = len(coefficients) - 1
     lead = coefficients[0]
     conditions = [lead * c for c in coefficients[1:]]
-    scaled = [lead * c for c in coefficients]
-    rows = [scaled[0::2], scaled[1::2]]
-    minor = scaled[1]
-    for _ in range(2, n):
+    column = routh_first_column([lead * c for c in coefficients], n - 1)
+    for k in range(1, len(column)):
+        column[k] = column[k - 1] * column[k]  # Δ_{k+1} = r_1⋯r_{k+1}
+        conditions.append(column[k])
+    return conditions
+
+
+def routh_first_column(coefficients: list, count: int) -> list:
+    """The first ``count`` entries r_1, r_2, … of the first column of Routh's array of the
+    polynomial (highest power first), after its leading coefficient: r_k = Δ_k/Δ_{k−1} of
+    the Hurwitz minors (Δ_0 = 1). O(n²) operations. A pivot that is exactly 0 is replaced
+    by the smallest normal number, so no row is NaN."""
+    if count <= 0:
+        return []
+    rows = [list(coefficients[0::2]), list(coefficients[1::2])]
+    column = [rows[1][0]]
+    while len(column) < count:
         upper, lower = rows[-2], rows[-1]
         pivot = ca.if_else(lower[0] == 0, 2.2250738585072014e-308, lower[0])
         below = list(lower[1:]) + [0] * (len(upper) - len(lower))
         rows.append([(lower[0] * upper[j + 1] - upper[0] * below[j]) / pivot
-                     for j in range(len(upper) - 1)])
-        minor = minor * rows[-1][0]
-        conditions.append(minor)
-    return conditions
+                     for j in range(len(upper) - 1)] or [0])
+        column.append(rows[-1][0])
+    return column[:count]
 
 
 def complex_solve(real_part, imag_part, rhs):

@@ -14,11 +14,6 @@ import casadi as ca
 from feedtune.tuner.builder import NlpBuilder
 
 
-def groups_of(terms) -> list[int]:
-    """The distinct groups of ``terms`` (objects with ``group``), in order of appearance."""
-    return list(dict.fromkeys(term.group for term in terms))
-
-
 def objective_value(weights, values, groups) -> float | None:
     """max over groups of Σ weight·value (None when a value is None): the objective the
     NLP minimises, of numbers."""

@@ -140,21 +140,12 @@ def routh_column(coefficients: list) -> list:
     there; not for the rotated product, where several entries change sign at once
     (measured on Bhatia's eight-tunable drive at ζ_min = 0.290 against 0.3: entry 10 of 16
     negative, the same in exact rational arithmetic). A pivot that is exactly 0 (far
-    outside) is replaced by the smallest normal number, so no row is NaN.
+    outside) is replaced by the smallest normal number, so no row is NaN
+    (:func:`feedtune.loops.linalg.routh_first_column`).
     """
     lead = coefficients[0]
-    rows = [list(coefficients[0::2]), list(coefficients[1::2])]
-    column = []
-    n = len(coefficients) - 1
-    for _ in range(n):
-        upper, lower = rows[-2], rows[-1]
-        column.append(lead * lower[0])
-        pivot = ca.if_else(lower[0] == 0, 2.2250738585072014e-308, lower[0])
-        width = len(upper) - 1
-        nxt = [(pivot * upper[j + 1] - upper[0] * (lower[j + 1] if j + 1 < len(lower) else 0))
-               / pivot for j in range(width)]
-        rows.append(nxt or [0])
-    return column
+    return [lead * r for r in linalg.routh_first_column(coefficients,
+                                                        len(coefficients) - 1)]
 
 
 def damping_conditions(loop: Loop):
