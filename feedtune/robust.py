@@ -256,21 +256,31 @@ def _options(constraint) -> dict:
     return constraint.model_dump(exclude={"metric", "min", "max"})
 
 
+def _dense_unit(ranges: list[str]):
+    """The dense sample of the ranges' unit box, (points × len(ranges)), and what it is in
+    words: a grid over one or two ranges (:data:`GRID_POINTS`), a Latin hypercube over
+    more."""
+    if not ranges:
+        return np.zeros((1, 0)), None
+    if len(ranges) in GRID_POINTS:
+        size = GRID_POINTS[len(ranges)]
+        axis = np.linspace(0.0, 1.0, size)
+        grid = f"{size}-point" if len(ranges) == 1 else f"{size} × {size}"
+        return (np.array(np.meshgrid(*[axis] * len(ranges))).reshape(len(ranges), -1).T,
+                f"a {grid} grid over {', '.join(ranges)}")
+    from scipy.stats import qmc
+
+    return (qmc.LatinHypercube(d=len(ranges), seed=INTERIOR_SEED + 1).random(SEARCH_POINTS),
+            f"{SEARCH_POINTS} Latin-hypercube points over {', '.join(ranges)}")
+
+
 def _search_points(robust: RobustSpec, nominal: Mapping[str, float]) -> list[dict[str, float]]:
-    """The dense sample of the uncertainty: every combination of the sets' values with a
-    grid over one or two ranges (:data:`GRID_POINTS`), or a Latin hypercube over more."""
+    """The dense sample of the uncertainty: every combination of the sets' values with
+    :func:`_dense_unit` over the ranges."""
     ranges = {name: p for name, p in robust.parameters.items() if p.is_range()}
     sets = {name: p for name, p in robust.parameters.items() if not p.is_range()}
     combos = corners(sets) if sets else [{}]
-    if not ranges:
-        unit = np.zeros((1, 0))
-    elif len(ranges) in GRID_POINTS:
-        axis = np.linspace(0.0, 1.0, GRID_POINTS[len(ranges)])
-        unit = np.array(np.meshgrid(*[axis] * len(ranges))).reshape(len(ranges), -1).T
-    else:
-        from scipy.stats import qmc
-
-        unit = qmc.LatinHypercube(d=len(ranges), seed=INTERIOR_SEED + 1).random(SEARCH_POINTS)
+    unit, _ = _dense_unit(list(ranges))
     points = []
     for combo in combos:
         for row in unit:
@@ -348,17 +358,12 @@ def worst_cases(check: PointCheck, robust: RobustSpec, nominal: Mapping[str, flo
 def _search_text(robust: RobustSpec, points: int, evaluations: int) -> str:
     """How :func:`worst_cases` searched the uncertainty, for the result."""
     ranges = [name for name, p in robust.parameters.items() if p.is_range()]
-    sets = [name for name, p in robust.parameters.items() if not p.is_range()]
-    if not ranges:
+    sets = any(not p.is_range() for p in robust.parameters.values())
+    _, grid = _dense_unit(ranges)
+    if grid is None:
         dense = "every combination of the sets' values"
-    elif len(ranges) in GRID_POINTS:
-        size = GRID_POINTS[len(ranges)]
-        grid = f"{size}-point" if len(ranges) == 1 else f"{size} × {size}"
-        dense = (f"a {grid} grid over {', '.join(ranges)}"
-                 + (" at every combination of the sets" if sets else ""))
     else:
-        dense = (f"{SEARCH_POINTS} Latin-hypercube points over {', '.join(ranges)}"
-                 + (" at every combination of the sets" if sets else ""))
+        dense = grid + (" at every combination of the sets" if sets else "")
     local = ("" if not ranges else
              "; from each constraint's worst point, " + ("bounded Brent over the range"
                                                           if len(ranges) == 1 else
