@@ -9,6 +9,7 @@ from __future__ import annotations
 import cmath
 import math
 import functools
+import sys
 
 from feedtune.lazy import ca
 
@@ -192,7 +193,7 @@ def routh_first_column(coefficients: list, count: int) -> list:
     column = [rows[1][0]]
     while len(column) < count:
         upper, lower = rows[-2], rows[-1]
-        pivot = ca.if_else(lower[0] == 0, 2.2250738585072014e-308, lower[0])
+        pivot = ca.if_else(lower[0] == 0, sys.float_info.min, lower[0])
         below = list(lower[1:]) + [0] * (len(upper) - len(lower))
         rows.append([(lower[0] * upper[j + 1] - upper[0] * below[j]) / pivot
                      for j in range(len(upper) - 1)] or [0])
