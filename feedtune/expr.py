@@ -43,6 +43,25 @@ class Magnitude(NamedTuple):
     expr: object
 
 
+class Unbounded(NamedTuple):
+    """A value that is +∞ where ``exists`` is 0: the quantity it measures does not exist
+    there (a gain margin without a phase crossover: python-control's ``gm = inf``).
+
+    ``finite`` is the value where ``exists`` is 1, and a finite stand-in elsewhere (e.g.
+    the margin read at the band's edge), so that the NLP's rows stay finite; ``exact`` is
+    the value itself, +∞ where the quantity does not exist. A bound from below holds
+    there (∞ ≥ b: the constraint is vacuously satisfied), one from above does not.
+    """
+
+    finite: object
+    exists: object
+
+    @property
+    def exact(self):
+        """``finite`` where the quantity exists, else +∞ (an expression)."""
+        return ca.if_else(self.exists > 0, self.finite, ca.inf)
+
+
 class Supremum:
     """max over ω of ``fn(ω) ≥ 0``: a grid of points plus the maximum refined between them.
 

@@ -132,17 +132,26 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
     where it falls below is bisected to 2⁻³² of its width and finished by Newton steps,
     whose last step carries the implicit-function derivative dω/dp = −(∂f/∂p)/(∂f/∂ω).
     Everything is plain CasADi arithmetic, so the NLP can expand it to SX. Without a
-    crossing on the grid, ω is the top of the band.
+    crossing on the grid, ω is the top of the band (:func:`crossing_if_any` also says
+    whether there was one).
     """
+    return crossing_if_any(fn, band, level, name)[0]
+
+
+def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
+                    name: str = "crossing") -> tuple:
+    """(ω, found): :func:`first_crossing`'s ω [rad/s], and whether ``fn`` falls through
+    ``level`` on the band's grid (1, else 0 and ω is the top of the band); both
+    expressions of the loop's symbols, or of numbers."""
     grid = np.log(log_grid(band))
     numbers = _number_functions(name, lambda w: fn(w) - level, 1)
     if numbers is not None:  # a loop of numbers: the same steps in floats, no graph to build
         f, slope = (Mapped(g) for g in numbers)
-        return ca.MX(_first_crossing_of_numbers(f, slope, grid, f(grid)))
+        return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     (f, slope), free = _functions(name, lambda w: fn(w) - level, 1)
     if not free:  # a loop of numbers: the same steps in floats, without a graph to build
         f, slope = Mapped(f), Mapped(slope)
-        return ca.MX(_first_crossing_of_numbers(f, slope, grid, f(grid)))
+        return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
     below = values < 0
     # first index below the level: scan from the top so the lowest one wins
@@ -163,18 +172,24 @@ def first_crossing(fn, band: tuple[float, float], level: float = 0.0, name: str 
         # bisection already holds to 2^-32 of a grid step)
         step = ca.if_else(g != 0, f(u, *free) / ca.if_else(g != 0, g, 1), 0)
         u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
-    return ca.exp(ca.if_else(found, u, grid[-1]))
+    return ca.exp(ca.if_else(found, u, grid[-1])), found
 
 
-def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -> float:
+def _as_expressions(located: tuple[float, bool]) -> tuple:
+    """(ω, found) of :func:`_first_crossing_of_numbers` as :func:`crossing_if_any`'s MX."""
+    return ca.MX(located[0]), ca.MX(float(located[1]))
+
+
+def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -> tuple:
     """:func:`first_crossing` for a function of ln ω without free symbols: the lowest grid
     interval whose upper end is below 0, bisected and finished by Newton steps exactly as
     the symbolic version does, in floats (building its graph of ≈ 3 if_else nodes per grid
     point cost 0.1 s a call on Bhatia's loop); ``f`` and ``slope`` are :class:`Mapped`
-    (SX-expanded, evaluated through CasADi's buffer). Returns ω [rad/s]."""
+    (SX-expanded, evaluated through CasADi's buffer). Returns (ω [rad/s], whether ``f``
+    falls below 0 on the grid)."""
     below = np.flatnonzero(values[1:] < 0)
     if below.size == 0:
-        return math.exp(grid[-1])
+        return math.exp(grid[-1]), False
     k = int(below[0]) + 1
     low, high = float(grid[k - 1]), float(grid[k])
     for _ in range(_BISECTIONS):
@@ -188,7 +203,7 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
         g = float(slope(u)[0])
         step = float(f(u)[0]) / g if g != 0 else 0.0  # as the symbolic version
         u = u - float(np.fmin(np.fmax(step, low - u), high - u))  # as ca.fmin/ca.fmax
-    return math.exp(u)
+    return math.exp(u), True
 
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):

@@ -39,6 +39,11 @@ class Metric:
     #: objective terms with ``goal: maximize``), e.g. the pole region of a decay rate;
     #: None: both ways
     direction: ClassVar[str | None] = None
+    #: where the value is +∞ because the quantity it measures does not exist, in words (a
+    #: gain margin without a phase crossover; the value is a :class:`feedtune.expr.Unbounded`);
+    #: None: never. A spec may not optimise it where it is +∞ at the box's corners and
+    #: centre (feedtune.schema.spec)
+    infinite_when: ClassVar[str | None] = None
 
     def unit_of(self, options, position_unit: str = "m") -> str:
         """SI unit of the value for these options on an axis whose position is in

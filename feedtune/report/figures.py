@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy.optimize import brentq
 
+from feedtune.schema.model import read_number
 from feedtune.validate.model import NotCovered
 
 #: figure size [in] and resolution [dpi] of every PNG
@@ -42,12 +43,14 @@ CIRCLE_MIN_SPAN = 1e-9
 ZOOM_SIDES, ZOOM_DEGREES = 4, 30
 
 
-def metric(result: dict, name: str, **options):
-    """The reported value of metric ``name`` whose options include ``options``, or None."""
+def metric(result: dict, name: str, **options) -> float | None:
+    """The reported value of metric ``name`` whose options include ``options`` (±∞ where
+    the result's JSON says "Infinity" / "-Infinity"), or None."""
     for m in (result.get("metrics") or {}).values():
-        if m.get("metric") == name and m.get("value") is not None and all(
+        value = read_number(m.get("value"))
+        if m.get("metric") == name and value is not None and all(
                 (m.get("options") or {}).get(k) == v for k, v in options.items()):
-            return m["value"]
+            return value
     return None
 
 
@@ -268,7 +271,7 @@ def margin_marks(model, result: dict, low: float,
         if crossover is not None:
             marks["phase"] = (float(crossover), -180.0 + pm)
     gm = metric(result, "gain_margin")
-    if gm is not None and gm > 0:
+    if gm is not None and 0 < gm < math.inf:  # +∞: no phase crossover, nothing to mark
         crossings = [w for w in _crossings(omega, np.sign(open_loop.imag), 0.0,
                                            lambda w: at(w).imag)
                      if at(w).real < 0]
@@ -315,7 +318,9 @@ def bode_figure(model, result: dict) -> Figure:
         phase.axhline(-180 + pm, color="C4", lw=0.8, ls=":")
         lines.append(f"phase margin {_g(pm)}°")
     gm = metric(result, "gain_margin")
-    if gm is not None:
+    if gm == math.inf:
+        lines.append("gain margin ∞ (the phase never reaches −180°)")
+    elif gm is not None:
         mag.axhline(-20 * math.log10(gm), color="C5", lw=0.8, ls=":")
         lines.append(f"gain margin {_g(gm)} ({20 * math.log10(gm):.2f} dB)")
     if "phase" in marks:  # the arrow from −180° up to the phase at the crossover

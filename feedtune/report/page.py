@@ -8,6 +8,7 @@ from html import escape
 
 from feedtune import __version__
 from feedtune.schema.labels import metric_label
+from feedtune.schema.model import read_number
 
 CSS = """body{font-family:sans-serif;max-width:60em;margin:2em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;margin:0.5em 0 1.5em}td,th{border:1px solid #ccc;
@@ -26,6 +27,8 @@ PROVENANCE = (("feedtune", "feedtune (tuned with)"), ("casadi", "CasADi"), ("ipo
 def _num(value) -> str:
     if value is None:
         return "—"
+    if isinstance(value, str) and read_number(value) is not None:  # ±∞ as JSON carries it
+        value = read_number(value)
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, float):

@@ -11,7 +11,7 @@ from typing import Any, Literal
 import casadi as ca
 from pydantic import Field
 
-from feedtune.schema.model import SpecModel
+from feedtune.schema.model import ExtendedFloat, SpecModel
 from feedtune.schema.status import Status
 from feedtune.schema.uncertainty import UncertainParameter
 
@@ -28,11 +28,16 @@ class TunedValue(ResultModel):
     at_bound: Literal["min", "max"] | None = Field(None, description="Bound the optimum lies on, if any")
 
 
+#: how a value's description says that it may be infinite
+INFINITE = ('; the string "Infinity" where the value is +∞ because its quantity does not '
+            'exist (a gain margin without a phase crossover), "-Infinity" for −∞')
+
+
 class MetricValue(ResultModel):
     metric: str
-    value: float | None = Field(
+    value: ExtendedFloat | None = Field(
         description="Value at the tuned point [unit]; null where undefined, and for every "
-                    "metric when the tuned loop is unstable")
+                    "metric when the tuned loop is unstable" + INFINITE)
     unit: str
     options: dict[str, Any] = Field(default_factory=dict)
 
@@ -42,8 +47,11 @@ class ConstraintResult(ResultModel):
     options: dict[str, Any] = Field(default_factory=dict)
     min: float | None
     max: float | None
-    value: float | None
-    satisfied: bool
+    value: ExtendedFloat | None = Field(
+        description="The constraint's value at the tuned point [the metric's unit]; null "
+                    "where undefined or the loop is unstable" + INFINITE)
+    satisfied: bool = Field(description="Stable, and min ≤ value ≤ max (+∞ meets a min "
+                                        "and no max)")
 
 
 class StartResult(ResultModel):
@@ -115,9 +123,9 @@ class ScenarioResult(ResultModel):
                     "worst_case: added by the worst-case search")
     round: int = Field(description="The solve that first held it [count, from 1]")
     stable: bool
-    constraints: list[float | None] = Field(
+    constraints: list[ExtendedFloat | None] = Field(
         description="Each constraint's value, in the spec's order [its unit]; null where the "
-                    "loop is unstable")
+                    "loop is unstable" + INFINITE)
     satisfied: bool = Field(description="Stable, and every constraint within its bound")
 
 
@@ -130,10 +138,11 @@ class WorstCase(ResultModel):
     min: float | None
     max: float | None
     parameters: dict[str, float] = Field(description="Where it is worst [each its unit]")
-    value: float | None = Field(description="Its value there [the metric's unit]")
-    margin: float | None = Field(
+    value: ExtendedFloat | None = Field(description="Its value there [the metric's unit]"
+                                                    + INFINITE)
+    margin: ExtendedFloat | None = Field(
         description="How far inside its bounds it is there, negative outside [the metric's "
-                    "unit]; null for an unstable loop")
+                    "unit]; null for an unstable loop" + INFINITE)
     tolerance: float = Field(description="The violation allowed: the robust tolerance times "
                                          "the bound's size [the metric's unit]")
     satisfied: bool

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import re
 from typing import Annotated, Any, Literal, Union, get_origin
 
@@ -17,6 +18,7 @@ from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter
                       create_model, field_validator, model_serializer, model_validator)
 from typing_extensions import TypedDict
 
+from feedtune.expr import Unbounded, to_float
 from feedtune.loops.loop import HorizonError
 from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
@@ -769,6 +771,13 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
                                "configuration: evaluated on the tuned design, it cannot be an "
                                "objective term or a constraint; optimisable here: "
                                f"{', '.join(optimisable) or 'none'}"))
+            elif (section == "objective" and term is not None and box_complete
+                  and metric.infinite_when and _infinite_over_box(plant, box, loop, metric, term)):
+                errors.append((where, f"metric {json.dumps(name)} is +∞ at the low and high "
+                                      "corners and the centre of the tunables' box ("
+                                      f"{metric.infinite_when}): as an objective term it has "
+                                      "no finite optimum; hold it with a constraint ('min') "
+                                      "instead, which +∞ meets"))
             elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
                   and has_exact_step(loop, term)):
                 if not loop.offers(Capability.SAMPLE_HORIZON):
@@ -779,6 +788,24 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
                     errors.append((where, f"{name} sums the step response sample by sample: "
                                           f"{exc}"))
     return errors
+
+
+def _infinite_over_box(plant, box: dict, loop, metric, options) -> bool:
+    """Whether ``metric`` (one with :attr:`~feedtune.objectives.base.Metric.infinite_when`)
+    is +∞ on ``loop`` (the box's high corner) and on the loops at the box's low corner and
+    geometric centre: a sample, which finds a quantity that the loop's structure never
+    has (Koren's K/(s(1 + sτ)) has no phase crossover at any K). False where a loop
+    cannot be evaluated (the tuner then reports what it finds)."""
+    corners = [{n: lo for n, (lo, hi) in box.items()},
+               {n: math.sqrt(lo * hi) for n, (lo, hi) in box.items()}]
+    try:
+        for point in [loop, *(plant.loop(values, box) for values in corners)]:
+            value = metric.evaluate(point, options)
+            if to_float(value.exact if isinstance(value, Unbounded) else value) != math.inf:
+                return False
+    except (ArithmeticError, RuntimeError, ValueError):
+        return False
+    return True
 
 
 def parse_spec(data: bytes | str | dict) -> Spec:

@@ -18,7 +18,7 @@ import numpy as np
 from feedtune.expr import Magnitude
 from feedtune.tuner.scenarios import objective_value
 from feedtune.tuner.terms import exact_value
-from feedtune.tuner.types import finite
+from feedtune.tuner.types import finite, number
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,7 @@ class Seen:
     """Values at one point, each in its metric's unit (None: not a finite number).
 
     ``objective`` is Σ weight·term (the largest such sum over the terms' groups); ``terms`` and ``bounds`` each metric value (|e| for a
-    magnitude); ``stability`` and ``settling`` the loop's conditions (all > 0 when stable
+    magnitude; a bound's value may be ±∞, an :class:`~feedtune.expr.Unbounded` one); ``stability`` and ``settling`` the loop's conditions (all > 0 when stable
     and settled); ``matrices`` the state matrices that must be stable, by name.
     """
 
@@ -82,19 +82,19 @@ class Evaluator:
     def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
         out = self.function(z=z, p=p[:self.n_params])
 
-        def values(row, magnitudes, scans):
+        def values(row, magnitudes, scans, read=finite):
             row = np.asarray(row, dtype=float).ravel()
             result = []
             for v, magnitude, scan in zip(row, magnitudes, scans):
                 v = scan.exact(z, p) if scan is not None else v
-                result.append(finite(abs(v) if magnitude else v))
+                result.append(read(abs(v) if magnitude else v))
             return result
 
         terms = values(out["terms"], self.term_magnitude, self.term_scans)
         objective = objective_value(self.weights, terms, self.groups)
         return Seen(objective=finite(objective) if objective is not None else None,
                     terms=terms,
-                    bounds=values(out["bounds"], self.bound_magnitude, self.bound_scans),
+                    bounds=values(out["bounds"], self.bound_magnitude, self.bound_scans, number),
                     stability=np.asarray(out["stability"], dtype=float).ravel(),
                     settling=np.asarray(out["settling"], dtype=float).ravel(),
                     matrices={name: np.asarray(out[name], dtype=float)

@@ -47,7 +47,7 @@ from feedtune.tuner.structure import Structure, build_structure, leading_values
 from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points
 from feedtune.tuner.terms import add_bound, add_term, exact_value
 from feedtune.tuner.types import (SOLVED, STATUS, Bound, Outcome, Settings, StartOutcome, Term,
-                                  Variable, finite, within)
+                                  Variable, finite, number, within)
 
 #: a scaled settling condition below this at the optimum means the horizon limited it
 SETTLING_ACTIVE = 1e-6
@@ -264,18 +264,18 @@ class Problem:
         """
         loop = self.make_loop(dict(values))
 
-        def number(value):
+        def value_of(value, read=number):  # ±∞ kept (an Unbounded value), NaN as None
             expr, mag = exact_value(value)
-            return finite(ca.fabs(ca.evalf(expr)) if mag else ca.evalf(expr))
+            return read(ca.fabs(ca.evalf(expr)) if mag else ca.evalf(expr))
 
-        terms = [number(t.value(loop)) for t in self.objective_terms]
+        terms = [value_of(t.value(loop), finite) for t in self.objective_terms]
         objective = objective_value([t.weight for t in self.objective_terms], terms,
                                     [t.group for t in self.objective_terms])
-        bounds = [number(b.value(loop)) for b in self.bounds]
+        bounds = [value_of(b.value(loop)) for b in self.bounds]
         conditions = np.array([to_float(c) for c in loop.stability_conditions()])
         matrices = {name: to_array(m)
                     for name, m in loop.stability_matrices().items()}
-        reports = {key: number(fn(loop)) for key, fn in self.reports.items()}
+        reports = {key: value_of(fn(loop)) for key, fn in self.reports.items()}
         return objective, bounds, conditions, matrices, reports
 
     def _feasible(self, bounds, conditions, matrices) -> tuple[bool, dict]:
@@ -352,7 +352,8 @@ class Problem:
         if status in SOLVED and feasible and objective is None:
             status = ERROR
             message = ("the objective is not a finite number at the tuned point (an input far "
-                       "outside the model's range?)")
+                       "outside the model's range, or an optimised metric that is infinite there "
+                       "because its quantity does not exist: bound it with a constraint instead)")
         elif success:
             message = f"start {index + 1} of {len(starts)} gave the best feasible optimum"
         elif status in SOLVED:
@@ -493,8 +494,11 @@ class Problem:
             return math.inf
         gaps = [abs(seen_objective - objective) / max(abs(objective), 1e-9 * self.f_scale, 1e-300)]
         for a, b, bound in zip(seen_bounds, bounds, self.bounds):
-            if a is None or b is None:
+            if a is None or b is None or (math.isinf(a) or math.isinf(b)) and a != b:
                 return math.inf
+            if a == b:  # also two equal infinities (an Unbounded value's, seen alike)
+                gaps.append(0.0)
+                continue
             scale_ = max(abs(b), abs(bound.lower or 0), abs(bound.upper or 0), 1e-300)
             gaps.append(abs(a - b) / scale_)
         return max(gaps)

@@ -3,10 +3,12 @@
 A metric's value is a plain expression, a :class:`~feedtune.expr.Magnitude` (|e|), a
 :class:`~feedtune.expr.Supremum` (a peak over ω) or a :class:`~feedtune.expr.Crossing`
 (the first ω where a condition falls to 0) or a :class:`~feedtune.expr.PoleRegion` (the
-least decay rate or damping of the poles). Magnitudes become epigraphs (a slack t with
+least decay rate or damping of the poles) or an :class:`~feedtune.expr.Unbounded` (+∞ where
+its quantity does not exist). Magnitudes become epigraphs (a slack t with
 −t ≤ e ≤ t), peaks epigraphs over the frequency grid, crossings an auxiliary variable
 (feedtune.tuner.supremum), pole regions the Hurwitz rows of their polynomial test
-(feedtune.tuner.poles), so the NLP stays smooth. Every row is divided by a scale, an
+(feedtune.tuner.poles), unbounded values their finite stand-in, so the NLP stays smooth
+and finite. Every row is divided by a scale, an
 NLP parameter, so one built solver serves specs of other magnitudes.
 """
 
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from feedtune.expr import Crossing, Magnitude, PoleRegion, Supremum
+from feedtune.expr import Crossing, Magnitude, PoleRegion, Supremum, Unbounded
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.poles import region_bound, region_term
 from feedtune.tuner.supremum import ExchangeGroup, crossing_variable, supremum_below
@@ -25,9 +27,20 @@ def exact_value(value) -> tuple[object, bool]:
     """(expression, is |·|): the exact value the result reports, for any metric value."""
     if isinstance(value, Magnitude):
         return value.expr, True
-    if isinstance(value, (Supremum, Crossing, PoleRegion)):
+    if isinstance(value, (Supremum, Crossing, PoleRegion, Unbounded)):
         return value.exact, False
     return value, False
+
+
+def unbounded_row(value: Unbounded, s, lower: float, upper: float):
+    """The row of an :class:`~feedtune.expr.Unbounded` value for ``lower ≤ value/s ≤
+    upper`` (``s`` the bound's scale; ``lower``, ``upper`` divided by it, ±inf where a side
+    is open): value/s where its quantity exists; where it does not (the value is +∞), a
+    number the row's bounds accept when only ``lower`` binds (∞ ≥ lower: vacuously
+    satisfied) and refuse, by one scale, when ``upper`` does (∞ > upper)."""
+    row = value.finite / s
+    stand = upper + 1 if upper < ca.inf else lower
+    return ca.if_else(value.exists > 0, row, ca.fmax(row, stand))
 
 
 def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
@@ -43,6 +56,8 @@ def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
     # symbols a Supremum's or Crossing's exact value is a large graph the NLP does not use
     if isinstance(value, Crossing):
         return weight * crossing_variable(builder, value, scan, index, sign > 0, groups)
+    if isinstance(value, Unbounded):  # maximised (or minimised) where it is finite; a tuned
+        return weight * value.finite  # point where it is +∞ has no finite objective
     if isinstance(value, PoleRegion):
         if sign > 0:  # "some pole is slow" is a union of regions: no smooth rows
             raise ValueError("a pole region (decay rate, damping) can only be maximised")
@@ -86,6 +101,8 @@ def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
                        s, bound.upper > 0, groups)
         if bound.lower is not None:
             builder.constrain(value.exact / s, lower, ca.inf)
+    elif isinstance(value, Unbounded):
+        builder.constrain(unbounded_row(value, s, lower, upper), lower, upper)
     elif magnitude and bound.lower is not None and bound.lower > 0:
         builder.constrain(value.expr**2 / s**2, lower**2,
                           upper**2 if bound.upper is not None else ca.inf)

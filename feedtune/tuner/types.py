@@ -141,9 +141,16 @@ def finite(x) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def number(x) -> float | None:
+    """``x`` as a float, ±∞ included (an :class:`~feedtune.expr.Unbounded` value where its
+    quantity does not exist), or None when it is NaN."""
+    value = float(x)
+    return None if math.isnan(value) else value
+
+
 def within(value: float | None, lower: float | None, upper: float | None) -> bool:
     """``lower ≤ value ≤ upper`` within FEASIBILITY_TOL relative to max(1, |bound|); a
-    missing value holds no bound."""
+    missing value holds no bound; +∞ holds a lower bound only."""
     if value is None:
         return False
     if lower is not None and value < lower - FEASIBILITY_TOL * max(1.0, abs(lower)):

@@ -253,12 +253,13 @@ class ContinuousModel:
 
     def gain_margin(self) -> float:
         """1/|L| [1] at the lowest ω where L crosses the negative real axis (the unwrapped
-        phase crosses −180°), located where Im L/|L| changes sign, refined by brentq."""
+        phase crosses −180°), located where Im L/|L| changes sign, refined by brentq; +∞
+        where the phase never reaches −180° on the grid (python-control's gm = inf)."""
         grid = self._grid()
         phase = np.unwrap(np.angle(self._open(grid)))
         turns = np.nonzero(np.sign(phase[:-1] + math.pi) != np.sign(phase[1:] + math.pi))[0]
         if turns.size == 0:
-            raise NotCovered("the open-loop phase never reaches −180°")
+            return math.inf
         i = turns[0]
 
         def imag(u):

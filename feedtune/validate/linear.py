@@ -353,7 +353,8 @@ class LinearModel(ContinuousModel):
     def gain_margin(self) -> float:
         """1/|L| [1] where the open-loop phase first reaches −180°, the phase unwrapped from
         that of L·(jω)^n (n the loop's type, so it starts near 0° and not on the ±180° branch
-        cut a type-2 loop's low-frequency phase sits on) minus n·90°; refined by brentq."""
+        cut a type-2 loop's low-frequency phase sits on) minus n·90°; refined by brentq; +∞
+        where the phase never reaches −180° on the grid (python-control's gm = inf)."""
         n = self._loop_type()
         grid = self._grid()
         phase = np.unwrap(np.angle(self._open(grid) * (1j * grid) ** n)) - n * math.pi / 2
@@ -363,7 +364,7 @@ class LinearModel(ContinuousModel):
         decided = np.flatnonzero(side)
         turns = np.flatnonzero(side[decided[:-1]] != side[decided[1:]])
         if turns.size == 0:
-            raise NotCovered("the open-loop phase never reaches −180°")
+            return math.inf
         i, j = decided[turns[0]], decided[turns[0] + 1]
 
         def imag(u):

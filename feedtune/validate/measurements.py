@@ -18,6 +18,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
+from feedtune.schema.model import read_number
 from feedtune.validate.model import NotCovered
 from feedtune.validate.tolerances import Context, judge
 
@@ -73,9 +74,10 @@ def measure_entries(model, phases: Sequence[Phase], result: dict,
     metrics = list((result.get("metrics") or {}).values())
     for phase in phases:
         for m in metrics:
-            name, options, reported = m["metric"], m.get("options") or {}, m.get("value")
-            if reported is None or (phase.skip_infinite and isinstance(reported, float)
-                                    and math.isinf(reported)):
+            # a result's JSON carries ±∞ as "Infinity" / "-Infinity" (a gain margin without
+            # a phase crossover), read back as the float
+            name, options, reported = m["metric"], m.get("options") or {}, read_number(m.get("value"))
+            if reported is None or (phase.skip_infinite and math.isinf(reported)):
                 continue
             row = phase.table.get(name)
             if row is None or not row.covers(model, options):
@@ -89,5 +91,5 @@ def measure_entries(model, phases: Sequence[Phase], result: dict,
                 value, scale = value
             if callable(context):
                 context = context()
-            entries.append(judge(m, value, context, scale))
+            entries.append(judge({**m, "value": reported}, value, context, scale))
     return entries

@@ -13,7 +13,7 @@ discretised by ``expm``, Van Loan), never on :mod:`feedtune.loops.loop`:
   the gain stays above −3 dB up to Nyquist, the tuner's convention); ``crossover_frequency``
   (|L| = 1) and ``phase_margin`` there; ``gain_margin`` 1/|L| where the unwrapped phase
   first reaches −180°, or at π/T when L(−1) is real negative (the phase of a ZOH loop
-  often reaches −180° exactly at Nyquist);
+  often reaches −180° exactly at Nyquist), else +∞;
 * ``overshoot`` and ``settling_time`` (step, continuous time): the position between
   samples from expm of the drive with the held command as a state, on SUBSTEPS points per
   sample, then refined by bounded Brent (the peak) and brentq (the last exit from the band).
@@ -135,7 +135,7 @@ def phase_margin(model) -> float:
 
 def gain_margin(model, integrators: int = 0) -> float:
     """1/|L| [1] where the unwrapped phase of L first reaches −180° below π/T, else at π/T
-    when L(−1) < 0.
+    when L(−1) < 0, else +∞ (no phase crossover: python-control's gm = inf).
 
     ``integrators`` n > 0: the phase is unwrapped from that of L·(z − 1)^n, which starts
     near 0°, minus n·arg(z − 1) = n(90° + ωT/2): a type-2 loop's phase starts on the ±180°
@@ -159,7 +159,7 @@ def gain_margin(model, integrators: int = 0) -> float:
         return float(1.0 / abs(model.open_loop(omega)[0]))
     if lo[-1].real < 0:
         return float(1.0 / abs(lo[-1]))
-    raise NotCovered("the open-loop phase never reaches −180° up to the Nyquist frequency")
+    return math.inf
 
 
 class StepPosition:

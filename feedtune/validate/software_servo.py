@@ -731,7 +731,9 @@ SERVO_MEASUREMENTS: dict[str, Measurement] = {
 
 
 def _no_phase_crossover(model: ServoModel, options: dict, reported, cache: dict) -> float:
-    raise NotCovered("the phase of K/(s(1 + sτ)) never reaches −180°: no gain margin")
+    """+∞: the phase −90° − atan(ωτ) of K/(s(1 + sτ)) never reaches −180° (Koren 1979
+    eq 5), so no gain makes the loop unstable (python-control's gm = inf)."""
+    return math.inf
 
 
 #: the continuous (reference-pulse) ServoModel's frequency metrics, in closed form

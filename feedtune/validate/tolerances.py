@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from feedtune.schema.model import json_number
+
 
 @dataclass(frozen=True)
 class Rule:
@@ -211,7 +213,10 @@ def judge(record: dict, validated: float, context: Context,
     (``criterion``: min_radius). The entry holds ``gap`` = |reported − validated| and
     ``tolerance`` = max(rel·|validated|, fraction·scale), both in ``unit``; ``basis`` says
     which of the two set the tolerance ("BLU/1000", "1e-06 × |value|"). An infinite value
-    (a run that never settles) has no gap: ``ok`` when both are infinite alike.
+    (a run that never settles, a gain margin without a phase crossover) has no gap: ``ok``
+    when both are infinite alike; the entry then holds ±∞ as the strings "Infinity" /
+    "-Infinity" (:func:`feedtune.schema.model.json_number`), and no tolerance when the
+    validated value is the infinite one.
     """
     metric, options = record["metric"], record.get("options") or {}
     reported = record["value"]
@@ -224,7 +229,10 @@ def judge(record: dict, validated: float, context: Context,
     basis = _label(rule.fraction, scale[1]) if absolute >= relative else f"{rule.rel:g} × |value|"
     row = {"metric": metric, "options": options, "reported": reported, "validated": validated,
            "unit": record.get("unit"), "gap": None, "tolerance": tolerance, "basis": basis}
-    if math.isinf(reported) or math.isinf(validated):  # e.g. a run that never settles
-        return {**row, "ok": reported == validated}
+    if math.isinf(reported) or math.isinf(validated):  # a run that never settles, a gain
+        # margin without a phase crossover: ±∞ as a result's JSON carries it
+        return {**row, "reported": json_number(reported), "validated": json_number(validated),
+                "tolerance": tolerance if math.isfinite(tolerance) else None,
+                "ok": reported == validated}
     gap = abs(reported - validated)
     return {**row, "gap": gap, "ok": bool(gap <= tolerance)}

@@ -22,7 +22,6 @@ from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
 from feedtune.tuner.terms import exact_value
-from feedtune.validate.model import NotCovered
 from feedtune.validate.software_servo import ServoModel
 
 TAU = 0.02  # [s], Koren's example
@@ -78,15 +77,16 @@ def test_tuner_and_validator_are_python_controls(gain):
         assert closed_form[name] == pytest.approx(theirs[name], rel=1e-9), name
 
 
-def test_no_phase_crossover_no_gain_margin():
+@pytest.mark.parametrize("gain", [5.0, 25.25, 60.0])
+def test_no_phase_crossover_infinite_gain_margin(gain):
     """The phase −90° − atan(ωτ) stays above −180°: python-control finds no phase crossover
-    (∞), the tuner's value is 1/|L| at the top of its band (two decades above 1/τ and
-    K_max: at least 1/|L(2e4)| = 2e4·√(1 + 400²)/K ≫ 1e3), the validator leaves it out."""
-    assert math.isinf(control_metrics(25.25)["gain_margin"])
-    assert tuner_metrics(25.25)["gain_margin"] > 1e5
-    model = ServoModel(25.25, TAU)
-    with pytest.raises(NotCovered):
-        model.measurement_tables()[0].table["gain_margin"].measure(model, {}, 1e5, {})
+    (gm = inf), and so do the tuner's metric (before issue 16's fix: 1/|L| at the top of
+    its band, > 1e5) and the validator's closed form (before: left out)."""
+    assert control_metrics(gain)["gain_margin"] == math.inf
+    assert tuner_metrics(gain)["gain_margin"] == math.inf
+    model = ServoModel(gain, TAU)
+    assert model.measurement_tables()[0].table["gain_margin"].measure(model, {}, math.inf,
+                                                                      {}) == math.inf
 
 
 def test_widest_bandwidth_under_an_m_peak_bound_is_the_closed_form():

@@ -1,7 +1,8 @@
 """Gain margin of the open loop (Bhatia 1971, Ch. IV F; ≈ 1.2 uncompensated)."""
 
+from feedtune.expr import Unbounded
 from feedtune.lazy import ca
-from feedtune.loops.frequency import first_crossing
+from feedtune.loops.frequency import crossing_if_any
 from feedtune.loops.protocols import Loop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency.frequency_domain import (as_number, has_open_loop,
@@ -9,22 +10,32 @@ from feedtune.objectives.frequency.frequency_domain import (as_number, has_open_
 
 
 class GainMargin(Metric):
-    """1/|L(jω_180)| [1] at the lowest phase crossover ω_180 (arg L = −180°).
+    """1/|L(jω_180)| [1] at the lowest phase crossover ω_180 (arg L = −180°); +∞ where the
+    phase never reaches −180° in the loop's band (Koren's K/(s(1 + sτ)), any loop whose
+    Nyquist plot never meets the negative real axis), as python-control's
+    ``stability_margins`` gives it.
 
     A sampled loop's L(e^{jωT}) is real at the Nyquist frequency: when it is negative there
-    and the phase has not reached −180° before, ω_180 = π/T (a ZOH loop without delay).
+    and the phase has not reached −180° before, ω_180 = π/T (a ZOH loop without delay);
+    when it is positive there, the phase has not crossed −180° below π/T and the margin is
+    +∞. Where the lowest ω with Im L = 0 has Re L ≥ 0 (the positive real axis, not a phase
+    crossover) the margin is +∞ too. The value is an :class:`~feedtune.expr.Unbounded`:
+    the NLP reads 1/|L| at the band's top (where the crossing is looked for last) where
+    there is no crossover, so a bound from below holds there and one from above does not.
     """
 
     name = "gain_margin"
     unit = "1"
-    description = "Factor by which the open-loop gain may grow before instability (ratio, not dB)"
+    description = ("Factor by which the open-loop gain may grow before instability (ratio, "
+                   "not dB); +inf without a phase crossover")
     reference = "Bhatia 1971 Ch. IV F (gain margin 1.2 of the uncompensated loop)"
+    infinite_when = "no phase crossover: the open-loop phase never reaches −180°"
 
     def supports(self, loop: Loop, options=None):
         return has_open_loop(loop)
 
     def evaluate(self, loop: Loop, options):
-        omega = first_crossing(phase_crossover_indicator(loop), loop.frequency_band, 0.0,
-                                  "phase_crossover")
+        omega, found = crossing_if_any(phase_crossover_indicator(loop), loop.frequency_band,
+                                       0.0, "phase_crossover")
         re, im = loop.open_loop_response(as_number(omega))
-        return 1 / ca.sqrt(re**2 + im**2)
+        return Unbounded(1 / ca.sqrt(re**2 + im**2), found * (re < 0))
