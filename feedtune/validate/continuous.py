@@ -408,8 +408,8 @@ class ContinuousModel:
         return cache[key]
 
     def measurement_tables(self) -> tuple[Phase, ...]:
-        """:data:`CONTINUOUS_MEASUREMENTS`, a reported ∞ left out."""
-        return (Phase(CONTINUOUS_MEASUREMENTS, skip_infinite=True),)
+        """:data:`CONTINUOUS_MEASUREMENTS`."""
+        return (Phase(CONTINUOUS_MEASUREMENTS),)
 
     def measure(self, result: dict) -> list[dict]:
         """Entries for every frequency- and time-domain metric the result reports that

@@ -14,7 +14,6 @@ The pole measures every model with poles shares (``decay_rate``, ``pole_damping`
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -52,11 +51,12 @@ Table = Mapping[str, Measurement]
 
 @dataclass(frozen=True)
 class Phase:
-    """One pass over a result's metrics with one table; ``skip_infinite``: a reported ∞
-    (a run that never settles) is left out instead of judged."""
+    """One pass over a result's metrics with one table. A reported ±∞ (a gain margin
+    without a phase crossover, a run that never settles) is judged like any value:
+    :func:`feedtune.validate.tolerances.judge` finds it ok only where the model's value is
+    the same infinity."""
 
     table: Table
-    skip_infinite: bool = False
 
 
 def measures(phases: Sequence[Phase], name: str, options: dict, model) -> bool:
@@ -77,7 +77,7 @@ def measure_entries(model, phases: Sequence[Phase], result: dict,
             # a result's JSON carries ±∞ as "Infinity" / "-Infinity" (a gain margin without
             # a phase crossover), read back as the float
             name, options, reported = m["metric"], m.get("options") or {}, read_number(m.get("value"))
-            if reported is None or (phase.skip_infinite and math.isinf(reported)):
+            if reported is None:
                 continue
             row = phase.table.get(name)
             if row is None or not row.covers(model, options):
