@@ -91,3 +91,18 @@ def test_bode_figure_marks_both_margins(name):
     loop = complex(model.frequency_response(np.array([marked["GM"]]))[0][0])
     assert loop.real < 0
     assert abs(math.degrees(math.atan2(loop.imag, -loop.real))) < PHASE_TOL_DEG
+
+
+def test_an_infinite_gain_margin_draws_no_arrow_and_says_so():
+    """Koren's reference-pulse loop K/(s(1 + sτ)) has no phase crossover: its gain margin
+    is +∞ (the result's JSON "Infinity"), so the Bode figure carries no GM arrow and no GM
+    line, and its note says ∞ (before: a line at −20·log10(1/|L|) of the band's top, −110 dB,
+    labelled as a finite margin)."""
+    result, model = evaluated(SPECS["koren-1979-reference-pulse.json"])
+    assert metric(result, "gain_margin") == math.inf
+    figure = bode_figure(model, result)
+    assert "GM" not in arrows(figure) and "PM" in arrows(figure)
+    notes = " ".join(text.get_text() for ax in figure.axes for text in ax.texts)
+    assert "gain margin ∞" in notes
+    magnitude = figure.axes[0]
+    assert not [line for line in magnitude.get_lines() if line.get_color() == "C5"]
