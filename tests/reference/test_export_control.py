@@ -307,6 +307,18 @@ def test_damping_of_second_order_loops_agrees(exported, name):
     assert wn[0] == pytest.approx(metric(loaded, "natural_frequency"), rel=1e-9)
 
 
+def test_reference_pulse_gain_margin_is_python_controls_infinity(exported):
+    """Koren's reference-pulse loop K/(s(1 + sτ)) has no phase crossover: python-control's
+    ``stability_margins`` of the export gives gm = inf, and the result, read back from its
+    file (JSON "Infinity"), says the same; the phase margin and crossover agree to 1e-9 as
+    on the cascades (test_frequency_metrics_agree_with_the_result)."""
+    loaded, systems = exported("koren-1979-reference-pulse")
+    gm, pm, _, _, wc, _ = control.stability_margins(systems.open_loop)
+    assert gm == metric(loaded, "gain_margin") == math.inf
+    assert pm == pytest.approx(metric(loaded, "phase_margin"), rel=1e-9)
+    assert wc == pytest.approx(metric(loaded, "crossover_frequency"), rel=1e-9)
+
+
 # -- sampled loops -----------------------------------------------------------------------------
 
 def test_koren_sampled_loop_in_the_z_plane(exported):
