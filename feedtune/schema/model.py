@@ -4,7 +4,8 @@ and the one number type a result may hold infinite."""
 import math
 from typing import Annotated
 
-from pydantic import AfterValidator, AllowInfNan, BaseModel, ConfigDict, PlainSerializer, WithJsonSchema
+from pydantic import (AfterValidator, AllowInfNan, BaseModel, ConfigDict, PlainSerializer,
+                      WithJsonSchema)
 
 #: how JSON carries ±∞ (it has no such number): the strings pydantic writes with
 #: ``ser_json_inf_nan="strings"`` and JavaScript's ``Number()`` reads
@@ -27,7 +28,8 @@ def read_number(value) -> float | None:
     "-Infinity" as ±∞, a number as a float, anything else (null) as None."""
     if isinstance(value, str):
         return next((number for number, text in JSON_INFINITY.items() if text == value), None)
-    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    return float(value) if number else None
 
 
 def _not_nan(value: float) -> float:

@@ -23,11 +23,13 @@ from feedtune.tuner.types import finite, number
 
 @dataclass(frozen=True)
 class Seen:
-    """Values at one point, each in its metric's unit (None: not a finite number).
+    """Values at one point, each in its metric's unit (None: not a finite number; a bound's
+    value may be ±∞, an :class:`~feedtune.expr.Unbounded` one's, None only for NaN).
 
-    ``objective`` is Σ weight·term (the largest such sum over the terms' groups); ``terms`` and ``bounds`` each metric value (|e| for a
-    magnitude; a bound's value may be ±∞, an :class:`~feedtune.expr.Unbounded` one); ``stability`` and ``settling`` the loop's conditions (all > 0 when stable
-    and settled); ``matrices`` the state matrices that must be stable, by name.
+    ``objective`` is Σ weight·term (the largest such sum over the terms' groups); ``terms``
+    and ``bounds`` each metric value (|e| for a magnitude); ``stability`` and ``settling``
+    the loop's conditions (all > 0 when stable and settled); ``matrices`` the state
+    matrices that must be stable, by name.
     """
 
     objective: float | None

@@ -76,7 +76,8 @@ def measure_entries(model, phases: Sequence[Phase], result: dict,
         for m in metrics:
             # a result's JSON carries ±∞ as "Infinity" / "-Infinity" (a gain margin without
             # a phase crossover), read back as the float
-            name, options, reported = m["metric"], m.get("options") or {}, read_number(m.get("value"))
+            name, options = m["metric"], m.get("options") or {}
+            reported = read_number(m.get("value"))
             if reported is None:
                 continue
             row = phase.table.get(name)

@@ -105,7 +105,7 @@ RULES: dict[str, Rule] = {
                        "relative to its magnitude, 1e-6·|p| as the poles entry"),
     "overshoot": Rule(1e-6, "unity", 1e-6,
                       "a fraction of the unit step; 0 when there is none, so never relative"),
-    "gain_margin": Rule(1e-6, RELATIVE, 0.0, "a ratio > 0"),
+    "gain_margin": Rule(1e-6, RELATIVE, 0.0, "a ratio > 0; +∞ without a phase crossover"),
     "phase_margin": Rule(1e-6, "half_turn", 1e-6, "an angle: 180° is its natural scale"),
     # -- frequencies, gains, times that are positive --------------------------------------
     "natural_frequency": Rule(1e-6, RELATIVE, 0.0, "a pole's magnitude > 0"),
