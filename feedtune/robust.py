@@ -202,8 +202,10 @@ def _on(fn: Callable, k: int) -> Callable:
 
 def margin(value: float | None, lower: float | None, upper: float | None) -> float:
     """How far ``value`` is inside its bounds [the metric's unit]: negative outside, −∞
-    when there is no value (an unstable loop, a response that cannot be computed)."""
-    if value is None or not math.isfinite(value):
+    when there is no value (an unstable loop, a response that cannot be computed); a value
+    of +∞ (a gain margin without a phase crossover) is +∞ inside a lower bound and −∞
+    outside an upper one."""
+    if value is None or math.isnan(value):
         return -math.inf
     sides = [value - lower] if lower is not None else []
     sides += [upper - value] if upper is not None else []
@@ -248,7 +250,7 @@ class PointCheck:
                          else to_float(ca.evalf(ca.fabs(expr) if magnitude else expr)))
             except HorizonError:
                 value = math.nan
-            values.append(value if stable and math.isfinite(value) else None)
+            values.append(value if stable and not math.isnan(value) else None)
         return values, stability
 
 
@@ -336,7 +338,7 @@ def worst_cases(check: PointCheck, robust: RobustSpec, nominal: Mapping[str, flo
                 found = margin(value, lower, upper)
                 if found < best.margin:
                     best.numbers, best.value, best.margin = numbers, value, found
-                return found / scale if math.isfinite(found) else -1e3
+                return found / scale if math.isfinite(found) else math.copysign(1e3, found)
 
             start = np.array([(point[name] - p.min) / (p.max - p.min)
                               for name, p in ranges.items()])
@@ -466,7 +468,7 @@ def _robust_result(spec: Spec, result: TuneResult, scenarios: list[Scenario], wo
     worst_results = [
         WorstCase(metric=c.metric, options=_options(c), min=c.min, max=c.max,
                   parameters=case.numbers, value=case.value,
-                  margin=case.margin if math.isfinite(case.margin) else None,
+                  margin=case.margin if case.margin > -math.inf else None,
                   tolerance=case.tolerance, satisfied=case.holds)
         for c, case in zip(spec.constraints, worst or [])]
     block = RobustResult(
