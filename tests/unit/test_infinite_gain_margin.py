@@ -139,3 +139,19 @@ def test_nan_is_not_a_value_and_the_schema_names_the_strings():
         with pytest.raises(ValidationError):
             MetricValue.model_validate(record(nan))
     assert '"enum": ["Infinity", "-Infinity"]' in json.dumps(TuneResult.model_json_schema())
+
+
+def test_a_robust_min_bound_holds_in_every_scenario():
+    """τ uncertain in [15, 25] ms: the gain margin is +∞ in every scenario and at the worst
+    case, whose margin to the bound is +∞ (before, the robust check took +∞ for "no value",
+    a margin of −∞: violated); the validator's scenario checks agree."""
+    data = spec({**KOREN, "time_constant": {"min": 0.015, "max": 0.025}},
+                [{"metric": "bandwidth", "goal": "maximize"}],
+                [{"metric": "gain_margin", "min": 2}, {"metric": "m_peak", "max": 1.1}],
+                "position_gain")
+    result = tune(parse_spec({**data, "solver": {"multistart": 1}}))
+    assert result.success
+    assert all(s.constraints[0] == math.inf and s.satisfied for s in result.robust.scenarios)
+    worst = result.robust.worst_cases[0]
+    assert (worst.value, worst.margin, worst.satisfied) == (math.inf, math.inf, True)
+    assert result.validation["ok"] is True
