@@ -138,3 +138,24 @@ class PoleRegion(NamedTuple):
     exact: object
     lower: float
     upper: float
+    factors: "Factors | None" = None
+
+
+class Factors(NamedTuple):
+    """A pole region's test written on auxiliary NLP variables x: the real factors of the
+    characteristic polynomial, p(s) = ∏(s² + a_i s + b_i)·(s + c), tied to the loop by
+    coefficient matching (Vieta), so that "every pole in the region" is a few smooth rows
+    per factor (see feedtune.objectives.poles.pole_region).
+
+    ``size`` is len(x); ``start(numbers)`` gives (x, magnitudes of x) [numpy arrays] from
+    the numbers of the region's ``inputs`` (the factors of the numeric poles);
+    ``matching(x)`` the pairs (residual, magnitude): expressions whose residuals are all 0
+    exactly when x factors the loop's polynomial, each magnitude the row's natural size
+    (read at a start, it scales the row); ``conditions(level, x)`` expressions all
+    positive exactly when every root of every factor has its measure above ``level``.
+    """
+
+    size: int
+    start: Callable
+    matching: Callable
+    conditions: Callable

@@ -14,7 +14,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from feedtune.expr import PoleRegion
+from feedtune.expr import Factors, PoleRegion
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.stability import STABILITY_MARGIN
 from feedtune.tuner.starts import starting_points
@@ -41,14 +41,59 @@ def region_above(builder: NlpBuilder, value: PoleRegion, level, probe_level, nam
     level ``probe_level`` (an expression of the parameters alone)."""
     if value.conditions is None:
         raise ValueError(f"{name}: no polynomial test for this pole region on this loop")
-    conditions = value.conditions(level)
-    probe = ca.Function("probe", [builder.z, builder.p],
-                        [ca.vertcat(ca.MX(0, 1), *value.conditions(probe_level))])
     start = starting_points(builder.variables, 1)[0]
-    sizes = np.abs(np.asarray(probe(start, builder.param_values), dtype=float)).ravel()
+    if value.factors is not None:
+        conditions, sizes = factor_rows(builder, value, level, probe_level, start, name)
+    else:
+        conditions = value.conditions(level)
+        probe = ca.Function("probe", [builder.z, builder.p],
+                            [ca.vertcat(ca.MX(0, 1), *value.conditions(probe_level))])
+        sizes = np.abs(np.asarray(probe(start, builder.param_values), dtype=float)).ravel()
     for i, (condition, size) in enumerate(zip(conditions, sizes)):
         s = builder.parameter(f"{name}_scale{i}", scale(size))
         builder.constrain(ca.asinh(condition / s), STABILITY_MARGIN, ca.inf)
+
+
+class FactorScan:
+    """Start of factor variable ``index`` of a region's :class:`~feedtune.expr.Factors`:
+    the factors of the numeric poles at log tunables ``z`` and parameters ``p``."""
+
+    def __init__(self, factors: Factors, inputs: ca.Function, index: int):
+        self.factors, self.inputs, self.index = factors, inputs, index
+        self.n_params = inputs.size1_in(1)
+
+    def exact(self, z, p) -> float:
+        numbers = np.asarray(self.inputs(z, p[:self.n_params]), dtype=float)
+        return float(self.factors.start(numbers)[0][self.index])
+
+
+def factor_rows(builder: NlpBuilder, value: PoleRegion, level, probe_level, start,
+                name: str) -> tuple[list, np.ndarray]:
+    """The region's factor form: auxiliary variables x (each divided by its magnitude at
+    ``start``, a parameter, and started at the factors of the numeric poles of each start)
+    and the equality rows residual/magnitude = 0 that tie them to the loop; returns the
+    conditions on x at ``level`` and their sizes at ``start`` with ``probe_level``."""
+    factors = value.factors
+    inputs = ca.Function(f"{name}_inputs", [builder.z, builder.p], [value.inputs])
+    x0, magnitudes = factors.start(np.asarray(inputs(start, builder.param_values), dtype=float))
+    x = []
+    for i in range(factors.size):
+        s = builder.parameter(f"{name}_factor_scale{i}", scale(magnitudes[i]))
+        x.append(s * builder.variable(f"{name}_factor{i}", -ca.inf, ca.inf,
+                                      lambda v, s=s: v / s, FactorScan(factors, inputs, i)))
+    symbol = ca.MX.sym(f"{name}_factors", factors.size)
+    residuals, sizes = zip(*factors.matching(symbol))
+    probe = ca.Function("probe", [symbol, builder.z, builder.p],
+                        [ca.vertcat(*sizes), ca.vertcat(ca.MX(0, 1),
+                                                        *factors.conditions(probe_level, symbol))])
+    row_sizes, condition_sizes = (np.abs(np.asarray(v, dtype=float)).ravel() for v in
+                                  probe(np.nan_to_num(x0), start, builder.param_values))
+    matched = ca.Function("matched", [symbol, builder.z, builder.p], [ca.vertcat(*residuals)])
+    residual = matched(ca.vertcat(*x), builder.z, builder.p)
+    for i, size in enumerate(row_sizes):
+        r = builder.parameter(f"{name}_match_scale{i}", scale(size))
+        builder.constrain(residual[i] / r, 0, 0)
+    return factors.conditions(level, ca.vertcat(*x)), condition_sizes
 
 
 def region_bound(builder: NlpBuilder, value: PoleRegion, index: int, lower: float) -> None:
