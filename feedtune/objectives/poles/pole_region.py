@@ -241,15 +241,16 @@ def factors(loop: Loop, state, conditions) -> Factors:
     continuous loops on the frequency-balanced polynomial in x = s/ω0 (:func:`_balanced`,
     roots of geometric mean size 1), sampled loops on the polynomial in z. ``state`` maps
     the region's input numbers to the state matrix (None where not finite);
-    ``conditions(level, x, omega0, period)`` gives the factor rows (ω0 [rad/s] the balance
-    frequency, 1 on a sampled loop)."""
+    ``conditions(level, quadratic, linear, omega0, period)`` gives the factor rows (ω0
+    [rad/s] the balance frequency, 1 on a sampled loop; the period T [s], None on a
+    continuous loop)."""
     discrete = bool(loop.discrete)
     poly = loop.characteristic_polynomial
     degree = len(poly) - 1
     if discrete:
         target, omega0, period = poly, 1.0, loop.period
     else:
-        (target, omega0), period = _balanced(poly), 0.0
+        (target, omega0), period = _balanced(poly), None
 
     def start(numbers):
         a = state(numbers)
@@ -283,7 +284,7 @@ def decay_factor_conditions(level, quadratic, linear, omega0, period) -> list:
     2σ')x + (σ'² − aσ' + b), Hurwitz iff both coefficients are positive; s + c iff c > σ'.
     Sampled: |z| < r = e^{−σT}; z² + a z + b by Jury's conditions on z = r·w, r² − b > 0
     and r² ± a r + b > 0; z + c by r ∓ c > 0."""
-    if period:
+    if period is not None:
         r = ca.exp(-level * period)
         rows = [e for a, b in quadratic for e in (r * r - b, r * r + a * r + b, r * r - a * r + b)]
         return rows + ([] if linear is None else [r - linear, r + linear])
