@@ -70,7 +70,8 @@ def main(argv=None) -> int:
     damped = copy.deepcopy(spec)
     damped["constraints"].append({"metric": "pole_damping", "min": ZETA})
     print(f"load average at start {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
-    print(f"Bhatia's hand design: bandwidth {scale:.3f} rad/s, ζ_min {damping(model, initial):.4f}")
+    print(f"Bhatia's hand design: bandwidth {scale:.3f} rad/s, "
+          f"ζ_min {damping(model, initial):.4f}")
 
     from feedtune.problem import tune
     from feedtune.schema.spec import parse_spec

@@ -5,7 +5,8 @@ the NLP holds "every pole's measure > level" instead by the region's factor form
 it has one (auxiliary variables: the coefficients of the real factors of the
 characteristic polynomial, equality rows matching their product to it, a few rows per
 factor; :func:`factor_rows`), else by its polynomial conditions (Hurwitz conditions of a
-shifted characteristic polynomial), written as the stability rows are (:func:`feedtune.tuner.stability.add_stability_rows`): each
+shifted characteristic polynomial), written as the stability rows are
+(:func:`feedtune.tuner.stability.add_stability_rows`): each
 condition divided by its magnitude at the first start (an NLP parameter) inside asinh,
 ≥ STABILITY_MARGIN for a bound, ≥ TERM_MARGIN when maximised. The value itself is
 computed numerically from the poles (:class:`PoleScan`), as a peak's is by its scan.
@@ -96,6 +97,7 @@ def factor_rows(builder: NlpBuilder, value: PoleRegion, level, probe_level, star
         s = builder.parameter(f"{name}_factor_scale{i}", scale(magnitudes[i]))
         x.append(s * builder.variable(f"{name}_factor{i}", -ca.inf, ca.inf,
                                       lambda v, s=s: v / s, FactorScan(factors, inputs, i)))
+        builder.restarted.append(len(builder.extra) - 1)
     symbol = ca.MX.sym(f"{name}_factors", factors.size)
     residuals, sizes = zip(*factors.matching(symbol))
     probe = ca.Function("probe", [symbol, builder.z, builder.p],
