@@ -129,7 +129,9 @@ class PoleRegion(NamedTuple):
     matrix and the sampling period) and ``measure`` the numpy function of those numbers
     (the value from the numeric poles); ``exact`` that value on a loop of numbers, NaN on
     a loop of symbols (the tuner evaluates ``measure`` instead). ``lower`` and ``upper``
-    bound the measure over stable loops (the epigraph variable's box).
+    bound the measure over stable loops (the epigraph variable's box). ``factors``, where
+    given, is the same test on auxiliary variables (:class:`Factors`), which the tuner
+    uses instead of ``conditions``.
     """
 
     conditions: Callable | None
