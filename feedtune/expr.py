@@ -148,7 +148,9 @@ class PoleRegion(NamedTuple):
     matrix and the sampling period) and ``measure`` the numpy function of those numbers
     (the value from the numeric poles); ``exact`` that value on a loop of numbers, NaN on
     a loop of symbols (the tuner evaluates ``measure`` instead). ``lower`` and ``upper``
-    bound the measure over stable loops (the epigraph variable's box).
+    bound the measure over stable loops (the epigraph variable's box). ``factors``, where
+    given, is the same test on auxiliary variables (:class:`Factors`), which the tuner
+    uses instead of ``conditions``.
     """
 
     conditions: Callable | None
@@ -157,3 +159,24 @@ class PoleRegion(NamedTuple):
     exact: object
     lower: float
     upper: float
+    factors: "Factors | None" = None
+
+
+class Factors(NamedTuple):
+    """A pole region's test written on auxiliary NLP variables x: the real factors of the
+    characteristic polynomial, p(s) = ∏(s² + a_i s + b_i)·(s + c), tied to the loop by
+    coefficient matching (Vieta), so that "every pole in the region" is a few smooth rows
+    per factor (see feedtune.objectives.poles.pole_region).
+
+    ``size`` is len(x); ``start(numbers)`` gives (x, magnitudes of x) [numpy arrays] from
+    the numbers of the region's ``inputs`` (the factors of the numeric poles);
+    ``matching(x)`` the pairs (residual, magnitude): expressions whose residuals are all 0
+    exactly when x factors the loop's polynomial, each magnitude the row's natural size
+    (read at a start, it scales the row); ``conditions(level, x)`` expressions all
+    positive exactly when every root of every factor has its measure above ``level``.
+    """
+
+    size: int
+    start: Callable
+    matching: Callable
+    conditions: Callable

@@ -32,6 +32,9 @@ class NlpBuilder:
         self._extra_upper: list[float] = []
         self.extra_start: list = []  # start of each auxiliary variable, an expression of z
         self.scanned: list[ca.MX] = []  # symbols of numerically scanned values starts read
+        #: auxiliary variables (indices among them) that the tunables define, such as the
+        #: factors of a polynomial: a resumed attempt starts them afresh from its z
+        self.restarted: list[int] = []
         self.start_scans: list = []  # the scan giving each (its ``exact(z, p)``)
         self.rows: list = []
         self._lbg: list[float] = []

@@ -136,6 +136,7 @@ class Problem:
         self.lbg, self.ubg = builder.lbg, builder.ubg
         self.slot_defaults = builder.slot_defaults
         self._scanned = builder.scanned_values  # the scans the extra variables start from
+        self._restarted = np.array(builder.restarted, dtype=int)  # started afresh on resume
         given = settings.ipopt_options.get("hessian_approximation")
         # peaks and crossings over frequency: the limited-memory Hessian first (measured
         # faster), the exact one for a start it leaves unsolved, infeasible or unstable
@@ -407,6 +408,9 @@ class Problem:
                                                   resume[4].copy(), list(resume[5]))
             duals = resume[6]
             iterations = 0
+            if self._restarted.size and duals is None:  # from z again, as at a start
+                restarted = self.n_z + self._restarted
+                x0[restarted] = self._x0(x0[:self.n_z])[restarted]
         else:
             z0 = self._stable_start(start)
             if z0 is None:  # IPOPT from an unstable point only wanders (measured: Bhatia's showcase)

@@ -19,8 +19,10 @@ from feedtune.expr import PoleRegion, Supremum
 from feedtune.loops import linalg
 from feedtune.loops.loop import ContinuousLoop, Drive, IntegratorLag, SampledLoop
 from feedtune.objectives import METRICS
-from feedtune.objectives.poles.pole_region import (decay_conditions, damping_conditions,
-                                                   rotated_product, routh_column)
+from feedtune.objectives.poles.pole_region import (decay_conditions, decay_factor_conditions,
+                                                   damping_conditions, damping_factor_conditions,
+                                                   factor_start, paired_roots, product,
+                                                   rotated_product, routh_column, split_factors)
 from feedtune.validate import poles as validator_poles
 
 TAU = 0.02  # Koren's design example [s]
@@ -104,6 +106,121 @@ def _routh_and_hurwitz(degree: int) -> ca.Function:
     coefficients = [a[i] for i in range(degree + 1)]
     return ca.Function("routh_hurwitz", [a], [ca.vertcat(*routh_column(coefficients)),
                                               ca.vertcat(*linalg.hurwitz_conditions(coefficients))])
+
+
+# -- the factor form: p = ∏(s² + a s + b)·(s + c) -------------------------------------------------
+
+def random_roots(rng, n: int, stable: bool = True) -> np.ndarray:
+    """n roots of a real polynomial: pairs and reals of sizes 0.1…10, left half plane."""
+    roots = []
+    while len(roots) < n:
+        size = 10 ** rng.uniform(-1, 1)
+        if n - len(roots) >= 2 and rng.random() < 0.6:
+            angle = rng.uniform(0.05, math.pi / 2 - 0.05)
+            roots += [-size * np.exp(1j * angle), -size * np.exp(-1j * angle)]
+        else:
+            roots.append(-size if stable else size * rng.choice([-1.0, 1.0]))
+    return np.array(roots)
+
+
+def numbers(values) -> np.ndarray:
+    return np.array([float(ca.evalf(ca.MX(v))) for v in values])
+
+
+def test_factor_start_rebuilds_the_polynomial():
+    """300 random real polynomials of degree 1–12: the factors of their numpy roots
+    multiply back to the polynomial, each coefficient to 1e-12 of its natural size (the
+    product taken with |a|, |b|, |c|: its sum of |terms|), with ⌊n/2⌋ quadratic factors and
+    a linear one for odd n; each quadratic holds a conjugate pair or two real roots."""
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        n = int(rng.integers(1, 13))
+        roots = random_roots(rng, n, stable=rng.random() < 0.5)
+        x, size = factor_start(roots)
+        assert x.size == n and size.size == n and np.all(size > 0)
+        got, magnitude = numbers(product(list(x), n)), numbers(product(list(x), n, abs))
+        assert np.all(np.abs(got - np.real(np.poly(roots))) <= 1e-12 * magnitude), roots
+        for a, b in zip(x[0:2 * (n // 2):2], x[1:2 * (n // 2):2]):
+            pair = np.roots([1, a, b])
+            assert np.min(np.abs(roots[:, None] - pair[None, :]), axis=0).max() <= 1e-9 * 10
+
+
+def test_an_odd_count_of_real_roots_leaves_the_lone_one_out():
+    """−1, −1.1 and −50: the pairs' summed gap is least with −50 alone."""
+    pairs, single = paired_roots(np.array([-50.0, -1.1, -1.0]))
+    assert single == -50.0 and len(pairs) == 1
+    assert sorted(r.real for r in pairs[0]) == [-1.1, -1.0]
+
+
+def holds(rows) -> bool:
+    return bool(np.all(numbers(rows) > 0))
+
+
+def test_factor_conditions_switch_at_the_smallest_damping_and_decay():
+    """200 random stable polynomials of degree 1–10: the damping rows (a > 0, b > 0,
+    a² ≥ 4ζ²b, c > 0) hold at 0.999999·ζ_min and fail at 1.000001·ζ_min; the decay rows
+    (a > 2σ, σ² − aσ + b > 0, c > σ, with ω0 = 1) the same at σ_min. 1e-6 relative: both
+    are simple roots in the level of a row that changes sign there."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(1, 11))
+        roots = random_roots(rng, n)
+        quadratic, linear = split_factors(list(factor_start(roots)[0]), n)
+        zeta = float(np.min(-roots.real / np.abs(roots)))
+        sigma = float(np.min(-roots.real))
+        if zeta < 1 - 1e-9:
+            assert holds(damping_factor_conditions(zeta * (1 - 1e-6), quadratic, linear, 1, None))
+            assert not holds(damping_factor_conditions(zeta * (1 + 1e-6), quadratic, linear,
+                                                       1, None))
+        assert holds(decay_factor_conditions(sigma * (1 - 1e-6), quadratic, linear, 1.0, None))
+        assert not holds(decay_factor_conditions(sigma * (1 + 1e-6), quadratic, linear, 1.0,
+                                                 None))
+
+
+def test_sampled_decay_rows_switch_at_the_radius():
+    """Jury's rows on z-roots inside the unit disc (reals of either sign, pairs, a root at
+    0 as a computation delay gives): they hold at r = 1.000001·max|z| and fail at
+    0.999999·max|z|, r = e^{−σT} (T = 1 ms)."""
+    rng = np.random.default_rng(9)
+    period = 1e-3
+    for _ in range(200):
+        n = int(rng.integers(1, 9))
+        roots = []
+        while len(roots) < n:
+            size = rng.uniform(0.05, 0.95)
+            if n - len(roots) >= 2 and rng.random() < 0.6:
+                angle = rng.uniform(0.05, math.pi - 0.05)
+                roots += [size * np.exp(1j * angle), size * np.exp(-1j * angle)]
+            else:
+                roots.append(size * rng.choice([-1.0, 1.0]))
+        roots = np.array(roots)
+        if n > 1 and rng.random() < 0.3:
+            roots[np.argmin(np.abs(roots.imag))] = 0.0  # a real root (or a pair's half) to 0
+            roots = np.roots(np.real(np.poly(roots)))
+        quadratic, linear = split_factors(list(factor_start(roots)[0]), n)
+        radius = float(np.max(np.abs(roots)))
+        for factor, verdict in ((1 + 1e-6, True), (1 - 1e-6, False)):
+            sigma = -math.log(radius * factor) / period
+            assert holds(decay_factor_conditions(sigma, quadratic, linear, 1.0, period)) == verdict
+
+
+@pytest.mark.parametrize("loop", [reference_pulse(5.0), reference_pulse(100.0),
+                                  sampled(40.0, 0.005), sampled(20.0, 0.01, 2)],
+                         ids=["overdamped", "underdamped", "sampled", "sampled-delay-2"])
+def test_a_loops_factors_match_its_polynomial_and_switch_at_its_decay_rate(loop):
+    """The region's Factors on a loop of numbers: started at its poles, the matching
+    residuals vanish to 1e-12 of each row's magnitude, and the factor rows switch at the
+    metric's value (1e-6 relative, as the Routh test above)."""
+    region = METRICS["decay_rate"]().evaluate(loop, None)
+    inputs = np.array(ca.evalf(region.inputs), dtype=float)
+    x, _ = region.factors.start(inputs)
+    assert x.size == region.factors.size
+    x = [ca.MX(v) for v in x]
+    for residual, magnitude in region.factors.matching(x):
+        assert abs(numbers([residual])[0]) <= 1e-12 * numbers([magnitude])[0]
+    sigma = value("decay_rate", loop)
+    assert holds(region.factors.conditions(ca.MX(sigma * (1 - 1e-6)), x))
+    assert not holds(region.factors.conditions(ca.MX(sigma * (1 + 1e-6)), x))
 
 
 # -- values against closed forms ---------------------------------------------------------------

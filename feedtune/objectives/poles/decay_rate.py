@@ -4,7 +4,8 @@ import math
 
 from feedtune.loops.protocols import Capability, Loop
 from feedtune.objectives.base import Metric
-from feedtune.objectives.poles.pole_region import decay_conditions, decay_of, pole_region
+from feedtune.objectives.poles.pole_region import (decay_conditions, decay_factor_conditions,
+                                                   decay_of, pole_region)
 
 
 class DecayRate(Metric):
@@ -28,4 +29,5 @@ class DecayRate(Metric):
         return super().supports(loop, options) and loop.offers(Capability.LINEAR)
 
     def evaluate(self, loop: Loop, options):
-        return pole_region(loop, decay_of, decay_conditions(loop), 0.0, math.inf)
+        return pole_region(loop, decay_of, decay_conditions(loop), 0.0, math.inf,
+                           decay_factor_conditions)

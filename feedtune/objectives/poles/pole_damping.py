@@ -2,7 +2,8 @@
 
 from feedtune.loops.protocols import Capability, Loop
 from feedtune.objectives.base import Metric
-from feedtune.objectives.poles.pole_region import damping_conditions, damping_of, pole_region
+from feedtune.objectives.poles.pole_region import (damping_conditions, damping_factor_conditions,
+                                                   damping_of, pole_region)
 
 
 class PoleDamping(Metric):
@@ -34,4 +35,5 @@ class PoleDamping(Metric):
         return not loop.discrete
 
     def evaluate(self, loop: Loop, options):
-        return pole_region(loop, damping_of, damping_conditions(loop), 0.0, 1.0)
+        return pole_region(loop, damping_of, damping_conditions(loop), 0.0, 1.0,
+                           None if loop.discrete else damping_factor_conditions)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from feedtune.expr import PoleRegion, is_symbolic
+from feedtune.expr import Factors, PoleRegion, is_symbolic
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Loop
@@ -26,10 +26,12 @@ def s_plane_poles(matrix, discrete: bool, period: float | None):
     return poles
 
 
-def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> PoleRegion:
+def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
+                factored=None) -> PoleRegion:
     """The :class:`~feedtune.expr.PoleRegion` of ``loop`` for ``measure(s-plane poles)``
     (numpy, a float), ``conditions(level)`` (or None) and the measure's range over stable
-    loops [``lower``, ``upper``].
+    loops [``lower``, ``upper``]; ``factored`` (or None) is ``factor_conditions(level, x)``
+    for the factor form (:func:`factors`).
 
     The value comes from the numeric poles of the loop's state matrix (and period), so it
     agrees with the result's ``stability.poles``.
@@ -40,12 +42,17 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> 
     period = loop.period if discrete else 0.0
     inputs = ca.veccat(ca.vec(ca.MX(matrix)), ca.MX(period))
 
-    def of_numbers(numbers) -> float:
+    def state(numbers):
+        """The state matrix of the inputs' numbers (None if an entry is not finite)."""
         numbers = np.asarray(numbers, dtype=float).ravel()
         a = numbers[:n * n].reshape(n, n, order="F")  # ca.vec stacks columns
-        if not np.all(np.isfinite(a)):
+        return a if np.all(np.isfinite(a)) else None
+
+    def of_numbers(numbers) -> float:
+        a = state(numbers)
+        if a is None:
             return math.nan
-        return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
+        return float(measure(s_plane_poles(a, discrete, float(np.ravel(numbers)[-1]))))
 
     if not is_symbolic(inputs):
         exact = ca.MX(of_numbers(ca.evalf(inputs)))
@@ -54,7 +61,8 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float) -> 
                         "evaluated on a loop of numbers only")
     else:
         exact = ca.MX(math.nan)
-    return PoleRegion(conditions, inputs, of_numbers, exact, lower, upper)
+    return PoleRegion(conditions, inputs, of_numbers, exact, lower, upper,
+                      None if factored is None else factors(loop, state, factored))
 
 
 def decay_of(poles) -> float:
@@ -169,3 +177,117 @@ def damping_conditions(loop: Loop):
         return routh_column(rotated_product(balanced, ca.asin(ca.fmin(level, 1))))
 
     return conditions
+
+
+# -- the factor form: p(s) = ∏(s² + a_i s + b_i)·(s + c), coefficients matched (Vieta) --------
+
+def paired_roots(roots) -> tuple[list[tuple[complex, complex]], float | None]:
+    """The real factors of a real polynomial with roots ``roots``: pairs (r1, r2) of
+    quadratic factors (each complex root with its conjugate, then the real roots sorted
+    and paired with a neighbour) and the real root of the linear factor (odd count) or
+    None. With an odd count of real roots, the one left alone is the one that makes the
+    pairs' summed gaps |r1 − r2| least."""
+    roots = np.asarray(roots, dtype=complex)
+    upper = roots[roots.imag > 0]
+    real = np.sort(roots[roots.imag == 0].real)
+    single = None
+    if real.size % 2:
+        gap = [np.sum(np.abs(np.diff(np.delete(real, k))[::2])) for k in range(0, real.size, 2)]
+        k = 2 * int(np.argmin(gap))
+        single, real = float(real[k]), np.delete(real, k)
+    pairs = [(r, np.conj(r)) for r in upper] + [(complex(real[k]), complex(real[k + 1]))
+                                                 for k in range(0, real.size, 2)]
+    return pairs, single
+
+
+def factor_start(roots) -> tuple[np.ndarray, np.ndarray]:
+    """(x, magnitudes): x = (a_1, b_1, …, a_m, b_m[, c]) of the factors s² + a s + b of
+    each pair (a = −(r1 + r2), b = r1·r2) and s + c (c = −r) of :func:`paired_roots`;
+    each magnitude the size of its coefficient (the pair's largest |r| for a, its square
+    for b, |c|; 1 where that is 0)."""
+    pairs, single = paired_roots(roots)
+    x, size = [], []
+    for r1, r2 in pairs:
+        m = max(abs(r1), abs(r2)) or 1.0
+        x += [-(r1 + r2).real, (r1 * r2).real]
+        size += [m, m * m]
+    if single is not None:
+        x.append(-single)
+        size.append(abs(single) or 1.0)
+    return np.array(x, dtype=float), np.array(size, dtype=float)
+
+
+def split_factors(x, degree: int) -> tuple[list[tuple], object]:
+    """([(a_i, b_i)], c or None) of the variables x for a polynomial of ``degree``."""
+    quadratic = [(x[2 * i], x[2 * i + 1]) for i in range(degree // 2)]
+    return quadratic, (x[degree - 1] if degree % 2 else None)
+
+
+def product(x, degree: int, size=lambda v: v) -> list:
+    """Coefficients (highest power first, monic) of ∏(s² + a_i s + b_i)·(s + c) for the
+    factor variables x, each coefficient taken through ``size`` first (``ca.fabs``: the
+    sum of |terms| of each coefficient, its natural magnitude)."""
+    quadratic, linear = split_factors(x, degree)
+    out = [1]
+    for factor in [[1, size(a), size(b)] for a, b in quadratic] + (
+            [] if linear is None else [[1, size(linear)]]):
+        out = [sum(out[i] * factor[k - i] for i in range(len(out)) if 0 <= k - i < len(factor))
+               for k in range(len(out) + len(factor) - 1)]
+    return out
+
+
+def factors(loop: Loop, state, conditions) -> Factors:
+    """The :class:`~feedtune.expr.Factors` of ``loop``'s characteristic polynomial:
+    continuous loops on the frequency-balanced polynomial in x = s/ω0 (:func:`_balanced`,
+    roots of geometric mean size 1), sampled loops on the polynomial in z. ``state`` maps
+    the region's input numbers to the state matrix (None where not finite);
+    ``conditions(level, quadratic, linear, omega0, period)`` gives the factor rows (ω0
+    [rad/s] the balance frequency, 1 on a sampled loop; the period T [s], None on a
+    continuous loop)."""
+    discrete = bool(loop.discrete)
+    poly = loop.characteristic_polynomial
+    degree = len(poly) - 1
+    if discrete:
+        target, omega0, period = poly, 1.0, loop.period
+    else:
+        (target, omega0), period = _balanced(poly), None
+
+    def start(numbers):
+        a = state(numbers)
+        if a is None:
+            return np.full(degree, math.nan), np.ones(degree)
+        roots = np.linalg.eigvals(a).astype(complex)
+        if not discrete:  # x = s/ω0, ω0 = |p(0)|^(1/n), the roots' geometric mean size
+            roots = roots / math.exp(np.mean(np.log(np.abs(roots)))) if np.all(roots) else roots
+        return factor_start(roots)
+
+    def matching(x):
+        return list(zip((t - c for t, c in zip(target[1:], product(x, degree)[1:])),
+                        product(x, degree, ca.fabs)[1:]))
+
+    return Factors(degree, start, matching,
+                   lambda level, x: conditions(level, *split_factors(x, degree), omega0, period))
+
+
+def damping_factor_conditions(level, quadratic, linear, omega0, period) -> list:
+    """Expressions all positive iff every root of every factor has damping −Re r/|r| >
+    ``level`` ζ [1] (continuous loops): s² + a s + b has its roots' ζ ≥ ζ0 exactly when
+    a > 0, b > 0 and a² ≥ 4ζ0²b (complex roots: ζ = a/(2√b); real ones, both negative,
+    have ζ = 1 and meet it already), s + c when c > 0. Invariant under s = ω0·x."""
+    rows = [e for a, b in quadratic for e in (a, b, a * a - 4 * level * level * b)]
+    return rows + ([] if linear is None else [linear])
+
+
+def decay_factor_conditions(level, quadratic, linear, omega0, period) -> list:
+    """Expressions all positive iff every root of every factor has decay rate > ``level``
+    σ [1/s]. Continuous (x = s/ω0, σ' = σ/ω0): s² + a s + b shifted by σ' is x² + (a −
+    2σ')x + (σ'² − aσ' + b), Hurwitz iff both coefficients are positive; s + c iff c > σ'.
+    Sampled: |z| < r = e^{−σT}; z² + a z + b by Jury's conditions on z = r·w, r² − b > 0
+    and r² ± a r + b > 0; z + c by r ∓ c > 0."""
+    if period is not None:
+        r = ca.exp(-level * period)
+        rows = [e for a, b in quadratic for e in (r * r - b, r * r + a * r + b, r * r - a * r + b)]
+        return rows + ([] if linear is None else [r - linear, r + linear])
+    shift = level / omega0
+    rows = [e for a, b in quadratic for e in (a - 2 * shift, shift * shift - a * shift + b)]
+    return rows + ([] if linear is None else [linear - shift])
