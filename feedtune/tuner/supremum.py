@@ -58,12 +58,23 @@ class FrequencyFunction:
     """f(ω) of the NLP's symbols, ω [rad/s]: rows for the NLP, numbers for the checks.
 
     ``fn(omega)`` is the metric's callable; ``z`` and ``p`` the builder's log tunables and
-    the parameters existing when it is made (a numeric call passes that many). ``fn`` is
-    called once on a whole row of ω: the loop's polynomial coefficients are then computed
-    once for all frequencies, not once per frequency as a Function mapped over ω would
-    (measured on Bhatia's loop: 141 SX instructions per frequency mapped, the Hessian of
-    258 rows 725k instructions). A callable that does not work elementwise on a row falls
-    back to the mapped Function.
+    the parameters existing when it is made (a numeric call passes that many).
+
+    Where ``fn`` expands to SX, it is split once (``casadi.extract_parametric``) into the
+    part that depends on the tunables and parameters only, ``q(z, p)`` (a loop's polynomial
+    coefficients), and ``point(ω, q)``, one frequency's value from those numbers. A row of
+    frequencies is then ``point`` mapped over the row, fed ``q`` computed once: ``point``
+    is a call the NLP's expansion keeps (``never_inline``), so the NLP's derivatives are
+    the mapped derivatives of one small Function instead of an SX graph of every row, and
+    the numeric checks evaluate the same ``point`` without building a graph per row length.
+    Measured on ``examples/user-defined-pid-notch.json`` (546 rows): see benchmarks/README.md,
+    "Frequency rows as one mapped point".
+
+    Where ``fn`` does not expand, ``fn`` is called once on a whole row of ω (the loop's
+    coefficients then computed once for all frequencies, not once per frequency as a
+    Function mapped over ω would: measured on Bhatia's loop, 141 SX instructions per
+    frequency mapped, the Hessian of 258 rows 725k instructions), or mapped where it does
+    not work elementwise on a row.
     """
 
     def __init__(self, name: str, fn, z: ca.MX, p: ca.MX):
@@ -71,6 +82,28 @@ class FrequencyFunction:
         self.z, self.p, self.n_params = z, p, p.numel()
         self._symbolic: dict[int, ca.Function] = {}
         self._numeric: dict[int, ca.Function] = {}
+        self._split: tuple[ca.Function, ca.Function] | None | bool = False  # not tried yet
+        self._numbers_call: Buffered | None = None
+        self._last_numbers: tuple[bytes, np.ndarray] | None = None  # (z and p, q)
+
+    def split(self) -> tuple[ca.Function, ca.Function] | None:
+        """(point(ω, q), q(z, p)) as SX Functions, or None where ``fn`` has no SX form."""
+        if self._split is False:
+            self._split = None
+            omega = ca.MX.sym("omega")
+            try:
+                whole = ca.Function(self.name, [omega, self.z, self.p], [self.fn(omega)]).expand()
+            except RuntimeError:  # a node without an SX form
+                return None
+            w = ca.SX.sym("omega")
+            z, p = ca.SX.sym("z", self.z.sparsity()), ca.SX.sym("p", self.p.sparsity())
+            value, symbols, parametric = ca.extract_parametric(whole(w, z, p), ca.veccat(z, p))
+            q = ca.veccat(*symbols) if symbols else ca.SX(0, 1)
+            self._split = (
+                ca.Function(f"{self.name}_point", [w, q], [value]),
+                ca.Function(f"{self.name}_numbers", [z, p],
+                            [ca.veccat(*parametric) if parametric else ca.SX(0, 1)]))
+        return self._split
 
     def function(self, n: int) -> ca.Function:
         """(ω row 1×n, z, p) ↦ f row 1×n, built once per n."""
@@ -96,9 +129,13 @@ class FrequencyFunction:
 
     def __call__(self, omegas: np.ndarray, z: np.ndarray, p: np.ndarray) -> np.ndarray:
         """f [its unit] at the numbers ``omegas`` [rad/s], tunables ``z``, parameters ``p``
-        (SX-expanded; calls are padded to a power of two so that few sizes are built)."""
+        (calls are padded to a power of two so that few sizes are built)."""
         omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
         n = 1 << max(0, int(omegas.size - 1).bit_length())
+        padded = np.concatenate([omegas, np.full(n - omegas.size, omegas[-1])])
+        split = self.split()
+        if split is not None:
+            return self._points(n, split)(padded, self._numbers(z, p, split))[0][:omegas.size]
         numeric = self._numeric.get(n)
         if numeric is None:
             numeric = self.function(n)
@@ -107,9 +144,53 @@ class FrequencyFunction:
             except RuntimeError:  # a node without an SX form
                 pass
             self._numeric[n] = numeric
-        padded = np.concatenate([omegas, np.full(n - omegas.size, omegas[-1])])
         value = numeric(padded[None, :], z, p[:self.n_params])
         return np.asarray(value, dtype=float).ravel()[:omegas.size]
+
+    def _numbers(self, z: np.ndarray, p: np.ndarray, split) -> np.ndarray:
+        """q(z, p), computed once for consecutive calls at the same z and p (a scan's
+        golden-section steps)."""
+        z = np.asarray(z, dtype=float).ravel()
+        p = np.asarray(p, dtype=float).ravel()[:self.n_params]
+        key = z.tobytes() + p.tobytes()
+        if self._last_numbers is None or self._last_numbers[0] != key:
+            if self._numbers_call is None:
+                self._numbers_call = Buffered(split[1])
+            self._last_numbers = (key, self._numbers_call(z, p)[0])
+        return self._last_numbers[1]
+
+    def _points(self, n: int, split) -> "Buffered":
+        """point mapped over a row of n frequencies, evaluated through CasADi's buffer."""
+        points = self._numeric.get(n)
+        if points is None:
+            point = split[0]
+            omega, q = ca.MX.sym("omega", 1, n), ca.MX.sym("q", point.sparsity_in(1))
+            points = self._numeric[n] = Buffered(ca.Function(
+                f"{self.name}_row{n}", [omega, q], [point.map(n)(omega, q)]))
+        return points
+
+
+class Buffered:
+    """A Function of numbers called through its evaluation buffer (``Function.buffer``:
+    arguments and results in numpy arrays): ≈ 10 µs a call of a few hundred frequencies
+    instead of ≈ 100-700 µs through DM conversions; the same evaluation, so the same bits."""
+
+    def __init__(self, fn: ca.Function):
+        self._buffer, self._trigger = fn.buffer()
+        self._args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
+        self._results = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
+        for i, a in enumerate(self._args):
+            self._buffer.set_arg(i, memoryview(a))
+        for i, r in enumerate(self._results):
+            self._buffer.set_res(i, memoryview(r))
+
+    def __call__(self, *args) -> list[np.ndarray]:
+        """The Function's outputs (flat copies) at ``args`` (flat arrays of its inputs'
+        sizes)."""
+        for target, value in zip(self._args, args):
+            target[:] = value
+        self._trigger()
+        return [r.copy() for r in self._results]
 
 
 def window_maxima(f, centres: np.ndarray, h: float | np.ndarray, lower: float,
