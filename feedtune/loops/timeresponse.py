@@ -422,9 +422,16 @@ class Transient:
     def _grid_values(self) -> tuple[np.ndarray, np.ndarray]:
         return self(self.grid), self.derivative(self.grid)
 
+    @cached_property
+    def _scalars(self) -> dict:
+        """kind → :meth:`_scalar` of it, made once per transient (its matrix of coefficients)."""
+        return {}
+
     def _root(self, kind: str, lo: float, hi: float, offset: float = 0.0) -> float:
         """The zero of (value or derivative) − offset bracketed by [lo, hi], by Brent's method."""
-        f = self._scalar(kind)
+        f = self._scalars.get(kind)
+        if f is None:
+            f = self._scalars[kind] = self._scalar(kind)
         from scipy.optimize import brentq  # imported when used (see above)
 
         return brentq(lambda t: f(t) - offset, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps)
