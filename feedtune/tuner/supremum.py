@@ -25,6 +25,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import Crossing, PoleRegion, Supremum
+from feedtune.loops.frequency import Buffered
 from feedtune.tuner.builder import NlpBuilder
 from feedtune.tuner.poles import PoleScan
 
@@ -169,29 +170,6 @@ class FrequencyFunction:
             points = self._numeric[n] = Buffered(ca.Function(
                 f"{self.name}_row{n}", [omega, q], [point.map(n)(omega, q)]))
         return points
-
-
-class Buffered:
-    """A Function of numbers called through its evaluation buffer (``Function.buffer``:
-    arguments and results in numpy arrays): ≈ 10 µs a call of a few hundred frequencies
-    instead of ≈ 100-700 µs through DM conversions; the same evaluation, so the same bits."""
-
-    def __init__(self, fn: ca.Function):
-        self._buffer, self._trigger = fn.buffer()
-        self._args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-        self._results = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-        for i, a in enumerate(self._args):
-            self._buffer.set_arg(i, memoryview(a))
-        for i, r in enumerate(self._results):
-            self._buffer.set_res(i, memoryview(r))
-
-    def __call__(self, *args) -> list[np.ndarray]:
-        """The Function's outputs (flat copies) at ``args`` (flat arrays of its inputs'
-        sizes)."""
-        for target, value in zip(self._args, args):
-            target[:] = value
-        self._trigger()
-        return [r.copy() for r in self._results]
 
 
 def window_maxima(f, centres: np.ndarray, h: float | np.ndarray, lower: float,
