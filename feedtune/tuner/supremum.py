@@ -89,7 +89,9 @@ class FrequencyFunction:
         self._last_numbers: tuple[bytes, np.ndarray] | None = None  # (z and p, q)
 
     def split(self) -> tuple[ca.Function, ca.Function] | None:
-        """(point(ω, q), q(z, p)) as SX Functions, or None where ``fn`` has no SX form."""
+        """(point(ω, q, z, p), q(z, p)) as SX Functions, or None where ``fn`` has no SX
+        form. ``q`` holds every sub-expression of z and p alone; ``point`` reads z and p
+        only where they stand bare (a plant number beside ω)."""
         if self._split is False:
             self._split = None
             omega = ca.MX.sym("omega")
@@ -101,8 +103,8 @@ class FrequencyFunction:
             z, p = ca.SX.sym("z", self.z.sparsity()), ca.SX.sym("p", self.p.sparsity())
             value, symbols, parametric = ca.extract_parametric(whole(w, z, p), ca.veccat(z, p))
             q = ca.veccat(*symbols) if symbols else ca.SX(0, 1)
-            self._split = (
-                ca.Function(f"{self.name}_point", [w, q], [value]),
+            self._split = (  # z and p stay inputs of point: a bare symbol is not extracted
+                ca.Function(f"{self.name}_point", [w, q, z, p], [value]),
                 ca.Function(f"{self.name}_numbers", [z, p],
                             [ca.veccat(*parametric) if parametric else ca.SX(0, 1)]))
         return self._split
@@ -137,7 +139,10 @@ class FrequencyFunction:
         padded = np.concatenate([omegas, np.full(n - omegas.size, omegas[-1])])
         split = self.split()
         if split is not None:
-            return self._points(n, split)(padded, self._numbers(z, p, split))[0][:omegas.size]
+            z = np.asarray(z, dtype=float).ravel()
+            p = np.asarray(p, dtype=float).ravel()[:self.n_params]
+            return self._points(n, split)(padded, self._numbers(z, p, split), z, p)[0][
+                :omegas.size]
         numeric = self._numeric.get(n)
         if numeric is None:
             numeric = self.function(n)
@@ -152,8 +157,6 @@ class FrequencyFunction:
     def _numbers(self, z: np.ndarray, p: np.ndarray, split) -> np.ndarray:
         """q(z, p), computed once for consecutive calls at the same z and p (a scan's
         golden-section steps)."""
-        z = np.asarray(z, dtype=float).ravel()
-        p = np.asarray(p, dtype=float).ravel()[:self.n_params]
         key = z.tobytes() + p.tobytes()
         if self._last_numbers is None or self._last_numbers[0] != key:
             if self._numbers_call is None:
@@ -166,9 +169,11 @@ class FrequencyFunction:
         points = self._numeric.get(n)
         if points is None:
             point = split[0]
-            omega, q = ca.MX.sym("omega", 1, n), ca.MX.sym("q", point.sparsity_in(1))
+            omega = ca.MX.sym("omega", 1, n)
+            q, z, p = (ca.MX.sym(name, point.sparsity_in(i))
+                       for i, name in ((1, "q"), (2, "z"), (3, "p")))
             points = self._numeric[n] = Buffered(ca.Function(
-                f"{self.name}_row{n}", [omega, q], [point.map(n)(omega, q)]))
+                f"{self.name}_row{n}", [omega, q, z, p], [point.map(n)(omega, q, z, p)]))
         return points
 
 

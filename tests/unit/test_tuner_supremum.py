@@ -167,6 +167,23 @@ def test_numeric_calls_build_no_row_graph_and_equal_the_rows(monkeypatch):
         k1 / (c1 + math.sin(k1 * c1)), rel=1e-14)
 
 
+def test_numeric_calls_read_a_bare_parameter_beside_omega():
+    """A plant number standing bare beside ω (a dead time L in sin(ωL), as in
+    examples/user-defined-drive.json) is no sub-expression the split can take out: the
+    frequency's part reads it as an input (before, its Function failed to build:
+    'variables are free'). Values equal the NLP rows to rounding (|f| ≥ 1)."""
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 1)
+    k = ca.exp(z[0])
+    fn = FrequencyFunction("f", lambda w: 2 + k * ca.sin(w * p[0]) / (1 + k), z, p)
+    omegas = np.geomspace(0.1, 10.0, 9)
+    rows = ca.Function("rows", [z, p], [fn.rows(ca.DM(omegas).T)])
+    z0, p0 = np.array([math.log(0.7)]), np.array([0.3])
+    np.testing.assert_allclose(fn(omegas, z0, p0), np.asarray(rows(z0, p0)).ravel(),
+                               rtol=1e-15)
+    np.testing.assert_allclose(fn(omegas, z0, p0), 2 + 0.7 * np.sin(omegas * 0.3) / 1.7,
+                               rtol=1e-14)
+
+
 def test_refined_maximum_finds_a_peak_between_grid_points():
     u = np.log(np.geomspace(0.1, 10.0, 9))  # 1 rad/s is a grid point: shift the peak off it
     top, at = refined_maximum(lambda v: -(v - 0.123) ** 2 + 5.0, u, u[0], u[-1])
