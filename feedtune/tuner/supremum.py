@@ -70,7 +70,8 @@ class FrequencyFunction:
     The numeric checks (the exchange method's scans, the starts' peaks and crossings): where
     ``fn`` expands to SX, it is split once (``casadi.extract_parametric``) into the numbers
     that depend on the tunables and parameters only, ``q(z, p)`` (the loop's coefficients),
-    and ``point(ω, q)``, one frequency's value from them; a call computes ``q`` once for its
+    and ``point(ω, q, z, p)``, one frequency's value from them (z and p read only where they
+    stand bare, a plant number beside ω); a call computes ``q`` once for its
     z and p and maps ``point`` over its frequencies through CasADi's evaluation buffer, with
     no graph built per row length. Measured on ``examples/user-defined-pid-notch.json``: a
     call of 1-512 frequencies 100-750 µs → 12-230 µs, the exchange checks of a cold tuning
@@ -83,7 +84,7 @@ class FrequencyFunction:
         self.name, self.fn = name, fn
         self.z, self.p, self.n_params = z, p, p.numel()
         self._symbolic: dict[int, ca.Function] = {}
-        self._numeric: dict[int, ca.Function] = {}
+        self._numeric: dict[int, ca.Function | Buffered] = {}  # row length → its evaluation
         self._split: tuple[ca.Function, ca.Function] | None | bool = False  # not tried yet
         self._numbers_call: Buffered | None = None
         self._last_numbers: tuple[bytes, np.ndarray] | None = None  # (z and p, q)
