@@ -354,19 +354,39 @@ class Transient:
         return t * self._sum("integral", t) - self._sum("double_integral", t)
 
     def _scalar(self, kind: str):
-        """``t ↦ float(self._sum(kind, [t]))`` to the last bit, for Brent's method: the same
-        :func:`_series` of a one-element array per living cluster, added in the same order,
-        without the masks and ``np.any`` of the array path (measured on a Bhatia variant's
-        reports: 1,333 calls 0.27 → 0.20 s of CPU; what is left is :func:`_series`)."""
-        parts = [(getattr(cl, kind), cl.mu, cl.cutoff) for cl in self.clusters]
+        """``t ↦ float(self._sum(kind, [t]))`` to the last bit, for Brent's method.
+
+        Every cluster's :func:`_series` at once: the coefficients as rows of one matrix,
+        padded with zeros at the high powers (Horner's steps through a zero give exactly the
+        first real coefficient, so every cluster's steps are its own), the living clusters'
+        terms then added in the array path's order. Measured on
+        ``examples/user-defined-pid-notch.json``'s reports (114 root searches, ≈ 900 calls):
+        ≈ 170 → 25 µs a call, one series a cluster on a one-element array before."""
+        clusters = self.clusters
+        if not clusters:
+            return lambda t: 0.0
+        rows = [np.asarray(getattr(cl, kind)) for cl in clusters]
+        width = max(len(r) for r in rows)
+        matrix = np.zeros((len(rows), width), dtype=complex)
+        for i, r in enumerate(rows):
+            matrix[i, :len(r)] = r
+        columns = [matrix[:, j].copy() for j in range(width)]
+        mu = np.array([cl.mu for cl in clusters], dtype=complex)
+        cutoff = np.array([cl.cutoff for cl in clusters], dtype=float)
 
         def value(t) -> float:
-            at = np.array([t], dtype=float)
+            t = float(t)
+            alive = t <= cutoff
+            if not alive.any():
+                return 0.0
+            s = columns[-1]
+            for j in range(width - 2, -1, -1):
+                s = columns[j] + s * t / (j + 1)
+            terms = (np.exp(mu * t) * s).real[alive]
             total = 0.0
-            for coefficients, mu, cutoff in parts:
-                if at[0] <= cutoff:
-                    total += _series(coefficients, mu, at)[0]
-            return float(total)
+            for term in terms.tolist():
+                total += term
+            return total
 
         return value
 
@@ -402,9 +422,16 @@ class Transient:
     def _grid_values(self) -> tuple[np.ndarray, np.ndarray]:
         return self(self.grid), self.derivative(self.grid)
 
+    @cached_property
+    def _scalars(self) -> dict:
+        """kind → :meth:`_scalar` of it, made once per transient (its matrix of coefficients)."""
+        return {}
+
     def _root(self, kind: str, lo: float, hi: float, offset: float = 0.0) -> float:
         """The zero of (value or derivative) − offset bracketed by [lo, hi], by Brent's method."""
-        f = self._scalar(kind)
+        f = self._scalars.get(kind)
+        if f is None:
+            f = self._scalars[kind] = self._scalar(kind)
         from scipy.optimize import brentq  # imported when used (see above)
 
         return brentq(lambda t: f(t) - offset, lo, hi, xtol=1e-300, rtol=4 * np.finfo(float).eps)

@@ -60,6 +60,17 @@ AUTO_EXPAND_STEPS = 250
 #: Ward-Leonard spec from its one start: 253 iterations to an unstable point with 6, the
 #: optimum in 133 with 20; Bhatia's spec the same optimum either way (197 / 167)
 LBFGS_HISTORY = 20
+#: how IPOPT solves with the limited-memory Hessian: "extended" puts the update's 2 × history
+#: columns into the augmented system and factors it once per iteration, where IPOPT's default
+#: "sherman-morrison" back-solves the system for every column (40 MUMPS solves an
+#: iteration). The same Newton steps up to rounding; measured on
+#: examples/user-defined-pid-notch.json (546 rows, 57 iterations, the same optimum): IPOPT's
+#: rounds 0.86 → 0.44 s CPU (benchmarks/README.md, user_drive_vs_scipy.py)
+LBFGS_AUG_SOLVER = "extended"
+#: MUMPS's fill-reducing ordering for that system: 2 (approximate minimum fill) instead of
+#: IPOPT's automatic choice (7), which costs more on an augmented system with the update's
+#: dense columns; the same iterations on the user drive, IPOPT's rounds 0.53 → 0.31 s CPU
+LBFGS_MUMPS_ORDERING = 2
 #: a round that goes on from the previous one (a new exchange point, or the exact Hessian
 #: after the limited-memory one) starts from its primal and dual point with a small barrier
 #: parameter; from scratch (IPOPT's μ = 0.1, iterates pushed off every active bound) each
@@ -201,7 +212,9 @@ class Problem:
 
     def _options(self, hessian: str, warm: bool) -> dict:
         """nlpsol options: IPOPT's with this Hessian approximation, warm-started or not."""
-        history = ({"limited_memory_max_history": LBFGS_HISTORY}
+        history = ({"limited_memory_max_history": LBFGS_HISTORY,
+                    "limited_memory_aug_solver": LBFGS_AUG_SOLVER,
+                    "mumps_pivot_order": LBFGS_MUMPS_ORDERING}
                    if hessian == "limited-memory" else {})
         return {
             "ipopt": {"max_iter": self.settings.max_iter, "tol": self.settings.tol,

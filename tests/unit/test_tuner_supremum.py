@@ -143,6 +143,47 @@ def test_rows_are_one_vector_evaluation_and_equal_the_pointwise_values():
     np.testing.assert_allclose(np.asarray(rows(math.log(2.0))).ravel(), expected)
 
 
+def test_numeric_calls_build_no_row_graph_and_equal_the_rows(monkeypatch):
+    """A scan's calls (any number of frequencies) evaluate q(z, p) once and one point(ω, q)
+    mapped, not a graph of ``fn`` on a row per row length; the values are the NLP rows'
+    values to rounding (relative 1e-14 of a peak of size ≈ 1: the same operations,
+    regrouped by the split)."""
+    z, p = ca.MX.sym("z", 2), ca.MX.sym("p", 1)
+    k, c = ca.exp(z[0]), ca.exp(z[1]) + p[0]
+    fn = FrequencyFunction("f", lambda w: k * w / (c + ca.sin(k * c) * w**2), z, p)
+    z0, p0 = np.array([math.log(2.0), math.log(0.5)]), np.array([0.25])
+    omegas = np.geomspace(0.1, 10.0, 37)
+    rows = ca.Function("rows", [z, p], [fn.rows(ca.DM(omegas).T)])
+    expected = np.asarray(rows(z0, p0), dtype=float).ravel()
+
+    def no_graph(n):
+        raise AssertionError(f"a row graph of {n} frequencies was built")
+
+    monkeypatch.setattr(fn, "function", no_graph)
+    for count in (1, 5, 37):
+        np.testing.assert_allclose(fn(omegas[:count], z0, p0), expected[:count], rtol=1e-14)
+    k1, c1 = math.exp(z0[0] + 0.1), math.exp(z0[1] + 0.1) + 0.25  # a new z: q computed again
+    assert fn(np.array([1.0]), z0 + 0.1, p0)[0] == pytest.approx(
+        k1 / (c1 + math.sin(k1 * c1)), rel=1e-14)
+
+
+def test_numeric_calls_read_a_bare_parameter_beside_omega():
+    """A plant number standing bare beside ω (a dead time L in sin(ωL), as in
+    examples/user-defined-drive.json) is no sub-expression the split can take out: the
+    frequency's part reads it as an input (before, its Function failed to build:
+    'variables are free'). Values equal the NLP rows to rounding (|f| ≥ 1)."""
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 1)
+    k = ca.exp(z[0])
+    fn = FrequencyFunction("f", lambda w: 2 + k * ca.sin(w * p[0]) / (1 + k), z, p)
+    omegas = np.geomspace(0.1, 10.0, 9)
+    rows = ca.Function("rows", [z, p], [fn.rows(ca.DM(omegas).T)])
+    z0, p0 = np.array([math.log(0.7)]), np.array([0.3])
+    np.testing.assert_allclose(fn(omegas, z0, p0), np.asarray(rows(z0, p0)).ravel(),
+                               rtol=1e-15)
+    np.testing.assert_allclose(fn(omegas, z0, p0), 2 + 0.7 * np.sin(omegas * 0.3) / 1.7,
+                               rtol=1e-14)
+
+
 def test_refined_maximum_finds_a_peak_between_grid_points():
     u = np.log(np.geomspace(0.1, 10.0, 9))  # 1 rad/s is a grid point: shift the peak off it
     top, at = refined_maximum(lambda v: -(v - 0.123) ** 2 + 5.0, u, u[0], u[-1])
