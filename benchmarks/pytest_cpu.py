@@ -24,6 +24,7 @@ import json
 import os
 import resource
 import sys
+import time
 
 
 def _cpu(who) -> float:
@@ -39,6 +40,7 @@ class _Recorder:
 
     def _write(self, row: dict):
         row["worker"] = self.worker
+        row["wall"] = time.time()  # when the row was written [s since the epoch]
         with open(self.path, "a") as out:
             out.write(json.dumps(row) + "\n")
 
@@ -71,14 +73,41 @@ def pytest_configure(config):
         "pytest_cpu_recorder")
 
 
+def replay(files: list[tuple[str, int, float]], workers: int = 2) -> list[float]:
+    """Each worker's busy time [s] under ``--dist loadfile`` as pytest-xdist schedules it:
+    files (name, tests, CPU s) queued by their number of tests, largest first
+    (``--loadscope-reorder``), each worker holding two files and taking the next one as it
+    finishes one; a file takes its CPU time (a worker alone on its core)."""
+    queue = sorted(files, key=lambda f: -f[1])
+    busy = [0.0] * workers
+    held = [[] for _ in range(workers)]  # end times of the files a worker holds
+    for worker in range(workers):  # the first file each, then a second
+        held[worker].append(queue.pop(0)[2] if queue else 0.0)
+    for worker in range(workers):
+        if queue:
+            held[worker].append(held[worker][-1] + queue.pop(0)[2])
+    while queue:  # the worker whose first held file ends first takes the next
+        worker = min(range(workers), key=lambda w: held[w][0])
+        done = held[worker].pop(0)
+        start = held[worker][-1] if held[worker] else done
+        held[worker].append(start + queue.pop(0)[2])
+    for worker in range(workers):
+        busy[worker] = max(held[worker]) if held[worker] else 0.0
+    return busy
+
+
 def summarise(path: str, tests: int) -> None:
     """Print the CPU per file (worker and children) and the slowest tests."""
     per_file = collections.defaultdict(lambda: [0, 0.0, 0.0])
     per_test = []
     per_worker = collections.defaultdict(lambda: [0.0, 0.0, 0.0])
+    last_test = {}  # worker → wall-clock time of its last test's end [s since the epoch]
+    first_wall = None
     with open(path) as rows:
         for line in rows:
             row = json.loads(line)
+            if "wall" in row:
+                first_wall = row["wall"] if first_wall is None else min(first_wall, row["wall"])
             if row["kind"] == "test":
                 entry = per_file[row["id"].split("::")[0]]
                 entry[0] += 1
@@ -86,6 +115,8 @@ def summarise(path: str, tests: int) -> None:
                 entry[2] += row["children"]
                 per_test.append((row["self"] + row["children"], row["id"]))
                 per_worker[row["worker"]][0] += row["self"] + row["children"]
+                if "wall" in row:
+                    last_test[row["worker"]] = row["wall"]
             elif row["kind"] == "collected":
                 per_worker[row["worker"]][1] = row["self"] + row["children"]
             elif row["kind"] == "end":
@@ -100,7 +131,13 @@ def summarise(path: str, tests: int) -> None:
           f"{total_children:10.1f} {total_self + total_children:8.1f}")
     for worker, (in_tests, collected, end) in sorted(per_worker.items()):
         print(f"process {worker}: start-up and collection {collected:.1f} s, "
-              f"in tests {in_tests:.1f} s, whole process {end:.1f} s")
+              f"in tests {in_tests:.1f} s, whole process {end:.1f} s (CPU)")
+    for worker, wall in sorted(last_test.items()):
+        print(f"process {worker}: last test ended {wall - first_wall:.1f} s (wall) after "
+              f"the first row was written")
+    busy = replay([(name, v[0], v[1] + v[2]) for name, v in per_file.items()])
+    print("loadfile replayed on these CPU times, each worker busy: "
+          + ", ".join(f"{b:.1f} s" for b in busy))
     if tests:
         print()
         for cpu, nodeid in sorted(per_test, reverse=True)[:tests]:
