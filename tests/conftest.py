@@ -44,6 +44,26 @@ def pytest_configure(config):
     compileall.compile_dir(Path(feedtune.__file__).parent, quiet=2)
 
 
+#: files whose tests take far more CPU than their number suggests (≈ 50–100 s each on one
+#: worker in a full run, benchmarks/README.md "Fifth round"): pytest-xdist hands files out
+#: by their number of tests, largest first, which left these near the end, where one
+#: worker ran one of them alone while the other had nothing left
+HEAVY_FIRST = ("tests/reference/test_robust_plants.py", "tests/batch/test_batch_cli.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under ``--dist loadfile`` (with ``--no-loadscope-reorder``, pyproject.toml): the files
+    in HEAVY_FIRST first, then the rest largest first (pytest-xdist's own order, by number of
+    tests), each file's tests in their order. Without xdist the order is left alone."""
+    if config.getoption("dist", "no") != "loadfile":
+        return
+    files: dict[str, list] = {}
+    for item in items:
+        files.setdefault(item.nodeid.split("::")[0], []).append(item)
+    order = sorted(files, key=lambda name: (name not in HEAVY_FIRST, -len(files[name])))
+    items[:] = [item for name in order for item in files[name]]
+
+
 @pytest.fixture(scope="session")
 def tuned():
     """``tuned(spec)``: the result of tuning ``spec`` (a dict as in a spec file), tuned once

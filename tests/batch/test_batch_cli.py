@@ -524,11 +524,31 @@ def test_a_spec_over_its_own_ipopt_time_limit_is_a_row_and_the_rest_complete(tmp
 
 # -- SIGKILL and identical executors ------------------------------------------------------
 
-def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path):
-    specs = tmp_path / "specs"
-    write_specs(specs, 12)
-    reference = tmp_path / "reference"
-    assert batch(str(specs), "--out", str(reference), "-j", "1").returncode == 0
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    """12 specs and their results from one uninterrupted ``batch -j 1`` process: what a
+    rerun after SIGKILL (all 12), all cores and Dask (the first 6) and a scheduler given by
+    address (the first 3) must give. One process for the three tests: ≈ 2 s of CPU in
+    imports and warm-up each saved (issue 15)."""
+    root = tmp_path_factory.mktemp("uninterrupted")
+    specs, out = root / "specs", root / "out"
+    paths = write_specs(specs, 12)
+    proc = batch(str(specs), "--out", str(out), "-j", "1")
+    assert proc.returncode == 0, proc.stderr
+    return specs, paths, out
+
+
+def first(count: int, out: Path, paths: list[Path]) -> tuple[dict[str, dict], list[dict]]:
+    """The results and summary rows of ``uninterrupted`` for its first ``count`` specs
+    (rows in input order: the same as a batch of those spec files alone)."""
+    names = {path.name for path in paths[:count]}
+    kept = {name: result for name, result in results(out).items() if name in names}
+    assert len(kept) == count
+    return kept, summary(out)["rows"][:count]
+
+
+def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path, uninterrupted):
+    specs, _, reference = uninterrupted
     out = tmp_path / "out"
     process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
                                 "--out", str(out), "-j", "1"], cwd=REPO,
@@ -553,18 +573,19 @@ def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
 
 
-def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path):
-    specs = tmp_path / "specs"
-    write_specs(specs, 6)
+def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path, uninterrupted):
+    _, paths, reference = uninterrupted
+    specs = [str(path) for path in paths[:6]]
+    one, one_rows = first(6, reference, paths)  # one worker: `batch -j 1`
     outs = {}
-    for label, args in {"one": ["-j", "1"], "all": [], "dask": ["--executor", "dask", "-j", "2"]}.items():
+    for label, args in {"all": [], "dask": ["--executor", "dask", "-j", "2"]}.items():
         outs[label] = tmp_path / label
-        proc = batch(str(specs), "--out", str(outs[label]), *args)
+        proc = batch(*specs, "--out", str(outs[label]), *args)
         assert proc.returncode == 0, (label, proc.stderr)
-    assert len(results(outs["one"])) == 6
-    assert results(outs["one"]) == results(outs["all"]) == results(outs["dask"])
+    assert len(one) == 6
+    assert one == results(outs["all"]) == results(outs["dask"])
     rows = {label: without_times(summary(out)["rows"]) for label, out in outs.items()}
-    assert rows["one"] == rows["all"] == rows["dask"]
+    assert without_times(one_rows) == rows["all"] == rows["dask"]
     assert summary(outs["dask"])["executor"] == "dask"
 
 
@@ -613,20 +634,18 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
     assert len(results(out)) == 10
 
 
-def test_an_existing_dask_scheduler_by_address(tmp_path):
+def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
     from distributed import LocalCluster
 
-    specs = tmp_path / "specs"
-    write_specs(specs, 3)
-    local = tmp_path / "local"
-    assert batch(str(specs), "--out", str(local), "-j", "1").returncode == 0
+    _, paths, reference = uninterrupted
+    local, _ = first(3, reference, paths)  # the local executor's results
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
-        proc = batch(str(specs), "--out", str(tmp_path / "remote"), "--scheduler",
-                     cluster.scheduler_address)
+        proc = batch(*[str(path) for path in paths[:3]], "--out", str(tmp_path / "remote"),
+                     "--scheduler", cluster.scheduler_address)
     assert proc.returncode == 0, proc.stderr
     assert summary(tmp_path / "remote")["scheduler"] == cluster.scheduler_address
-    assert results(tmp_path / "remote") == results(local)
+    assert results(tmp_path / "remote") == local
 
 
 def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
@@ -699,9 +718,9 @@ def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_pat
 def test_no_dask_workers_or_scheduler_is_exit_two_after_the_worker_timeout(tmp_path, case):
     specs = tmp_path / "specs"
     write_specs(specs, 1)
-    with dask_scheduler(workers=0) as (address, _):
-        if case == "no-scheduler":
-            address = "tcp://127.0.0.1:9"  # the discard port: nothing listens
+    # no-scheduler: nothing to start; the discard port, where nothing listens
+    with (dask_scheduler(workers=0) if case == "no-workers"
+          else contextlib.nullcontext(("tcp://127.0.0.1:9", None))) as (address, _):
         started = time.monotonic()
         proc = batch(str(specs), "--out", str(tmp_path / "out"), "--scheduler", address,
                      "--worker-timeout", "2", timeout=120)
