@@ -61,6 +61,11 @@ class Unbounded(NamedTuple):
         """``finite`` where the quantity exists, else +∞ (an expression)."""
         return ca.if_else(self.exists > 0, self.finite, ca.inf)
 
+    def __float__(self) -> float:
+        """The value of a loop of numbers: ``exact``'s number (+∞ where the quantity does
+        not exist)."""
+        return to_float(self.exact)
+
 
 class Supremum:
     """max over ω of ``fn(ω) ≥ 0``: a grid of points plus the maximum refined between them.
