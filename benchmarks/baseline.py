@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
+import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -21,3 +23,17 @@ def short_revision(revision: str) -> str:
     """``git rev-parse --short revision``."""
     return subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", revision],
                           check=True, capture_output=True, text=True).stdout.strip()
+
+
+def baseline_module(revision: str, path: str, name: str):
+    """``revision``'s module at ``path`` (e.g. ``feedtune/validate/linear.py``) loaded as
+    ``name``, beside this checkout's: what it imports from feedtune it shares with the
+    checkout, so only the one file's code is the baseline's."""
+    text = subprocess.run(["git", "-C", str(REPO), "show", f"{revision}:{path}"],
+                          capture_output=True, text=True, check=True).stdout
+    file = Path(tempfile.mkdtemp()) / f"{name}.py"
+    file.write_text(text)
+    spec = importlib.util.spec_from_file_location(name, file)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

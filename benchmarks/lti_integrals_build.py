@@ -13,28 +13,14 @@ module and with this checkout's, and whether both give the same bits at random a
 from __future__ import annotations
 
 import argparse
-import importlib.util
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
+from baseline import baseline_module
+
 REPO = Path(__file__).resolve().parents[1]
 MODULE = "feedtune/loops/sampled_lti_integrals.py"
-
-
-def baseline_module(revision: str):
-    """``revision``'s sampled_lti_integrals.py loaded under another name (it imports only
-    feedtune.lazy and feedtune.loops.linalg, which it shares with this checkout)."""
-    text = subprocess.run(["git", "-C", str(REPO), "show", f"{revision}:{MODULE}"],
-                          capture_output=True, text=True, check=True).stdout
-    path = Path(tempfile.mkdtemp()) / "baseline_sampled_lti_integrals.py"
-    path.write_text(text)
-    spec = importlib.util.spec_from_file_location("baseline_sampled_lti_integrals", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def main() -> None:
@@ -51,7 +37,7 @@ def main() -> None:
     import contract_cases as cc
     import feedtune.loops.sampled_lti_integrals as new
 
-    old = baseline_module(args.baseline)
+    old = baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
     keys = []
     for config in cc.CONFIGS:
         if "implementation=sampled" not in config.id:

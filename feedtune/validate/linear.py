@@ -247,21 +247,17 @@ class LinearModel(ContinuousModel):
                                  np.broadcast_to(block.b, (s.size, n, 1)))[:, :, 0]
         return solved @ block.c[0] + block.d[0, 0]
 
-    def _signals_at(self, omega, mode: str, column: int) -> np.ndarray:
-        """Every signal per unit of input ``column`` at s = jω (ω > 0)."""
+    def _system_at(self, omega, mode: str) -> tuple[np.ndarray, np.ndarray]:
+        """(s, I − M): the signal equations at s = jω (ω > 0), M's rows the blocks'
+        gains; the inputs' columns are :meth:`_inputs_at`'s."""
         omega = np.atleast_1d(np.asarray(omega, dtype=float))
         s = 1j * omega
         k = {name: i for i, name in enumerate(SIGNALS)}
         m = np.zeros((s.size, 9, 9), dtype=complex)
-        q = np.zeros((s.size, 9), dtype=complex)
-        if mode == "open":
-            q[:, k["e_p"]] = 1.0 if column == 2 else 0.0
-        else:
-            q[:, k["e_p"]] = 1.0 if column == 0 else 0.0
+        if mode != "open":
             m[:, k["e_p"], k["x"]] = -1.0
         m[:, k["c_p"], k["e_p"]] = self._gain_at(self.blocks["c_p"][0], s)
         m[:, k["v"], k["c_p"]] = 1.0
-        q[:, k["v"]] = self.feedforward * s if column == 1 else 0.0
         m[:, k["e_v"], k["v"]], m[:, k["e_v"], k["xdot"]] = 1.0, -1.0
         if self.cascade:
             m[:, k["u"], k["e_v"]] = self._gain_at(self.blocks["c_v"][0], s)
@@ -273,14 +269,35 @@ class LinearModel(ContinuousModel):
             m[:, k["x"], k["y"]], m[:, k["xdot"], k["y"]] = 1.0, s
         else:
             m[:, k["xdot"], k["y"]], m[:, k["x"], k["y"]] = 1.0, 1 / s
-        return np.linalg.solve(np.eye(9) - m, q[:, :, None])[:, :, 0]
+        return s, np.eye(9) - m
+
+    def _inputs_at(self, s: np.ndarray, mode: str, column: int) -> np.ndarray:
+        """Input ``column`` (0 the reference, 1 its derivative through the feed-forward, 2
+        the opened position error) of the signal equations at ``s``."""
+        k = {name: i for i, name in enumerate(SIGNALS)}
+        q = np.zeros((s.size, 9), dtype=complex)
+        if mode == "open":
+            q[:, k["e_p"]] = 1.0 if column == 2 else 0.0
+        else:
+            q[:, k["e_p"]] = 1.0 if column == 0 else 0.0
+        q[:, k["v"]] = self.feedforward * s if column == 1 else 0.0
+        return q[:, :, None]
+
+    def _signals_at(self, omega, mode: str, columns: tuple[int, ...]) -> list[np.ndarray]:
+        """Every signal per unit of each input of ``columns`` at s = jω (ω > 0): the
+        equations built once, solved for each input."""
+        s, system = self._system_at(omega, mode)
+        return [np.linalg.solve(system, self._inputs_at(s, mode, column))[:, :, 0]
+                for column in columns]
 
     def _open(self, omega) -> np.ndarray:
-        return self._signals_at(omega, "open", 2)[:, SIGNALS.index("x")]
+        (signals,) = self._signals_at(omega, "open", (2,))
+        return signals[:, SIGNALS.index("x")]
 
     def _closed(self, omega) -> np.ndarray:
         x = SIGNALS.index("x")
-        return self._signals_at(omega, "closed", 0)[:, x] + self._signals_at(omega, "closed", 1)[:, x]
+        reference, derivative = self._signals_at(omega, "closed", (0, 1))
+        return reference[:, x] + derivative[:, x]
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
         """(L, H): L = x/e_p with the position feedback opened, H = x/r (feed-forward

@@ -342,7 +342,13 @@ def numpy_loop_stable(loop) -> tuple[bool, float]:
     """Every matrix of ``loop.stability_matrices()`` (closed loop, and an inner loop that
     must be stable on its own) stable by numpy eigenvalues; the smallest distance to the
     boundary among the matrices that decide the answer."""
-    results = [numpy_stable(as_array(m), loop.discrete) for m in loop.stability_matrices().values()]
+    return numpy_matrices_stable(
+        [as_array(m) for m in loop.stability_matrices().values()], loop.discrete)
+
+
+def numpy_matrices_stable(matrices, discrete: bool) -> tuple[bool, float]:
+    """:func:`numpy_loop_stable` of a loop's stability matrices already read as arrays."""
+    results = [numpy_stable(m, discrete) for m in matrices]
     stable = all(s for s, _ in results)
     deciding = [d for s, d in results if s == stable]  # unstable: only the unstable ones
     return stable, min(deciding)

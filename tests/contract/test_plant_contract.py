@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from contract_cases import (ALL_CONFIGS, CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float, grid,
-                            literal_fields, log_point, nominal, numpy_loop_stable,
+                            literal_fields, log_point, nominal, numpy_matrices_stable,
                             stability_sample, symbolic_loop)
 from feedtune.loops.loop import Drive
 from feedtune.loops.protocols import Capability
@@ -120,14 +120,15 @@ def test_stability_conditions_agree_with_numpy_eigenvalues(config, request):
     ambiguous = {"grid": set(), "random": set()}  # distinct loops: a tunable the loop does
     # not depend on (a reference interval) repeats a boundary loop once per grid value
     on_grid = len(grid(config))
+    plant = config.plant  # one plant; a loop per point
     for index, (point, conditions) in enumerate(zip(points, table.T)):
-        loop = config.plant.loop(point, box)
-        stable, distance = numpy_loop_stable(loop)
+        loop = plant.loop(point, box)
+        matrices = {name: as_array(m) for name, m in loop.stability_matrices().items()}
+        stable, distance = numpy_matrices_stable(matrices.values(), loop.discrete)
         if distance < 1e-9:  # on the boundary to rounding: either answer is right
-            key = tuple(as_array(m).tobytes() for m in loop.stability_matrices().values())
+            key = tuple(m.tobytes() for m in matrices.values())
             ambiguous["grid" if index < on_grid else "random"].add(key)
             continue
-        matrices = {name: as_array(m) for name, m in loop.stability_matrices().items()}
         assert bool(np.all(conditions > 0)) == stable, \
             (point, {name: np.linalg.eigvals(m) for name, m in matrices.items()}, conditions)
         validated = all(check_stability(m, loop.discrete)["stable"] for m in matrices.values())
