@@ -37,6 +37,27 @@ class HorizonError(ValueError):
     """A step response would need more samples than MAX_HORIZON_SAMPLES."""
 
 
+class EmbeddedNumber:
+    """A dataclass field of a loop whose number may shape the loop's graph (a horizon's
+    sample count, a frequency grid) rather than enter it as arithmetic: every read is
+    recorded in the loop's :meth:`~_LoopBase.embedded_reads`, so the tuner's structure
+    cache (feedtune.tuner.cache.StructureKey) separates loops only by the numbers their
+    graph read. Set on the class after ``@dataclass``, which then initialises the field
+    through it."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, loop, owner=None):
+        if loop is None:
+            return self
+        loop.__dict__.setdefault("_embedded_reads", set()).add(self.name)
+        return loop.__dict__[self.name]
+
+    def __set__(self, loop, value):
+        loop.__dict__[self.name] = value
+
+
 class StepIntegrals:
     """IAE [m·s], ISE [m²·s] and ITAE [m·s²] of a step response, each built when first read.
 
@@ -308,6 +329,8 @@ class _LoopBase(DeclaredCapabilities):
     capabilities (:mod:`feedtune.loops.protocols`)."""
 
     exact_only = False
+    #: the names of its :class:`EmbeddedNumber` fields
+    embedded_fields: tuple = ()  # not a dataclass field: _LoopBase is no dataclass
     discrete: bool
     state_matrix: object
     input_matrix: object
@@ -328,6 +351,13 @@ class _LoopBase(DeclaredCapabilities):
     def unrolled_steps(self) -> int:
         """Loop steps inside the expressions built so far (a cost hint for the tuner)."""
         return 0
+
+    def embedded_reads(self) -> frozenset[str] | None:
+        """The names of the :class:`EmbeddedNumber` fields read so far, or None where the
+        loop records none (every number it holds may then shape its graph)."""
+        if not self.embedded_fields:
+            return None
+        return frozenset(self.__dict__.get("_embedded_reads", ()))
 
     @cached_property
     def characteristic_polynomial(self) -> list:
@@ -755,6 +785,13 @@ class SampledLoop(_SampledLoopBase):
             return final[n] + (tail if name == "ise" else ca.fabs(tail))
 
         return StepIntegrals(integral)
+
+
+ContinuousLoop.embedded_fields = ("frequency_band",)
+SampledLoop.embedded_fields = ("horizon", "period_min", "frequency_band")
+for _loop in (ContinuousLoop, SampledLoop):  # see EmbeddedNumber
+    for _name in _loop.embedded_fields:
+        setattr(_loop, _name, EmbeddedNumber(_name))
 
 
 @dataclass(frozen=True, eq=False)
