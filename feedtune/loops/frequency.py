@@ -89,14 +89,36 @@ def lattice_band(band: tuple[float, float]) -> tuple[float, float]:
     return lo, hi
 
 
+#: "SX"/"MX" → (u, ω = e^u): the process's one ln ω symbol of each kind, on which every
+#: peak and crossing builds its Functions
+_LOG_OMEGA: dict[str, tuple] = {}
+
+
+def _log_omega(kind: str) -> tuple:
+    """(u, ω = e^u) of the ``kind`` ("SX" or "MX") shared by every Function built here: a
+    loop builds its responses at this ω once (``feedtune.loops.loop.at_shared_omega``), and
+    the peaks and crossings of one loop (|T|² for M_peak and the bandwidth, L for the
+    margins and the crossover) read the same expression. A Function of a shared
+    expression is the Function of a fresh one (the same operations), so the same bits."""
+    if kind not in _LOG_OMEGA:
+        u = getattr(ca, kind).sym("log_omega")
+        _LOG_OMEGA[kind] = (u, ca.exp(u))
+    return _LOG_OMEGA[kind]
+
+
+def is_shared_omega(omega) -> bool:
+    """Whether ``omega`` is the ω of :func:`_log_omega` (the object itself)."""
+    return any(omega is shared for _, shared in _LOG_OMEGA.values())
+
+
 def _functions(name: str, fn, derivatives: int):
     """fn of u = ln ω and its first ``derivatives`` u-derivatives, as CasADi Functions.
 
     Each takes (u, free symbols of the expression): the loop's symbols when the loop is
     symbolic, none when it is made of numbers.
     """
-    u = ca.MX.sym("log_omega")
-    expressions = [fn(ca.exp(u))]
+    u, omega = _log_omega("MX")
+    expressions = [fn(omega)]
     for _ in range(derivatives):
         expressions.append(ca.jacobian(expressions[-1], u))
     free = [v for v in ca.symvar(ca.veccat(*expressions)) if not ca.is_equal(v, u)]
@@ -113,9 +135,9 @@ def _number_functions(name: str, fn, derivatives: int):
     its jacobians and the expansion (≈ 2.5 ms a call). None where ``fn`` cannot take an SX
     argument (a loop holding MX: symbols inside the NLP, or MX matrices of numbers).
     """
-    u = ca.SX.sym("log_omega")
+    u, omega = _log_omega("SX")
     try:
-        expressions = [ca.SX(fn(ca.exp(u)))]
+        expressions = [ca.SX(fn(omega))]
     except (TypeError, NotImplementedError, RuntimeError):
         return None
     for _ in range(derivatives):
