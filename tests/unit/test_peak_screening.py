@@ -125,8 +125,8 @@ def test_the_screen_drops_most_windows(monkeypatch):
 
     monkeypatch.setattr(frequency, "_window_bound", counting)
     frequency.peak(frequency_domain.normalised_gain_squared(loop), loop.frequency_band)
-    (screened, windows), (refined, remaining) = kept
-    assert remaining == screened and screened <= windows // 10, kept
+    (passed, windows), (refined, screened) = kept  # whole windows, then narrowed brackets
+    assert passed <= screened <= 3 * passed and screened <= windows // 10, kept  # neighbours too
     assert refined <= screened, kept
 
 
