@@ -60,7 +60,8 @@ def at_shared_omega(method):
 class EmbeddedNumber:
     """A dataclass field of a loop whose number may shape the loop's graph (a horizon's
     sample count, a frequency grid) rather than enter it as arithmetic: every read is
-    recorded in the loop's :meth:`~_LoopBase.embedded_reads`, so the tuner's structure
+    recorded for the loop's :meth:`~feedtune.loops.protocols.DeclaredCapabilities.embedded_reads`,
+    so the tuner's structure
     cache (feedtune.tuner.cache.StructureKey) separates loops only by the numbers their
     graph read. Set on the class after ``@dataclass``, which then initialises the field
     through it."""
@@ -349,8 +350,6 @@ class _LoopBase(DeclaredCapabilities):
     capabilities (:mod:`feedtune.loops.protocols`)."""
 
     exact_only = False
-    #: the names of its :class:`EmbeddedNumber` fields
-    embedded_fields: tuple = ()  # not a dataclass field: _LoopBase is no dataclass
     discrete: bool
     state_matrix: object
     input_matrix: object
@@ -372,12 +371,6 @@ class _LoopBase(DeclaredCapabilities):
         """Loop steps inside the expressions built so far (a cost hint for the tuner)."""
         return 0
 
-    def embedded_reads(self) -> frozenset[str] | None:
-        """The names of the :class:`EmbeddedNumber` fields read so far, or None where the
-        loop records none (every number it holds may then shape its graph)."""
-        if not self.embedded_fields:
-            return None
-        return frozenset(self.__dict__.get("_embedded_reads", ()))
 
     @cached_property
     def characteristic_polynomial(self) -> list:

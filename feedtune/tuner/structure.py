@@ -115,11 +115,4 @@ def build_structure(variables: list[Variable], fixed: Mapping[str, float],
                      unrolled_steps=loop.unrolled_steps, term_values=term_values,
                      bound_values=bound_values, stability=stability, settling=settling,
                      matrices=matrices, term_scans=term_scans, bound_scans=bound_scans,
-                     evaluator=evaluator, embedded_reads=_embedded_reads(loop))
-
-
-def _embedded_reads(loop) -> frozenset | None:
-    """The embedded numbers the loop's graph read (``embedded_reads`` of a loop that
-    records them), or None."""
-    reads = getattr(loop, "embedded_reads", None)
-    return reads() if callable(reads) else None
+                     evaluator=evaluator, embedded_reads=loop.embedded_reads())
