@@ -20,6 +20,7 @@ from feedtune.schema.result import (ConstraintResult, MetricValue, OptimumCheck,
 from feedtune.schema.spec import Spec, SpecError, parse_spec, tunable_box
 from feedtune.schema.status import ERROR
 from feedtune.tuner import Bound, Settings, Term, Variable
+from feedtune.tuner.cache import StructureKey
 from feedtune.tuner.search import problem_class
 from feedtune.tuner.terms import exact_value
 
@@ -139,7 +140,7 @@ def structure_key(spec: Spec, plant, box: Mapping[str, tuple[float, float]],
                 data[field] = math.copysign(1.0, data[field]) if data[field] != 0 else 0.0
         return data
 
-    return json.dumps({
+    shape = json.dumps({
         "plant": plant.structure(box, horizon_scale),
         "free": sorted(name for name, (lower, upper) in box.items() if lower != upper),
         "objective": [term_shape(f"objective{i}", t, ("weight",))
@@ -149,6 +150,9 @@ def structure_key(spec: Spec, plant, box: Mapping[str, tuple[float, float]],
         "solver": spec.solver.model_dump(mode="json", exclude={"multistart"}),
         **({"scenarios": scenarios} if scenarios is not None else {}),
     }, sort_keys=True)
+    embedded = plant.embedded_numbers(box, horizon_scale)
+    return StructureKey(shape, tuple((name, json.dumps(value))
+                                     for name, value in sorted(embedded.items())))
 
 
 def _report_fn(metric, options) -> Callable:

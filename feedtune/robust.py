@@ -117,6 +117,12 @@ class ScenarioLoops:
             self.discrete = loops[0].discrete
             self.unrolled_steps = max(loop.unrolled_steps for loop in loops)
 
+    def embedded_reads(self) -> frozenset[str] | None:
+        """The embedded numbers any scenario's loop read (None when one does not record
+        them; see :meth:`feedtune.loops.protocols.Loop.embedded_reads`)."""
+        reads = [loop.embedded_reads() for loop in self.loops]
+        return None if any(r is None for r in reads) else frozenset().union(*reads)
+
     def stability(self) -> dict:
         """An exact-only loop's verdict (the search reads it): the nominal loop's block,
         stable only when every scenario's loop is."""

@@ -17,6 +17,7 @@ reference comes from a linear interpolator carries its :class:`Interpolator`.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
@@ -35,6 +36,47 @@ SETTLE_FRACTION = 1e-4  # a symbolic loop's modes must decay this far within its
 
 class HorizonError(ValueError):
     """A step response would need more samples than MAX_HORIZON_SAMPLES."""
+
+
+def at_shared_omega(method):
+    """A loop's response method ``method(self, omega)`` kept per loop at the shared ω of
+    the frequency Functions (:func:`feedtune.loops.frequency.is_shared_omega`): the peaks
+    and crossings of one loop build each response once (same expression, same bits)."""
+    @functools.wraps(method)
+    def response(self, omega):
+        from feedtune.loops.frequency import is_shared_omega
+
+        if not is_shared_omega(omega):
+            return method(self, omega)
+        kept = self.__dict__.setdefault("_shared_responses", {})  # (name, SX or MX) → value
+        key = (method.__name__, type(omega).__name__)
+        if key not in kept:
+            kept[key] = method(self, omega)
+        return kept[key]
+
+    return response
+
+
+class EmbeddedNumber:
+    """A dataclass field of a loop whose number may shape the loop's graph (a horizon's
+    sample count, a frequency grid) rather than enter it as arithmetic: every read is
+    recorded for the loop's :meth:`~feedtune.loops.protocols.DeclaredCapabilities.embedded_reads`,
+    so the tuner's structure
+    cache (feedtune.tuner.cache.StructureKey) separates loops only by the numbers their
+    graph read. Set on the class after ``@dataclass``, which then initialises the field
+    through it."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, loop, owner=None):
+        if loop is None:
+            return self
+        loop.__dict__.setdefault("_embedded_reads", set()).add(self.name)
+        return loop.__dict__[self.name]
+
+    def __set__(self, loop, value):
+        loop.__dict__[self.name] = value
 
 
 class StepIntegrals:
@@ -329,6 +371,7 @@ class _LoopBase(DeclaredCapabilities):
         """Loop steps inside the expressions built so far (a cost hint for the tuner)."""
         return 0
 
+
     @cached_property
     def characteristic_polynomial(self) -> list:
         """Monic closed-loop characteristic polynomial, highest power first."""
@@ -406,6 +449,7 @@ class ContinuousLoop(_LoopBase):
                               Capability.EXACT_STEP_ERROR, Capability.FREQUENCY_RESPONSE,
                               Capability.OPEN_LOOP})
 
+    @at_shared_omega
     def open_loop_response(self, omega):
         """Re and Im of L(jω), ω [rad/s], from :attr:`open_loop`."""
         numerator, denominator = self.open_loop
@@ -415,12 +459,14 @@ class ContinuousLoop(_LoopBase):
         """T(0) = −C A⁻¹ B [1] (1 for a loop that follows a constant reference)."""
         return -ca.mtimes(self.position_row, linalg.solve(self.state_matrix, self.input_matrix))
 
+    @at_shared_omega
     def frequency_response(self, omega):
         """Re and Im of position/reference at s = jω, ω [rad/s]."""
         n = self.order
         re, im = linalg.complex_solve(-self.state_matrix, omega * ca.DM.eye(n), self.input_matrix)
         return ca.mtimes(self.position_row, re), ca.mtimes(self.position_row, im)
 
+    @at_shared_omega
     def error_response(self, omega):
         """Re and Im of S = 1 − H at s = jω, without the cancellation of 1 − H at low ω.
 
@@ -638,6 +684,7 @@ class SampledLoop(_SampledLoopBase):
         """(k_x, k_r): the command held over the coming period is k_x·state + k_r·r."""
         return self._matrices[2], self._matrices[3]
 
+    @at_shared_omega
     def frequency_response(self, omega):
         """Re and Im of position/reference at the samples, z = e^{jωT}, ω [rad/s]:
         H = N/(D + N) of the pulse transfer L = N/D (:attr:`pulse_transfer`)."""
@@ -662,6 +709,7 @@ class SampledLoop(_SampledLoopBase):
             denominator = linalg.poly_mul([1, -phi[0, 0]], [1, -x])
         return numerator, denominator + [0] * self.delay  # z^d·den: the delay
 
+    @at_shared_omega
     def open_loop_response(self, omega):
         """Re and Im of L(e^{jωT}) = K·e^{−jdωT}·P(e^{jωT}), ω [rad/s]: exact, hold and
         computation delay included, periodic in ω with period 2π/T."""
@@ -696,6 +744,7 @@ class SampledLoop(_SampledLoopBase):
         return (phi, gamma.ravel(), kx.ravel(), float(kr.item()), float(period.item()),
                 float(arrays[5].item()) if tau is not None else None)
 
+    @at_shared_omega
     def error_response(self, omega):
         """Re and Im of S = 1 − H at z = e^{jωT}, without the cancellation of 1 − H at low ω.
 
@@ -755,6 +804,13 @@ class SampledLoop(_SampledLoopBase):
             return final[n] + (tail if name == "ise" else ca.fabs(tail))
 
         return StepIntegrals(integral)
+
+
+ContinuousLoop.embedded_fields = ("frequency_band",)
+SampledLoop.embedded_fields = ("horizon", "period_min", "frequency_band")
+for _loop in (ContinuousLoop, SampledLoop):  # see EmbeddedNumber
+    for _name in _loop.embedded_fields:
+        setattr(_loop, _name, EmbeddedNumber(_name))
 
 
 @dataclass(frozen=True, eq=False)
@@ -846,14 +902,17 @@ class TransferLoop(_LoopBase):
         d2 = d_re**2 + d_im**2
         return (n_re * d_re + n_im * d_im) / d2, (n_im * d_re - n_re * d_im) / d2
 
+    @at_shared_omega
     def open_loop_response(self, omega):
         """Re and Im of L(jω), ω [rad/s]."""
         return self._ratio(self.open_numerator, self.open_denominator, omega)
 
+    @at_shared_omega
     def frequency_response(self, omega):
         """Re and Im of position/reference T = L/(1 + L) at s = jω, ω [rad/s]."""
         return self._ratio(self.open_numerator, self.closed_denominator, omega)
 
+    @at_shared_omega
     def error_response(self, omega):
         """Re and Im of S = 1 − T = den L/(den L + num L): exact at low ω."""
         return self._ratio(self.open_denominator, self.closed_denominator, omega)

@@ -95,6 +95,11 @@ class Loop(Protocol):
     def offers(self, capability: Capability) -> bool:
         """Whether this loop offers ``capability`` (declared, not withdrawn by its data)."""
 
+    def embedded_reads(self) -> frozenset[str] | None:
+        """The numbers that may shape the loop's graph (a horizon, a frequency band) that
+        it read so far, by name; None when it does not record them (the tuner's structure
+        cache then keys on all of them: feedtune.tuner.cache.StructureKey)."""
+
 
 class LinearDynamics(Loop, Protocol):
     """:attr:`Capability.LINEAR`: a linear closed loop whose numbers are expressions of the
@@ -297,12 +302,22 @@ class DeclaredCapabilities:
     ``capabilities`` and the loop's data does not withdraw it (:data:`WITHDRAWN`)."""
 
     capabilities: ClassVar[frozenset[Capability]] = frozenset()
+    #: the names of the class's :class:`feedtune.loops.loop.EmbeddedNumber` fields
+    embedded_fields: ClassVar[tuple[str, ...]] = ()
 
     def offers(self, capability: Capability) -> bool:
         if capability not in self.capabilities:
             return False
         still = WITHDRAWN.get(capability)
         return still is None or still(self)
+
+    def embedded_reads(self) -> frozenset[str] | None:
+        """The names of the embedded numbers (``embedded_fields``: numbers that may shape
+        the loop's graph, such as a horizon) read so far, or None for a loop that records
+        none (every number it holds may then shape its graph)."""
+        if not self.embedded_fields:
+            return None
+        return frozenset(self.__dict__.get("_embedded_reads", ()))
 
 
 class Plant(Protocol):

@@ -83,3 +83,12 @@ class Plant:
         return json.dumps([self.params.model_dump(mode="json"),
                            {name: list(bounds) for name, bounds in box.items()},
                            horizon_scale], sort_keys=True)
+
+    def embedded_numbers(self, box: Mapping[str, tuple[float, float]],
+                         horizon_scale: float = 1.0) -> dict[str, object]:
+        """Numbers the loop may embed in its graph, kept out of :meth:`structure`, by the
+        name of the loop attribute that holds each (e.g. ``horizon`` [s]): a loop records
+        which of them its graph read (``embedded_reads``), and only those separate
+        structures (feedtune.tuner.cache.StructureKey). None here: :meth:`structure` holds
+        everything."""
+        return {}

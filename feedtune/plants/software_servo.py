@@ -142,20 +142,33 @@ class SoftwareServo(Plant):
     def structure(self, box: Mapping[str, tuple[float, float]],
                   horizon_scale: float = 1.0) -> str:
         """The choices and the numbers the loop's graph embeds (see
-        :meth:`feedtune.plants.base.Plant.structure`): the reference-pulse loop none; the
-        sampled loop its step-response horizon [s], the smallest period it is summed in
-        [s] and its frequency band [rad/s]; Padé's loop its band [rad/s]."""
+        :meth:`feedtune.plants.base.Plant.structure`): the reference-pulse loop none;
+        Padé's loop its band [rad/s]; the sampled loop's are :meth:`embedded_numbers`."""
         p = self.params
         choices = p.model_dump(mode="json", exclude=set(self.numbers()))
         choices["ideal_drive"] = p.time_constant is None
         embedded: list = []
         if p.technique == "sampled_data" and p.model == "pade":
             embedded = list(self._pade_band(box))
-        elif p.technique == "sampled_data":
-            period_min = box["sampling_period"][0]
-            embedded = [self._horizon(period_min, horizon_scale), period_min,
-                        *self._sampled_band(box)]
         return json.dumps([choices, embedded], sort_keys=True)
+
+    def embedded_numbers(self, box: Mapping[str, tuple[float, float]],
+                         horizon_scale: float = 1.0) -> dict[str, object]:
+        """The sampled (ZOH) loop's step-response ``horizon`` [s], the smallest period
+        ``period_min`` [s] it is summed in and its ``frequency_band`` [rad/s], by the
+        :class:`~feedtune.loops.loop.SampledLoop` attributes that hold them (which records
+        the ones its graph reads: a loop without step integrals or frequency metrics reads
+        none, and then shares its structure with every τ and period box); the
+        reference-pulse loop's ``frequency_band`` [rad/s]; none for Padé's loop, whose
+        band is in :meth:`structure` (see :meth:`feedtune.plants.base.Plant.embedded_numbers`)."""
+        p = self.params
+        if p.technique == "reference_pulse":
+            return {"frequency_band": list(self._pulse_band(box))}
+        if p.model == "pade":
+            return {}
+        period_min = box["sampling_period"][0]
+        return {"horizon": self._horizon(period_min, horizon_scale), "period_min": period_min,
+                "frequency_band": list(self._sampled_band(box))}
 
     def _horizon(self, period_min: float, horizon_scale: float) -> float:
         """The sampled step responses' horizon [s]: SETTLING_TIME_CONSTANTS·(2τ + dead time
@@ -194,11 +207,9 @@ class SoftwareServo(Plant):
             a[1, 1] = -1 / tau
             b = ca.MX.zeros(2, 1)
             b[1, 0] = gain / tau
-            # corners K and 1/τ over the box, two decades either side
-            corners = [*box["position_gain"], 1 / p.time_constant]
             return ContinuousLoop(a, b, ca.DM([[1, 0]]), gain, drive,
                                   open_loop=([gain], [tau, 1, 0]),
-                                  frequency_band=(min(corners) / 100, max(corners) * 100))
+                                  frequency_band=self._pulse_band(box))
         period = values["sampling_period"]
         interpolator = None
         if p.interpolation == "linear":
@@ -218,6 +229,12 @@ class SoftwareServo(Plant):
                            horizon=self._horizon(period_min, horizon_scale),
                            period_min=period_min, interpolator=interpolator,
                            frequency_band=self._sampled_band(box))
+
+    def _pulse_band(self, box) -> tuple[float, float]:
+        """(low, high) [rad/s] of the reference-pulse loop's frequency metrics: its corners
+        K and 1/τ over the box, two decades either side."""
+        corners = [*box["position_gain"], 1 / self.params.time_constant]
+        return min(corners) / 100, max(corners) * 100
 
     def _sampled_band(self, box) -> tuple[float, float]:
         """(low, high) [rad/s] of the sampled loop's frequency metrics: two decades below

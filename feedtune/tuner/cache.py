@@ -36,11 +36,37 @@ class Built:
     reused: bool = False
 
 
+@dataclass(frozen=True)
+class StructureKey:
+    """A problem's structure as its caller knows it before building anything: ``shape``
+    (text: everything that shapes the graph for certain) and ``embedded``, the numbers
+    that may shape it, as (name, JSON text) pairs named as the loop attribute that holds
+    each (feedtune.loops.loop.EmbeddedNumber).
+
+    The first problem of a shape records which embedded numbers its graph read (the
+    structure's ``embedded_reads``); whether a graph reads one is decided by its shape
+    (which metrics, which technique), not by the numbers, so every later problem of that
+    shape is found by those numbers alone: a loop without step integrals or frequency
+    metrics shares one structure over every τ and period box.
+    """
+
+    shape: str
+    embedded: tuple[tuple[str, str], ...] = ()
+
+    def narrowed(self, reads) -> tuple:
+        """The cache's key: the shape and the embedded numbers in ``reads`` (all of them
+        when ``reads`` is None: a loop that records no reads)."""
+        return (self.shape, tuple((name, value) for name, value in self.embedded
+                                  if reads is None or name in reads))
+
+
 _cache: OrderedDict[str, Built] = OrderedDict()
 _cache_counts = {"hits": 0, "misses": 0}
 _cache_lock = threading.Lock()  # the dicts and counters only; a build runs unlocked
-_structures: OrderedDict[str, object] = OrderedDict()
+_structures: OrderedDict[object, object] = OrderedDict()
 _structure_counts = {"hits": 0, "misses": 0}
+#: StructureKey.shape → the embedded numbers its graphs read (None: all)
+_shape_reads: dict[str, frozenset | None] = {}
 
 
 def solver_cache_info() -> dict[str, int]:
@@ -59,27 +85,45 @@ def clear_solver_cache() -> None:
         _cache.clear()
         _cache_counts.update(hits=0, misses=0)
         _structures.clear()
+        _shape_reads.clear()
         _structure_counts.update(hits=0, misses=0)
 
 
-def cached_structure(key: str | None):
+def _stored_key(key: str | StructureKey):
+    """The structure cache's key for ``key``: a StructureKey narrowed to the embedded
+    numbers its shape's graphs read (None when no problem of that shape was stored yet),
+    a text as it is."""
+    if not isinstance(key, StructureKey):
+        return key
+    if key.shape not in _shape_reads:
+        return None
+    return key.narrowed(_shape_reads[key.shape])
+
+
+def cached_structure(key: str | StructureKey | None):
     """The structure (feedtune.tuner.structure.Structure) stored under ``key``, or None
     (always None without a key)."""
     if key is None:
         return None
     with _cache_lock:
-        found = _structures.get(key)
+        stored = _stored_key(key)
+        found = _structures.get(stored) if stored is not None else None
         _structure_counts["hits" if found is not None else "misses"] += 1
         if found is not None:
-            _structures.move_to_end(key)
+            _structures.move_to_end(stored)
         return found
 
 
-def store_structure(key: str | None, structure) -> None:
-    """Keep ``structure`` under ``key`` (nothing without a key)."""
+def store_structure(key: str | StructureKey | None, structure) -> None:
+    """Keep ``structure`` under ``key`` (nothing without a key), narrowed to the embedded
+    numbers its graph read (``structure.embedded_reads``; None: all)."""
     if key is None:
         return
     with _cache_lock:
+        if isinstance(key, StructureKey):
+            reads = structure.embedded_reads
+            _shape_reads[key.shape] = reads
+            key = key.narrowed(reads)
         _structures[key] = structure
         while len(_structures) > STRUCTURE_CACHE_SIZE:
             _structures.popitem(last=False)

@@ -47,6 +47,9 @@ class Structure:
     term_scans: list
     bound_scans: list
     evaluator: Evaluator
+    #: names of the loop's embedded numbers its graph read (feedtune.tuner.cache.
+    #: StructureKey), None when the loop records none
+    embedded_reads: frozenset | None = None
     #: (Functions, key-only Functions, expand) of the first problem built on it
     build: tuple | None = None
     _keys: dict[str, str] = field(default_factory=dict)
@@ -112,4 +115,13 @@ def build_structure(variables: list[Variable], fixed: Mapping[str, float],
                      unrolled_steps=loop.unrolled_steps, term_values=term_values,
                      bound_values=bound_values, stability=stability, settling=settling,
                      matrices=matrices, term_scans=term_scans, bound_scans=bound_scans,
-                     evaluator=evaluator)
+                     evaluator=evaluator, embedded_reads=_embedded_reads(loop))
+
+
+def _embedded_reads(loop) -> frozenset | None:
+    """The embedded numbers the loop's graph read (``Loop.embedded_reads``); None for a loop
+    without that member (the tuner takes any duck-typed loop): all of them then key it."""
+    try:
+        return loop.embedded_reads()
+    except AttributeError:
+        return None

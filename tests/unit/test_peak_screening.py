@@ -111,7 +111,9 @@ def test_screening_keeps_a_light_resonance_between_grid_points(zeta, monkeypatch
 
 
 def test_the_screen_drops_most_windows(monkeypatch):
-    """The point of it: on Bhatia's tuned |T|², far fewer than all windows go on."""
+    """The point of it: on Bhatia's tuned |T|², far fewer than all windows go on, both to
+    the screening golden steps (the bound on whole windows) and to the end (the bound
+    after them)."""
     loop = _loops("bhatia-1971-hydraulic", 0)[0]
     kept = []
     bound = frequency._window_bound
@@ -123,8 +125,9 @@ def test_the_screen_drops_most_windows(monkeypatch):
 
     monkeypatch.setattr(frequency, "_window_bound", counting)
     frequency.peak(frequency_domain.normalised_gain_squared(loop), loop.frequency_band)
-    (refined, windows), = kept
-    assert refined <= windows // 10, kept
+    (passed, windows), (refined, screened) = kept  # whole windows, then narrowed brackets
+    assert passed <= screened <= 3 * passed and screened <= windows // 10, kept  # neighbours too
+    assert refined <= screened, kept
 
 
 @pytest.mark.parametrize("example", EXAMPLES)
@@ -165,3 +168,22 @@ def test_margins_read_the_crossing_in_floats_with_the_same_bits(example, metric,
             loop.__dict__.pop("_gain_crossover", None)
             old = value(loop)
         assert new == old or (math.isnan(new) and math.isnan(old))
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_a_loop_builds_each_response_once_at_the_shared_omega(example):
+    """Peaks and crossings build on one ln ω symbol per kind, and a loop keeps its responses
+    there (feedtune.loops.loop.at_shared_omega): M_peak and the bandwidth read one |T|, the
+    margins and the crossover one L. Any other ω builds anew; the peak of a loop that built
+    its responses for other reports first has the bits of a fresh loop's."""
+    shared, fresh = _loops(example, 1)[-1], _loops(example, 1)[-1]
+    _, omega = frequency._log_omega("MX")
+    assert shared.frequency_response(omega) is shared.frequency_response(omega)
+    assert shared.open_loop_response(omega) is shared.open_loop_response(omega)
+    assert shared.frequency_response(2.0) is not shared.frequency_response(2.0)
+    for fn in (frequency_domain.log_open_loop_gain_squared, frequency_domain.normalised_gain_squared):
+        frequency.first_crossing(fn(shared), shared.frequency_band, 0.5)
+    band = shared.frequency_band
+    again = frequency.peak(frequency_domain.normalised_gain_squared(shared), band)
+    alone = frequency.peak(frequency_domain.normalised_gain_squared(fresh), band)
+    assert [float(ca.evalf(v)) for v in again] == [float(ca.evalf(v)) for v in alone]

@@ -126,3 +126,30 @@ def test_structure_cache_is_bounded_least_recently_used_first(monkeypatch):
         tune(parse_spec(data))
     info = cache.structure_cache_info()
     assert (info["hits"], info["misses"], info["size"]) == (0, 3, 1), info
+
+
+def test_numbers_the_graph_does_not_read_share_its_structure():
+    """τ and the sampling period size the sampled loop's horizon, smallest period and band
+    (feedtune.plants.software_servo.embedded_numbers); its graph reads the horizon only for
+    step integrals and the band only for frequency metrics. Koren's radial-error spec reads
+    neither, so a spec with another τ and period takes the first one's structure (the
+    loop recorded no read: feedtune.loops.loop.EmbeddedNumber) and gets the fresh result;
+    the min-IAE spec sums its step response over the horizon, so another τ builds anew."""
+    a = load_example("koren-1979-sampled-data.json")
+    b = _changed(a, plant={"time_constant": 0.03}, tunables__sampling_period__value=0.01)
+    cache.clear_solver_cache()
+    tune(parse_spec(a))
+    reused = tune(parse_spec(b))
+    info = cache.structure_cache_info()
+    assert (info["hits"], info["misses"]) == (1, 1), info
+    cache.clear_solver_cache()
+    fresh = tune(parse_spec(b))
+    assert reused.success and fresh.success
+    assert without_timing(reused) == without_timing(fresh)
+
+    iae = load_example("koren-1979-min-iae-radius.json")
+    cache.clear_solver_cache()
+    tune(parse_spec(iae))
+    tune(parse_spec(_changed(iae, plant={"time_constant": 0.03})))
+    info = cache.structure_cache_info()
+    assert (info["hits"], info["misses"]) == (0, 2), info
