@@ -13,8 +13,8 @@ The baseline ("old") is the previous code, exported from git (``--baseline REV``
 the commit this work started from) into a temporary directory and run in a child process,
 interleaved with the new runs so both see the same machine load: the bundled specs as
 they were then (8 and 4 starts, exact Hessian), the variants as here; the table gives
-new/old time ratios. Both run with one BLAS thread, as the ``feedtune``
-command does. ``--reference`` instead runs the thorough reference of every variant (many
+new/old CPU-time ratios and both sides' IPOPT iterations. Both run with one BLAS thread,
+as the ``feedtune`` command does. ``--reference`` instead runs the thorough reference of every variant (many
 starts, the code on PYTHONPATH) and prints the dictionary to paste into REFERENCE.
 
 Usage::
@@ -275,7 +275,7 @@ def main(argv=None) -> int:
           f"{os.cpu_count()} CPUs; time = parse + build + solve + evaluation + validation")
     header = (f"{'spec':<36} {'new s':>6} {'cpu s':>6} {'bandwidth':>10} {'best':>10} "
               f"{'reached':>7} {'valid':>5} {'starts':>6} {'iters':>6} | {'old s':>6} "
-              f"{'cpu s':>6} {'reached':>7} {'new/old':>7}")
+              f"{'cpu s':>6} {'iters':>6} {'reached':>7} {'new/old':>7}")
     print(header)
     print("-" * len(header))
     rows = []
@@ -299,7 +299,8 @@ def main(argv=None) -> int:
               f"{'yes' if new['validation_ok'] else 'NO':>5} {new['starts']:6d} "
               f"{new['iterations']:6d} | "
               f"{old['seconds'] if old else float('nan'):6.2f} "
-              f"{old['cpu'] if old else float('nan'):6.2f} {reached(old, best):>7} {ratio}",
+              f"{old['cpu'] if old else float('nan'):6.2f} "
+              f"{old['iterations'] if old else '-':>6} {reached(old, best):>7} {ratio}",
               flush=True)
     print()
     for name in SPECS:
