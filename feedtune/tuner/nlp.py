@@ -65,7 +65,10 @@ LBFGS_HISTORY = 20
 #: "sherman-morrison" back-solves the system for every column (40 MUMPS solves an
 #: iteration). The same Newton steps up to rounding; measured on
 #: examples/user-defined-pid-notch.json (546 rows, 57 iterations, the same optimum): IPOPT's
-#: rounds 0.86 → 0.44 s CPU (benchmarks/README.md, user_drive_vs_scipy.py)
+#: rounds 0.86 → 0.44 s CPU (benchmarks/README.md, user_drive_vs_scipy.py). Only in
+#: warm-started rounds: in the first round too it sent Bhatia's gains with ζ_min, σ_min and
+#: M_s bounds (tests/reference/test_new_metrics.py, one of three orders of the bounds) to
+#: "infeasible" (measured at the merge, 2026-11-27)
 LBFGS_AUG_SOLVER = "extended"
 #: MUMPS's fill-reducing ordering for that system: 2 (approximate minimum fill) instead of
 #: IPOPT's automatic choice (7), which costs more on an augmented system with the update's
@@ -213,8 +216,8 @@ class Problem:
     def _options(self, hessian: str, warm: bool) -> dict:
         """nlpsol options: IPOPT's with this Hessian approximation, warm-started or not."""
         history = ({"limited_memory_max_history": LBFGS_HISTORY,
-                    "limited_memory_aug_solver": LBFGS_AUG_SOLVER,
-                    "mumps_pivot_order": LBFGS_MUMPS_ORDERING}
+                    "mumps_pivot_order": LBFGS_MUMPS_ORDERING,
+                    **({"limited_memory_aug_solver": LBFGS_AUG_SOLVER} if warm else {})}
                    if hessian == "limited-memory" else {})
         return {
             "ipopt": {"max_iter": self.settings.max_iter, "tol": self.settings.tol,
