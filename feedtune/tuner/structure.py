@@ -115,13 +115,5 @@ def build_structure(variables: list[Variable], fixed: Mapping[str, float],
                      unrolled_steps=loop.unrolled_steps, term_values=term_values,
                      bound_values=bound_values, stability=stability, settling=settling,
                      matrices=matrices, term_scans=term_scans, bound_scans=bound_scans,
-                     evaluator=evaluator, embedded_reads=_embedded_reads(loop))
+                     evaluator=evaluator, embedded_reads=loop.embedded_reads())
 
-
-def _embedded_reads(loop) -> frozenset | None:
-    """The embedded numbers the loop's graph read (``Loop.embedded_reads``); None for a loop
-    without that member (the tuner takes any duck-typed loop): all of them then key it."""
-    try:
-        return loop.embedded_reads()
-    except AttributeError:
-        return None

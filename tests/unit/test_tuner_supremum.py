@@ -39,6 +39,9 @@ class ToyLoop:
     def settling_conditions(self):
         return []
 
+    def embedded_reads(self):
+        return frozenset()  # no embedded numbers (Loop protocol)
+
     def stability_matrices(self):
         return {"closed_loop": ca.reshape(-self.k, 1, 1)}
 

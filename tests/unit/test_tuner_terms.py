@@ -27,6 +27,9 @@ class Loop:
     def settling_conditions(self):
         return []
 
+    def embedded_reads(self):
+        return frozenset()  # no embedded numbers (Loop protocol)
+
     def stability_matrices(self):
         return {"closed_loop": ca.MX(-1.0)}
 
