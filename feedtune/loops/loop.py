@@ -371,7 +371,6 @@ class _LoopBase(DeclaredCapabilities):
         """Loop steps inside the expressions built so far (a cost hint for the tuner)."""
         return 0
 
-
     @cached_property
     def characteristic_polynomial(self) -> list:
         """Monic closed-loop characteristic polynomial, highest power first."""

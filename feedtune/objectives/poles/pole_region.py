@@ -231,8 +231,7 @@ def product(x, degree: int, size=lambda v: v) -> list:
     out = [1]
     for factor in [[1, size(a), size(b)] for a, b in quadratic] + (
             [] if linear is None else [[1, size(linear)]]):
-        out = [sum(out[i] * factor[k - i] for i in range(len(out)) if 0 <= k - i < len(factor))
-               for k in range(len(out) + len(factor) - 1)]
+        out = linalg.poly_mul(out, factor)
     return out
 
 
