@@ -570,25 +570,27 @@ class _SampledLoopBase(_LoopBase):
         radius = self._numeric_spectral_radius
         if radius is None:
             return self.symbolic_horizon_samples
-        samples = math.ceil(self.horizon / to_float(self.period))
+        samples = self.horizon / to_float(self.period)
         if 0 < radius < 1:
-            samples = max(samples, math.ceil(math.log(SETTLED) / math.log(radius)))
+            samples = max(samples, math.log(SETTLED) / math.log(radius))
         return self._within_limit(samples, 10 * MAX_HORIZON_SAMPLES)
 
     @property
     def symbolic_horizon_samples(self) -> int:
         """:attr:`horizon_samples` of this loop built on symbols, ``horizon / period_min``,
         from the numbers alone (no expression is built)."""
-        return self._within_limit(math.ceil(self.horizon / self.period_min), MAX_HORIZON_SAMPLES)
+        return self._within_limit(self.horizon / self.period_min, MAX_HORIZON_SAMPLES)
 
-    def _within_limit(self, samples: int, limit: int) -> int:
-        """``samples``, or HorizonError when above ``limit``."""
-        if samples > limit:
+    def _within_limit(self, samples: float, limit: int) -> int:
+        """``samples`` rounded up, or HorizonError when above ``limit`` or not finite (a
+        horizon beyond double precision, e.g. from τ = 1e306 s)."""
+        if not samples <= limit:
+            count = math.ceil(samples) if math.isfinite(samples) else samples
             raise HorizonError(
                 f"a step response over {self.horizon:.3g} s at periods down to "
-                f"{self.period_min:.3g} s needs {samples} samples (limit "
+                f"{self.period_min:.3g} s needs {count} samples (limit "
                 f"{limit}); raise the minimum sampling period or gain")
-        return samples
+        return math.ceil(samples)
 
 
 @dataclass(frozen=True, eq=False)

@@ -230,6 +230,9 @@ class WardLeonard(Plant):
         """
         p = self.params
         n_g, d_f, d_m = self.velocity_per_volt()
+        if not np.all(np.isfinite(np.concatenate([n_g, d_f, d_m]))):
+            # e.g. R_a = 9e306 Ω: R_a·B_m is inf, and D(s) has no roots to place the band by
+            raise OverflowError("G(s)'s coefficients overflow double precision")
         corners = [1 / p.field_time_constant()]
         corners += [abs(r) for r in np.roots(d_m) if abs(r) > 0]
         corners += compensator_corners(box)

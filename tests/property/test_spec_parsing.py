@@ -205,6 +205,10 @@ _SERVO, _HYDRAULIC = "software_servo", "hydraulic_rotary"
 # found by hypothesis: D_m² underflows to 0 (ZeroDivisionError), or overflows
 @example(site=(_HYDRAULIC, ("plant", "displacement")), value=1e-300, delete=False)
 @example(site=(_HYDRAULIC, ("plant", "displacement")), value=1e200, delete=False)
+# a step horizon of 1e306 s is inf samples (OverflowError from math.ceil before)
+@example(site=(_SERVO, ("plant", "time_constant")), value=1e306, delete=False)
+# found by hypothesis: R_a·B_m overflows to inf in D(s), whose roots the band needs
+@example(site=("ward_leonard", ("plant", "armature_resistance")), value=9e306, delete=False)
 def test_one_field_changed_gives_a_spec_or_errors_naming_the_input(site, value, delete):
     plant, path = site
     base = PLANT_EXAMPLES[plant]
