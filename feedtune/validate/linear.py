@@ -369,7 +369,7 @@ class LinearModel(ContinuousModel):
             steps = self._grid_steps()
             t = np.concatenate([[0.0], np.cumsum(steps)])
             starts = np.column_stack([self._steady(kind)[2] for kind in ("step", "ramp")])
-            values = np.einsum("kij,i->kj", _propagate(self.a, starts, steps), self.c)
+            values = _propagate(self.a, starts, steps, self.c)
             cached = self.__dict__["_transient_values"] = (
                 t, {"step": values[:, 0], "ramp": values[:, 1]})
         return cached
