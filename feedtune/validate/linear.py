@@ -274,7 +274,7 @@ class LinearModel(ContinuousModel):
     def _system_at(self, omega, mode: str) -> tuple[np.ndarray, dict]:
         """(s, M): the signal equations σ = M σ + Q at s = jω (ω > 0), M as its nonzero
         entries (signal, source) → the gain from source to signal (a block's gain at each
-        s, or a constant); the inputs' columns Q are :meth:`_inputs_at`'s."""
+        s, or a constant); the inputs Q are :meth:`_inputs_at`'s."""
         s = 1j * np.atleast_1d(np.asarray(omega, dtype=float))
         m = {("c_p", "e_p"): self._gain_at("c_p", s), ("v", "c_p"): 1.0,
              ("e_v", "v"): 1.0, ("e_v", "xdot"): -1.0,
