@@ -317,12 +317,11 @@ class LinearModel(ContinuousModel):
         known = {"y": unit}
 
         def row(name: str) -> np.ndarray:
-            value = np.zeros_like(unit)
+            terms = [gain * known[source] for (target, source), gain in m.items()
+                     if target == name]
+            value = sum(terms[1:], terms[0]) if terms else np.zeros_like(unit)
             if name in inputs:
-                value[1] = inputs[name]
-            for (target, source), gain in m.items():
-                if target == name:
-                    value = value + gain * known[source]
+                value[1] += inputs[name]
             return value
 
         for name in CHAIN:
@@ -341,9 +340,20 @@ class LinearModel(ContinuousModel):
         included), the dead time exact."""
         return self._open(omega), self._closed(omega)
 
+    def _grid(self) -> np.ndarray:
+        """ContinuousModel's frequency grid, once per model (every frequency measure reads
+        it; it takes the loop's eigenvalues)."""
+        grid = self.__dict__.get("_frequency_grid")
+        if grid is None:
+            grid = self.__dict__["_frequency_grid"] = super()._grid()
+        return grid
+
     def _gain(self, omega) -> np.ndarray:
-        """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space."""
-        h0 = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
+        """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space (once per
+        model: Brent's refinement of M_peak asks for one ω at a time)."""
+        h0 = self.__dict__.get("_static_gain")
+        if h0 is None:
+            h0 = self.__dict__["_static_gain"] = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
         return np.abs(self._closed(omega) / h0)
 
     # -- time responses: the transient about the steady solution -------------------------
