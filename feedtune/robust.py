@@ -237,8 +237,10 @@ class PointCheck:
                              c.min, c.max) for c in spec.constraints]
         self.evaluations = 0
 
-    def __call__(self, numbers: Mapping[str, float]) -> tuple[list[float | None], dict]:
-        """(each constraint's value [its unit] or None, the stability block) at ``numbers``."""
+    def __call__(self, numbers: Mapping[str, float],
+                 only: int | None = None) -> tuple[list[float | None], dict]:
+        """(each constraint's value [its unit] or None, the stability block) at ``numbers``;
+        with ``only``, that constraint's value alone (the others None)."""
         self.evaluations += 1
         loop = self.plant.loop({**self.tuned, **numbers}, self.box)
         if loop.exact_only:  # a simulation: its verdict and metrics are numbers already
@@ -249,7 +251,10 @@ class PointCheck:
             matrices = {name: to_array(m) for name, m in loop.stability_matrices().items()}
             stable, stability = feasibility([], [], conditions, matrices, loop.discrete)
         values = []
-        for metric, options, _, _ in self.constraints:
+        for k, (metric, options, _, _) in enumerate(self.constraints):
+            if only is not None and k != only:
+                values.append(None)
+                continue
             try:
                 expr, magnitude = exact_value(metric.evaluate(loop, options))
                 value = (float(expr) if loop.exact_only
@@ -340,7 +345,7 @@ def worst_cases(check: PointCheck, robust: RobustSpec, nominal: Mapping[str, flo
             def at(u, point=point):
                 numbers = {**point, **{name: p.min + x * (p.max - p.min)
                                        for x, (name, p) in zip(np.atleast_1d(u), ranges.items())}}
-                value = check(numbers)[0][i]
+                value = check(numbers, only=i)[0][i]
                 found = margin(value, lower, upper)
                 if found < best.margin:
                     best.numbers, best.value, best.margin = numbers, value, found

@@ -84,22 +84,27 @@ def _run(t: float, h: float, limit: float) -> tuple[np.ndarray, float]:
 RUN_BLOCK = 128
 
 
-def _propagate(m: np.ndarray, z0: np.ndarray, steps: np.ndarray) -> np.ndarray:
+def _propagate(m: np.ndarray, z0: np.ndarray, steps: np.ndarray,
+               output: np.ndarray | None = None) -> np.ndarray:
     """The exact states z(t_i) of z' = M z, z(0) = z0 (a vector, or a matrix of initial
     states in its columns), on the grid of ``steps`` [s]: entry i is z after the first i
-    steps, each step z ← e^{Mh} z (scipy's expm, once per distinct h).
+    steps, each step z ← e^{Mh} z (scipy's expm, once per distinct h). With ``output`` (a
+    row c), entry i is c z(t_i) instead, and the states are not kept.
 
     The graded grid is mostly a few long runs of one step h (the fastest live mode's
     FINE/|p|; Bhatia's tuned loop: 34k of its 41k steps in one run). A run is propagated
     in blocks: with P_j = e^{Mhj} (j = 1 … RUN_BLOCK, each E·P_{j−1}), the next RUN_BLOCK
-    states are P_j z at once, instead of one Python matrix-vector product per step. A run
-    shorter than 2·RUN_BLOCK is the step-by-step product itself; a longer one differs from
-    it only by rounding (≤ 4.3e-13 of the response's scale on the bundled Bhatia and
-    Ward-Leonard results; tests/unit/test_validator_propagation.py).
+    states are P_j z at once, instead of one Python matrix-vector product per step (their
+    outputs (c P_j) z: one row per step instead of a matrix, which matters where a lightly
+    damped mode keeps the fine step for 31 million steps). A run shorter than
+    2·RUN_BLOCK is the step-by-step product itself; a longer one differs from it only by
+    rounding (≤ 4.3e-13 of the response's scale on the bundled Bhatia and Ward-Leonard
+    results; tests/unit/test_validator_propagation.py).
     """
     n_steps = steps.size
-    states = np.empty((n_steps + 1,) + z0.shape)
-    states[0] = z = z0
+    states = np.empty((n_steps + 1,) + (z0.shape if output is None else z0.shape[1:]))
+    z = z0
+    states[0] = z0 if output is None else output @ z0
     change = np.flatnonzero(steps[1:] != steps[:-1]) + 1
     starts = np.concatenate([[0], change]).astype(int)
     ends = np.concatenate([change, [n_steps]]).astype(int)
@@ -112,17 +117,18 @@ def _propagate(m: np.ndarray, z0: np.ndarray, steps: np.ndarray) -> np.ndarray:
         if end - start < 2 * RUN_BLOCK:
             for i in range(start, end):
                 z = step @ z
-                states[i + 1] = z
+                states[i + 1] = z if output is None else output @ z
             continue
         powers = np.empty((RUN_BLOCK,) + step.shape)
         powers[0] = step
         for j in range(1, RUN_BLOCK):
             powers[j] = step @ powers[j - 1]
+        seen = powers if output is None else output @ powers
         i = start
         while i < end:
             k = min(RUN_BLOCK, end - i)
-            states[i + 1:i + 1 + k] = powers[:k] @ z
-            z = states[i + k]
+            states[i + 1:i + 1 + k] = seen[:k] @ z
+            z = states[i + k] if output is None else powers[k - 1] @ z
             i += k
     return states
 
@@ -347,7 +353,7 @@ class ContinuousModel:
             z0[n, 0] = z0[n + 1, 1] = z0[n + 2, 2] = 1.0
             steps = self._grid_steps()
             t = np.concatenate([[0.0], np.cumsum(steps)])
-            theta = np.einsum("kij,i->kj", _propagate(m, z0, steps)[:, :n], self.c)
+            theta = _propagate(m, z0, steps, np.concatenate([self.c, np.zeros(3)]))
             cached = self.__dict__["_responses"] = (
                 t, {"step": theta[:, 0], "ramp": theta[:, 1], "load": theta[:, 2]})
         return cached

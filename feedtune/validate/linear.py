@@ -10,9 +10,10 @@ lag-lead, the notch) are state-space blocks; the signals of the loop
 are unknowns of one linear system solved at every state (time domain) or every frequency
 (frequency domain), not the closed-loop polynomials the tuner uses. Time responses and
 poles hold the dead time as its Padé approximant of the tuner's order, written here from
-its closed form; frequency responses hold e^{−jωθ} exactly, each block's gain
-C(jωI − A)⁻¹B + D evaluated at s = jω. The metrics are measured by
-:class:`feedtune.validate.continuous.ContinuousModel`.
+its closed form; frequency responses hold e^{−jωθ} exactly, each block's gain its transfer
+function n(jω)/d(jω) (a state-space drive's C(jωI − A)⁻¹B + D), the system solved by
+elimination along the loop cut at the drive's output (:meth:`LinearModel._signal_at`).
+The metrics are measured by :class:`feedtune.validate.continuous.ContinuousModel`.
 
 References
 ----------
@@ -48,6 +49,9 @@ SIGNALS = ("e_p", "c_p", "v", "e_v", "u", "w", "y", "x", "xdot")
 #: external inputs: reference r, its rate ṙ (feed-forward), and the error e_p when the loop
 #: is opened at the position feedback
 INPUTS = ("r", "rdot", "e_open")
+#: the signals in an order in which, the drive's output y given, each follows from those
+#: before it (frequency domain: :meth:`LinearModel._signal_at`)
+CHAIN = ("x", "xdot", "e_p", "c_p", "v", "e_v", "u", "w")
 
 
 def pade_block(dead_time: float) -> Block:
@@ -98,8 +102,9 @@ def drive_block(model: dict) -> Block:
     return siso(*drive_transfer(model))
 
 
-def controller_block(loop: str, plant: dict, tuned: dict) -> Block:
-    """The ``loop`` controller: law × compensator × notch, as one block."""
+def controller_transfer(loop: str, plant: dict, tuned: dict) -> tuple[np.ndarray, np.ndarray]:
+    """(numerator, denominator), highest power first, of the ``loop`` controller: law ×
+    compensator × notch."""
     law = plant.get(f"{loop}_controller", "p")
     prefix = f"{loop}_controller"
     kp = tuned[f"{prefix}.kp"]
@@ -118,7 +123,12 @@ def controller_block(loop: str, plant: dict, tuned: dict) -> Block:
         w, zeta, depth = (tuned[f"notch.{k}"] for k in ("frequency", "width", "depth"))
         num = np.polymul(num, [1.0, 2 * depth * zeta * w, w * w])
         den = np.polymul(den, [1.0, 2 * zeta * w, w * w])
-    return siso(num, den)
+    return num, den
+
+
+def controller_block(loop: str, plant: dict, tuned: dict) -> Block:
+    """The ``loop`` controller: law × compensator × notch, as one block."""
+    return siso(*controller_transfer(loop, plant, tuned))
 
 
 class LinearModel(ContinuousModel):
@@ -138,10 +148,18 @@ class LinearModel(ContinuousModel):
         self.drive = drive_block(plant["model"])
         if np.any(self.drive.d):
             raise NotCovered("a drive with direct feedthrough (D ≠ 0) is not modelled")
+        #: each block's (numerator, denominator) for its frequency response; None: the
+        #: drive's own A, B, C, D
+        self.transfers = {
+            "c_p": controller_transfer("position", plant, tuned),
+            "c_v": controller_transfer("velocity", plant, tuned) if self.cascade else None,
+            "drive": (None if plant["model"]["type"] == "state_space"
+                      else drive_transfer(plant["model"])),
+        }
         empty = Block(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1)))
         self.blocks = {
-            "c_p": (controller_block("position", plant, tuned), "e_p"),
-            "c_v": (controller_block("velocity", plant, tuned) if self.cascade else empty, "e_v"),
+            "c_p": (siso(*self.transfers["c_p"]), "e_p"),
+            "c_v": (siso(*self.transfers["c_v"]) if self.cascade else empty, "e_v"),
             "pade": (pade_block(self.dead_time) if self.dead_time > 0 else empty, "u"),
             "drive": (self.drive, "w"),
         }
@@ -239,74 +257,103 @@ class LinearModel(ContinuousModel):
 
     # -- frequency responses: the dead time exact ----------------------------------------
 
-    def _gain_at(self, block: Block, s: np.ndarray) -> np.ndarray:
+    def _gain_at(self, name: str, s: np.ndarray) -> np.ndarray:
+        """Block ``name``'s gain at ``s``: its transfer function n(s)/d(s) by Horner's rule
+        (C(sI − A)⁻¹B + D of its controllable canonical form, which is n/d), or for a
+        drive given by its own A, B, C, D that expression solved at each s."""
+        transfer = self.transfers[name]
+        if transfer is not None:
+            num, den = transfer
+            return np.polyval(num, s) / np.polyval(den, s)
+        block = self.drive
         n = block.order
-        if n == 0:
-            return np.full(s.shape, block.d[0, 0], dtype=complex)
         solved = np.linalg.solve(s[:, None, None] * np.eye(n) - block.a,
                                  np.broadcast_to(block.b, (s.size, n, 1)))[:, :, 0]
         return solved @ block.c[0] + block.d[0, 0]
 
-    def _system_at(self, omega, mode: str) -> tuple[np.ndarray, np.ndarray]:
-        """(s, I − M): the signal equations at s = jω (ω > 0), M's rows the blocks'
-        gains; the inputs' columns are :meth:`_inputs_at`'s."""
-        omega = np.atleast_1d(np.asarray(omega, dtype=float))
-        s = 1j * omega
-        k = {name: i for i, name in enumerate(SIGNALS)}
-        m = np.zeros((s.size, 9, 9), dtype=complex)
+    def _system_at(self, omega, mode: str) -> tuple[np.ndarray, dict]:
+        """(s, M): the signal equations σ = M σ + Q at s = jω (ω > 0), M as its nonzero
+        entries (signal, source) → the gain from source to signal (a block's gain at each
+        s, or a constant); the inputs Q are :meth:`_inputs_at`'s."""
+        s = 1j * np.atleast_1d(np.asarray(omega, dtype=float))
+        m = {("c_p", "e_p"): self._gain_at("c_p", s), ("v", "c_p"): 1.0,
+             ("e_v", "v"): 1.0, ("e_v", "xdot"): -1.0,
+             ("w", "u"): np.exp(-s * self.dead_time), ("y", "w"): self._gain_at("drive", s)}
         if mode != "open":
-            m[:, k["e_p"], k["x"]] = -1.0
-        m[:, k["c_p"], k["e_p"]] = self._gain_at(self.blocks["c_p"][0], s)
-        m[:, k["v"], k["c_p"]] = 1.0
-        m[:, k["e_v"], k["v"]], m[:, k["e_v"], k["xdot"]] = 1.0, -1.0
+            m["e_p", "x"] = -1.0
         if self.cascade:
-            m[:, k["u"], k["e_v"]] = self._gain_at(self.blocks["c_v"][0], s)
+            m["u", "e_v"] = self._gain_at("c_v", s)
         else:
-            m[:, k["u"], k["c_p"]] = 1.0
-        m[:, k["w"], k["u"]] = np.exp(-s * self.dead_time)
-        m[:, k["y"], k["w"]] = self._gain_at(self.drive, s)
+            m["u", "c_p"] = 1.0
         if self.position_output:
-            m[:, k["x"], k["y"]], m[:, k["xdot"], k["y"]] = 1.0, s
+            m["x", "y"], m["xdot", "y"] = 1.0, s
         else:
-            m[:, k["xdot"], k["y"]], m[:, k["x"], k["y"]] = 1.0, 1 / s
-        return s, np.eye(9) - m
+            m["xdot", "y"], m["x", "y"] = 1.0, 1 / s
+        return s, m
 
-    def _inputs_at(self, s: np.ndarray, mode: str, column: int) -> np.ndarray:
-        """Input ``column`` (0 the reference, 1 its derivative through the feed-forward, 2
-        the opened position error) of the signal equations at ``s``."""
-        k = {name: i for i, name in enumerate(SIGNALS)}
-        q = np.zeros((s.size, 9), dtype=complex)
+    def _inputs_at(self, s: np.ndarray, mode: str) -> dict[str, np.ndarray]:
+        """The signal equations' inputs Q at ``s``, signal → value: a unit reference r
+        (its rate ṙ = s r through the feed-forward), or the unit position error e_p where
+        the loop is ``open``."""
         if mode == "open":
-            q[:, k["e_p"]] = 1.0 if column == 2 else 0.0
-        else:
-            q[:, k["e_p"]] = 1.0 if column == 0 else 0.0
-        q[:, k["v"]] = self.feedforward * s if column == 1 else 0.0
-        return q[:, :, None]
+            return {"e_p": np.ones(s.size, dtype=complex)}
+        return {"e_p": np.ones(s.size, dtype=complex), "v": self.feedforward * s}
 
-    def _signals_at(self, omega, mode: str, columns: tuple[int, ...]) -> list[np.ndarray]:
-        """Every signal per unit of each input of ``columns`` at s = jω (ω > 0): the
-        equations built once, solved for each input."""
-        s, system = self._system_at(omega, mode)
-        return [np.linalg.solve(system, self._inputs_at(s, mode, column))[:, :, 0]
-                for column in columns]
+    def _signal_at(self, omega, mode: str, signal: str = "x") -> np.ndarray:
+        """``signal`` per unit input (:meth:`_inputs_at`) at s = jω (ω > 0).
+
+        The signal equations σ = M σ + Q are solved by elimination along the loop, cut at
+        the drive's output y: in the order of :data:`CHAIN` each signal is its row of M
+        applied to those before it and y, once with y = 1 and no input (g: the chain's
+        response per unit y) and once with the input and y = 0 (h). M's row of y then
+        closes the loop, y = g_y y + h_y, so y = h_y/(1 − g_y) and every signal is
+        h + y g: the same linear system, one division by the loop's return difference
+        1 − g_y per frequency instead of a 9 × 9 LU factorisation. A source not yet known
+        when its signal is reached (an equation the order does not cover) raises KeyError."""
+        s, m = self._system_at(omega, mode)
+        inputs = self._inputs_at(s, mode)
+        unit = np.zeros((2, s.size), dtype=complex)  # rows: the g pass, the h pass
+        unit[0] = 1.0
+        known = {"y": unit}
+
+        def row(name: str) -> np.ndarray:
+            terms = [gain * known[source] for (target, source), gain in m.items()
+                     if target == name]
+            value = sum(terms[1:], terms[0]) if terms else np.zeros_like(unit)
+            if name in inputs:
+                value[1] += inputs[name]
+            return value
+
+        for name in CHAIN:
+            known[name] = row(name)
+        g, h = row("y")
+        return known[signal][1] + h / (1.0 - g) * known[signal][0]
 
     def _open(self, omega) -> np.ndarray:
-        (signals,) = self._signals_at(omega, "open", (2,))
-        return signals[:, SIGNALS.index("x")]
+        return self._signal_at(omega, "open")
 
     def _closed(self, omega) -> np.ndarray:
-        x = SIGNALS.index("x")
-        reference, derivative = self._signals_at(omega, "closed", (0, 1))
-        return reference[:, x] + derivative[:, x]
+        return self._signal_at(omega, "closed")
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
         """(L, H): L = x/e_p with the position feedback opened, H = x/r (feed-forward
         included), the dead time exact."""
         return self._open(omega), self._closed(omega)
 
+    def _grid(self) -> np.ndarray:
+        """ContinuousModel's frequency grid, once per model (every frequency measure reads
+        it; it takes the loop's eigenvalues)."""
+        grid = self.__dict__.get("_frequency_grid")
+        if grid is None:
+            grid = self.__dict__["_frequency_grid"] = super()._grid()
+        return grid
+
     def _gain(self, omega) -> np.ndarray:
-        """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space."""
-        h0 = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
+        """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space (once per
+        model: Brent's refinement of M_peak asks for one ω at a time)."""
+        h0 = self.__dict__.get("_static_gain")
+        if h0 is None:
+            h0 = self.__dict__["_static_gain"] = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
         return np.abs(self._closed(omega) / h0)
 
     # -- time responses: the transient about the steady solution -------------------------
@@ -332,7 +379,7 @@ class LinearModel(ContinuousModel):
             steps = self._grid_steps()
             t = np.concatenate([[0.0], np.cumsum(steps)])
             starts = np.column_stack([self._steady(kind)[2] for kind in ("step", "ramp")])
-            values = np.einsum("kij,i->kj", _propagate(self.a, starts, steps), self.c)
+            values = _propagate(self.a, starts, steps, self.c)
             cached = self.__dict__["_transient_values"] = (
                 t, {"step": values[:, 0], "ramp": values[:, 1]})
         return cached

@@ -154,3 +154,17 @@ def test_the_time_grid_is_the_loops_to_the_last_bit(name):
         assert np.array_equal(new, _graded_steps_loop(model)), values
         checked += 1
     assert checked >= 8
+
+
+@pytest.mark.parametrize("length", [2 * continuous.RUN_BLOCK - 1, 5 * continuous.RUN_BLOCK + 7])
+def test_the_outputs_alone_are_the_states_output_up_to_rounding(length):
+    """``output`` c: entry i is c z(t_i), from c P_j in the long runs; against c times the
+    kept states, to 1e-13 of the output's scale (rounding of a reordered product)."""
+    rng = np.random.default_rng(length)
+    m = rng.normal(size=(5, 5)) - 4 * np.eye(5)
+    z0, c = rng.normal(size=(5, 2)), rng.normal(size=5)
+    steps = np.concatenate([np.full(3, 1e-3), np.full(length, 2e-3), np.full(5, 3e-3)])
+    new = continuous._propagate(m, z0, steps, c)
+    old = np.einsum("kij,i->kj", continuous._propagate(m, z0, steps), c)
+    assert new.shape == old.shape == (steps.size + 1, 2)
+    assert np.max(np.abs(new - old)) <= 1e-13 * np.max(np.abs(old))
