@@ -32,7 +32,8 @@ from feedtune.tuner.poles import PoleScan
 #: frequencies the exchange method may add to one peak or crossing, per start. Every slot is
 #: a row of the NLP whether switched on or not, and a tracked row (:func:`tracked`) is dear:
 #: with 16 slots per group the 32 exchange rows were 57 % of the Jacobian's 520k SX
-#: instructions on Bhatia's spec (1.0 of 2.1 ms a call; 50 % on Ward-Leonard's). Measured
+#: instructions on Bhatia's spec (1.0 of 2.1 ms a call; 50 % on Ward-Leonard's), before
+#: their slope and curvature were differences (the user drive's 30: 55 % → 25 %). Measured
 #: (2026-11-27, bhatia_speed.py's 26 tunings): at most 7 points a start on Bhatia's spec and
 #: variants, 15 (both groups) on Ward-Leonard variant 01; with 10 every tuning reaches what
 #: it reached with 16, in fewer iterations on 13 of them (Ward-Leonard's bundled spec 271 →
@@ -362,8 +363,9 @@ def tracked(row_at, slots: ca.MX, step: float, maximum: bool) -> ca.MX:
     check puts it). Where the row is flatter than 2·EXCHANGE_TOL/step² (curving by less
     than the check's tolerance over one step), that curvature stands in for −r_uu: the
     differences there are rounding noise (an exact 0 where the row is flat to the last
-    bit, e.g. |T| = 1 at low ω), and a 1e-300 floor made the row's Jacobian 1e256. ``row_at`` maps a 1×n row of slot values to a 1×n row of expressions,
-    each entry depending on its own slot only.
+    bit, e.g. |T| = 1 at low ω), and a 1e-300 floor made the row's Jacobian 1e256.
+    ``row_at`` maps a 1×n row of slot values to a 1×n row of expressions, each entry
+    depending on its own slot only.
 
     r_u and r_uu are central differences of the row at u ± :data:`CURVATURE_STEP` (the
     Newton step of the parabola through three points; see there for its accuracy), not
