@@ -32,7 +32,8 @@ from feedtune.tuner.poles import PoleScan
 #: frequencies the exchange method may add to one peak or crossing, per start. Every slot is
 #: a row of the NLP whether switched on or not, and a tracked row (:func:`tracked`) is dear:
 #: with 16 slots per group the 32 exchange rows were 57 % of the Jacobian's 520k SX
-#: instructions on Bhatia's spec (1.0 of 2.1 ms a call; 50 % on Ward-Leonard's). Measured
+#: instructions on Bhatia's spec (1.0 of 2.1 ms a call; 50 % on Ward-Leonard's), before
+#: their slope and curvature were differences (the user drive's 30: 55 % → 25 %). Measured
 #: (2026-11-27, bhatia_speed.py's 26 tunings): at most 7 points a start on Bhatia's spec and
 #: variants, 15 (both groups) on Ward-Leonard variant 01; with 10 every tuning reaches what
 #: it reached with 16, in fewer iterations on 13 of them (Ward-Leonard's bundled spec 271 →
@@ -52,6 +53,12 @@ EXCHANGE_TOL = 1e-7
 DIP_MARGIN = 1e-3
 #: golden-section steps in each window of two grid steps: the bracket shrinks to 1e-10
 GOLDEN_STEPS = 48
+#: half-width h of the central differences in ln ω that give a tracked exchange row its
+#: slope and curvature (:func:`tracked`). Truncation: the Newton step's relative error is
+#: ≈ (h/w)²/12 at a peak of half-width w in ln ω (w ≈ ζ at a resonance of damping ζ:
+#: 2e-6 at ζ = 0.02, the user drive's mode); rounding: ≈ 4ε/h² = 1e-7 on the curvature
+#: of a row bounded by 1 (the bounded forms above), against curvatures of order 1/w²
+CURVATURE_STEP = 1e-4
 _GOLDEN = (math.sqrt(5) - 1) / 2
 
 
@@ -353,27 +360,36 @@ def tracked(row_at, slots: ca.MX, step: float, maximum: bool) -> ca.MX:
     to 4e-2 relative excess each round, until none was left). At the moved point the row
     follows its local extremum to second order: δ = r_u / max(∓r_uu, |r_u|/step) (u = ln
     slot), so |δ| ≤ step, and δ = 0 at a point where the extremum is (where the exchange
-    check puts it). ``row_at`` maps a 1×n row of slot values to a 1×n row of expressions,
-    each entry depending on its own slot only.
+    check puts it). Where the row is flatter than 2·EXCHANGE_TOL/step² (curving by less
+    than the check's tolerance over one step), that curvature stands in for −r_uu: the
+    differences there are rounding noise (an exact 0 where the row is flat to the last
+    bit, e.g. |T| = 1 at low ω), and a 1e-300 floor made the row's Jacobian 1e256.
+    ``row_at`` maps a 1×n row of slot values to a 1×n row of expressions, each entry
+    depending on its own slot only.
 
-    All slots are one row: ``row_at`` is called on the whole row (at the slots, and at the
-    moved slots), so what does not depend on ω (a loop's polynomial coefficients) is
-    computed once for all slots, and r_u, r_uu are the diagonals of the row's elementwise
-    Jacobians. Mapping a one-slot Function over the slots instead computed the
-    coefficients again in every slot once expanded (measured on the bundled Ward-Leonard
-    spec: 32 rows, 26k of the NLP's 65k SX instructions).
+    r_u and r_uu are central differences of the row at u ± :data:`CURVATURE_STEP` (the
+    Newton step of the parabola through three points; see there for its accuracy), not
+    derivatives of the row's graph: differentiated in u twice and then by IPOPT's
+    Jacobian in the tunables, the row's graph grew ninefold (third derivatives; measured
+    on ``examples/user-defined-pid-notch.json``: the 30 tracked rows 27.6k of the NLP's
+    52.8k SX instructions and 243k of its Jacobian's 442k, now 7.8k and 68k).
+
+    The row is evaluated twice, each time on all slots at once (at the three points of
+    every slot, then at the moved slots), so what does not depend on ω (a loop's
+    polynomial coefficients) is computed twice for all slots, not once per slot: mapping
+    a one-slot Function over the slots computed the coefficients again in every slot once
+    expanded (measured on the bundled Ward-Leonard spec: 32 rows, 26k of the NLP's 65k SX
+    instructions).
     """
     n = slots.numel()
-    u = ca.MX.sym("log_slot", 1, n)
     sign = 1.0 if maximum else -1.0
-    row = sign * row_at(ca.exp(u))
-    free = [v for v in ca.symvar(row) if not ca.is_equal(v, u)]
-    r_u = ca.diag(ca.jacobian(row, u)).T
-    r_uu = ca.diag(ca.jacobian(r_u, u)).T
-    delta = r_u / ca.fmax(ca.fmax(-r_uu, ca.fabs(r_u) / step), 1e-300)
-    moved = row_at(ca.exp(u + delta))
-    one = ca.Function("tracked", [u, *free], [moved])
-    return one(ca.log(slots), *free)
+    u, h = ca.log(slots), CURVATURE_STEP
+    around = sign * row_at(ca.exp(ca.horzcat(u - h, u, u + h)))
+    below, at, above = around[:, :n], around[:, n:2 * n], around[:, 2 * n:]
+    r_u = (above - below) / (2 * h)
+    r_uu = (above - 2 * at + below) / h**2
+    delta = r_u / ca.fmax(ca.fmax(-r_uu, ca.fabs(r_u) / step), 2 * EXCHANGE_TOL / step**2)
+    return row_at(ca.exp(u + delta))
 
 
 def _exchange_rows(builder: NlpBuilder, group: ExchangeGroup, default: float, constraint_at,

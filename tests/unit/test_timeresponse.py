@@ -23,7 +23,8 @@ from scipy.optimize import brentq
 from scipy.signal import tf2ss
 
 from feedtune.loops.timeresponse import (DECAY, ResponseTooLongError, UnstableResponseError,
-                                         load_response, reference_error, step_response)
+                                         Transient, load_response, reference_error,
+                                         step_response)
 
 LN_DECAY = math.log(1 / DECAY)
 
@@ -288,3 +289,25 @@ def test_proper_transfer_and_constant():
     assert r.transient.iae == pytest.approx(1.0, rel=1e-14)
     c = step_response([3.0], [2.0])
     assert c.steady == 1.5 and c.transient.iae == 0.0 and c.transient.ise == 0.0
+
+
+def test_a_turn_at_t_zero_to_rounding_ends_in_a_root_not_an_error():
+    """Bhatia's tuned loop with σ_min ≥ 12 1/s (tests/reference/test_new_metrics.py, its
+    transient at the tuned point of branch h-cold2): ẏ_tr(0) is 0 in exact arithmetic (its
+    leading terms cancel) and 4.5e-15 in floating point, so the first grid interval holds
+    a turn whose root lies at ≈ 1e-17 s. Brent's method, with its relative tolerance, needed
+    108 iterations there and raised after 100; the root is now its last point. Its time is
+    below 1e-15 s (1e-9 of the first grid step, 5.4e-7 s: at t = 0 for any response time),
+    and the extremes hold the extrema found."""
+    numerator = [1.230901003445581e-22, 5.799184310714309e-17, 6.487453931158783e-13,
+                 -3.005847800905579e-08, -0.0003712781086787525, -0.12588491385464334,
+                 -11.106562381082442, -221.15596407122715]
+    denominator = [1.2270995283584186e-16, 5.781274296325391e-11, 7.109335488801282e-07,
+                   0.00027420011371929304, 0.35233168623095956, 82.62582204874377,
+                   19928.69080373988, 445035.6817335092, 2614991.331149016]
+    transient = Transient(np.array(numerator), np.array(denominator))
+    low, high = transient.extremes()
+    times, values = transient._extrema
+    assert 0 <= times[0] < 1e-15
+    assert np.all(np.isfinite(values)) and low <= np.min(values) and high >= np.max(values)
+    assert low < 0 < high

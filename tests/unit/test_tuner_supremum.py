@@ -273,6 +273,49 @@ def test_an_exchange_row_moves_at_most_one_step():
 
 
 
+def _resonance_rows(rows_of):
+    """(instructions of the rows, of their Jacobian in the tunables) for ``rows_of(row_at,
+    slots)`` on a closed loop's |1/D(jω)|², D of degree 10 with coefficients of three
+    tunables, at ten slots, expanded to SX as the NLP is."""
+    z = ca.MX.sym("z", 3)
+    coefficients = [ca.exp(z[k % 3]) * (k + 1) for k in range(11)]
+
+    def row_at(w):
+        re, im = 0, 0
+        for c in coefficients:  # Horner on jω, as linalg.poly_at_jw
+            re, im = -w * im + c, w * re
+        return 1 / (re**2 + im**2)
+
+    rows = ca.Function("rows", [z], [rows_of(row_at, ca.DM(np.geomspace(0.5, 2, 10)).T)])
+    rows = rows.expand()
+    zs = ca.SX.sym("z", 3)
+    jacobian = ca.Function("jacobian", [zs], [ca.jacobian(rows(zs), zs)])
+    return rows.n_instructions(), jacobian.n_instructions()
+
+
+def test_a_tracked_row_costs_a_few_evaluations_of_its_row():
+    """The slope and curvature in ln ω are central differences, so a tracked row and its
+    Jacobian cost four evaluations of the row and theirs (3.4x and 6.7x here), not second
+    derivatives differentiated again by IPOPT's Jacobian (10x and 17x before)."""
+    step = math.log(10) / 40
+    plain = _resonance_rows(lambda row_at, slots: row_at(slots))
+    moved = _resonance_rows(lambda row_at, slots: tracked(row_at, slots, step, True))
+    assert moved[0] < 5 * plain[0] and moved[1] < 8 * plain[1]
+
+
+def test_a_row_flat_to_the_last_bit_keeps_a_finite_jacobian():
+    """A row whose values at u ± h round to the same number (|T| = 1 at low ω) while its
+    derivative in the tunable does not: its differences are 0, and its Newton step must not
+    divide their derivatives by 1e-300 (the bundled Ward-Leonard spec's off rows had
+    Jacobian entries of 1e256). The row's own derivative is 1e-20·ω (ω ≈ 1 rad/s), so an
+    entry of 1e-10 is already ten orders too large."""
+    z = ca.MX.sym("z")
+    step = math.log(10) / 40
+    rows = tracked(lambda w: 1 + ca.exp(z) * 1e-20 * w, ca.DM([[1.0, 2.0]]), step, True)
+    jacobian = np.asarray(ca.Function("j", [z], [ca.jacobian(rows, z)])(0.0), dtype=float)
+    assert np.all(np.isfinite(jacobian)) and np.max(np.abs(jacobian)) < 1e-10
+
+
 def test_exchange_rows_compute_what_does_not_depend_on_omega_once():
     """A row whose factor c(k) (2000 operations, no ω) multiplies a peak in ω: 16 tracked
     slots cost c once, not once per slot (a one-slot Function mapped over the slots,
