@@ -115,14 +115,19 @@ def _functions(name: str, fn, derivatives: int):
     """fn of u = ln ω and its first ``derivatives`` u-derivatives, as CasADi Functions.
 
     Each takes (u, free symbols of the expression): the loop's symbols when the loop is
-    symbolic, none when it is made of numbers.
+    symbolic, none when it is made of numbers. Each is expanded to SX where it can be
+    (:func:`_expanded`): the peaks and crossings call them ≈ 100 times over the grid, and
+    an SX Function evaluates, and builds its derivatives, several times faster than the
+    MX graph of the loop's response (the same operations; ``benchmarks/README.md``,
+    branch h-tmc).
     """
     u, omega = _log_omega("MX")
     expressions = [fn(omega)]
     for _ in range(derivatives):
         expressions.append(ca.jacobian(expressions[-1], u))
     free = [v for v in ca.symvar(ca.veccat(*expressions)) if not ca.is_equal(v, u)]
-    return [ca.Function(f"{name}_{k}", [u, *free], [e]) for k, e in enumerate(expressions)], free
+    return [_expanded(ca.Function(f"{name}_{k}", [u, *free], [e]))
+            for k, e in enumerate(expressions)], free
 
 
 def _number_functions(name: str, fn, derivatives: int):
@@ -175,13 +180,7 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
         f, slope = Mapped(f), Mapped(slope)
         return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
-    below = values < 0
-    # first index below the level: scan from the top so the lowest one wins
-    low, high, found = ca.MX(grid[-1]), ca.MX(grid[-1]), ca.MX(0)
-    for k in range(len(grid) - 1, 0, -1):
-        low = ca.if_else(below[k], grid[k - 1], low)
-        high = ca.if_else(below[k], grid[k], high)
-        found = ca.if_else(below[k], 1, found)
+    low, high, found = _first_interval_below(values, grid)
     for _ in range(_BISECTIONS):
         middle = (low + high) / 2
         above = f(middle, *free) > 0
@@ -195,6 +194,23 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
         step = ca.if_else(g != 0, f(u, *free) / ca.if_else(g != 0, g, 1), 0)
         u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
     return ca.exp(ca.if_else(found, u, grid[-1])), found
+
+
+def _first_interval_below(values, grid: np.ndarray) -> tuple:
+    """(grid[k − 1], grid[k], 1) for the lowest k ≥ 1 with ``values[k]`` < 0, else
+    (grid[-1], grid[-1], 0): MX expressions of a row of values on the increasing ``grid``.
+
+    The smallest grid point (and its left neighbour) among those whose value is below 0,
+    taken on the whole row at once: the same selection as a scan from the top of one
+    ``if_else`` per grid point, without its ≈ 3 nodes and one element read per point,
+    whose reverse derivative (CasADi's ``jacobian`` of a scalar) costs a row-sized node per
+    read (0.2–0.4 s a crossing on the metric contract's loops; branch h-tmc)."""
+    below = values[1:] < 0
+    found = ca.mmax(below)
+    row = ca.DM(grid).T
+    low = ca.if_else(found, ca.mmin(ca.if_else(below, row[:-1], ca.inf)), grid[-1])
+    high = ca.if_else(found, ca.mmin(ca.if_else(below, row[1:], ca.inf)), grid[-1])
+    return low, high, found
 
 
 def _as_expressions(located: tuple[float, bool]) -> tuple:
@@ -238,15 +254,15 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     """
     grid = ca.DM(np.log(log_grid(band))).T
     h = float(grid[1] - grid[0]) / 2
-    numbers = _number_functions(name, fn, 2)
+    numbers, symbolic = _number_functions(name, fn, 2), None
     if numbers is None:
-        (f, slope, curvature), free = _functions(name, fn, 2)
-        numbers = None if free else (f, slope, curvature)
+        symbolic = _functions(name, fn, 2)
+        numbers = None if symbolic[1] else symbolic[0]
     best = None if numbers is None else _peak_of_numbers(*numbers, np.asarray(grid).ravel(), h)
     if best is not None:  # a loop of numbers: the same steps in floats, no graph to build
         top, u = (ca.MX(v) for v in best)
     else:  # the symbolic path, on the MX graph (it also decides where a number is NaN)
-        (f, slope, curvature), free = _functions(name, fn, 2)
+        (f, slope, curvature), free = symbolic or _functions(name, fn, 2)  # built once
         values, u = _refine_windows(f, slope, curvature, free, grid, h, grid[0], grid[-1])
         top, u = _best(ca.horzcat(values, f.map(grid.shape[1])(grid, *free)),
                        ca.horzcat(u, grid))
