@@ -41,17 +41,29 @@ def _refine_windows(f, slope, curvature, free, centres, h, lower, upper):
     ratio = (np.sqrt(5) - 1) / 2
     a, b = ca.fmax(centres - 2 * h, lower), ca.fmin(centres + 2 * h, upper)
     outer_a, outer_b = a, b
-    for _ in range(_GOLDEN_STEPS):
-        c = b - ratio * (b - a)
-        d = a + ratio * (b - a)
-        left = f_all(c, *free) > f_all(d, *free)
-        a, b = ca.if_else(left, a, c), ca.if_else(left, d, b)
+    bracket = _golden_steps(f_all, free, count).fold(_GOLDEN_STEPS)(ca.vertcat(a, b), *free)
+    a, b = bracket[0, :], bracket[1, :]
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
         g, c = slope_all(u, *free), curvature_all(u, *free)
         step = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), 0)
         u = ca.fmin(ca.fmax(u + step, outer_a), outer_b)  # golden section is only as
     return f_all(u, *free), u  # sharp as f's rounding (√eps in u on a flat peak): Newton finishes it
+
+
+def _golden_steps(f_all, free, count: int):
+    """One golden-section step in every window at once, as a Function of the brackets
+    (a row of a over a row of b) and ``free``, whose fold is :func:`_refine_windows`' 48
+    steps: one node of the graph, built once, instead of ≈ 10 nodes a step built in
+    Python (the same operations in the same order, so the same bits)."""
+    ratio = (np.sqrt(5) - 1) / 2
+    bracket = ca.MX.sym("bracket", 2, count)
+    a, b = bracket[0, :], bracket[1, :]
+    c = b - ratio * (b - a)
+    d = a + ratio * (b - a)
+    left = f_all(c, *free) > f_all(d, *free)
+    return ca.Function("golden_step", [bracket, *free],
+                       [ca.vertcat(ca.if_else(left, a, c), ca.if_else(left, d, b))])
 
 
 def _best(values, u):
@@ -181,11 +193,8 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
         return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
     low, high, found = _first_interval_below(values, grid)
-    for _ in range(_BISECTIONS):
-        middle = (low + high) / 2
-        above = f(middle, *free) > 0
-        low = ca.if_else(above, middle, low)
-        high = ca.if_else(above, high, middle)
+    bracket = _bisection_step(f, free).fold(_BISECTIONS)(ca.vertcat(low, high), *free)
+    low, high = bracket[0], bracket[1]
     u = (low + high) / 2
     for _ in range(2):
         g = slope(u, *free)
@@ -194,6 +203,18 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
         step = ca.if_else(g != 0, f(u, *free) / ca.if_else(g != 0, g, 1), 0)
         u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
     return ca.exp(ca.if_else(found, u, grid[-1])), found
+
+
+def _bisection_step(f, free):
+    """One bisection step of :func:`crossing_if_any` as a Function of the bracket
+    [low, high] and ``free``, whose fold is the 32 steps (one node instead of five a step
+    built in Python; the same operations, so the same bits)."""
+    bracket = ca.MX.sym("bracket", 2)
+    low, high = bracket[0], bracket[1]
+    middle = (low + high) / 2
+    above = f(middle, *free) > 0
+    return ca.Function("bisection_step", [bracket, *free],
+                       [ca.vertcat(ca.if_else(above, middle, low), ca.if_else(above, high, middle))])
 
 
 def _first_interval_below(values, grid: np.ndarray) -> tuple:
