@@ -41,17 +41,29 @@ def _refine_windows(f, slope, curvature, free, centres, h, lower, upper):
     ratio = (np.sqrt(5) - 1) / 2
     a, b = ca.fmax(centres - 2 * h, lower), ca.fmin(centres + 2 * h, upper)
     outer_a, outer_b = a, b
-    for _ in range(_GOLDEN_STEPS):
-        c = b - ratio * (b - a)
-        d = a + ratio * (b - a)
-        left = f_all(c, *free) > f_all(d, *free)
-        a, b = ca.if_else(left, a, c), ca.if_else(left, d, b)
+    bracket = _golden_steps(f_all, free, count).fold(_GOLDEN_STEPS)(ca.vertcat(a, b), *free)
+    a, b = bracket[0, :], bracket[1, :]
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
         g, c = slope_all(u, *free), curvature_all(u, *free)
         step = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), 0)
         u = ca.fmin(ca.fmax(u + step, outer_a), outer_b)  # golden section is only as
     return f_all(u, *free), u  # sharp as f's rounding (√eps in u on a flat peak): Newton finishes it
+
+
+def _golden_steps(f_all, free, count: int):
+    """One golden-section step in every window at once, as a Function of the brackets
+    (a row of a over a row of b) and ``free``, whose fold is :func:`_refine_windows`' 48
+    steps: one node of the graph, built once, instead of ≈ 10 nodes a step built in
+    Python (the same operations in the same order, so the same bits)."""
+    ratio = (np.sqrt(5) - 1) / 2
+    bracket = ca.MX.sym("bracket", 2, count)
+    a, b = bracket[0, :], bracket[1, :]
+    c = b - ratio * (b - a)
+    d = a + ratio * (b - a)
+    left = f_all(c, *free) > f_all(d, *free)
+    return ca.Function("golden_step", [bracket, *free],
+                       [ca.vertcat(ca.if_else(left, a, c), ca.if_else(left, d, b))])
 
 
 def _best(values, u):
@@ -115,14 +127,19 @@ def _functions(name: str, fn, derivatives: int):
     """fn of u = ln ω and its first ``derivatives`` u-derivatives, as CasADi Functions.
 
     Each takes (u, free symbols of the expression): the loop's symbols when the loop is
-    symbolic, none when it is made of numbers.
+    symbolic, none when it is made of numbers. Each is expanded to SX where it can be
+    (:func:`_expanded`): the peaks and crossings call them ≈ 100 times over the grid, and
+    an SX Function evaluates, and builds its derivatives, several times faster than the
+    MX graph of the loop's response (the same operations; ``benchmarks/README.md``,
+    branch h-tmc).
     """
     u, omega = _log_omega("MX")
     expressions = [fn(omega)]
     for _ in range(derivatives):
         expressions.append(ca.jacobian(expressions[-1], u))
     free = [v for v in ca.symvar(ca.veccat(*expressions)) if not ca.is_equal(v, u)]
-    return [ca.Function(f"{name}_{k}", [u, *free], [e]) for k, e in enumerate(expressions)], free
+    return [_expanded(ca.Function(f"{name}_{k}", [u, *free], [e]))
+            for k, e in enumerate(expressions)], free
 
 
 def _number_functions(name: str, fn, derivatives: int):
@@ -175,18 +192,9 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
         f, slope = Mapped(f), Mapped(slope)
         return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     values = f.map(len(grid))(ca.DM(grid).T, *free)
-    below = values < 0
-    # first index below the level: scan from the top so the lowest one wins
-    low, high, found = ca.MX(grid[-1]), ca.MX(grid[-1]), ca.MX(0)
-    for k in range(len(grid) - 1, 0, -1):
-        low = ca.if_else(below[k], grid[k - 1], low)
-        high = ca.if_else(below[k], grid[k], high)
-        found = ca.if_else(below[k], 1, found)
-    for _ in range(_BISECTIONS):
-        middle = (low + high) / 2
-        above = f(middle, *free) > 0
-        low = ca.if_else(above, middle, low)
-        high = ca.if_else(above, high, middle)
+    low, high, found = _first_interval_below(values, grid)
+    bracket = _bisection_step(f, free).fold(_BISECTIONS)(ca.vertcat(low, high), *free)
+    low, high = bracket[0], bracket[1]
     u = (low + high) / 2
     for _ in range(2):
         g = slope(u, *free)
@@ -195,6 +203,35 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
         step = ca.if_else(g != 0, f(u, *free) / ca.if_else(g != 0, g, 1), 0)
         u = u - ca.fmin(ca.fmax(step, low - u), high - u)  # stay inside the bracket
     return ca.exp(ca.if_else(found, u, grid[-1])), found
+
+
+def _bisection_step(f, free):
+    """One bisection step of :func:`crossing_if_any` as a Function of the bracket
+    [low, high] and ``free``, whose fold is the 32 steps (one node instead of five a step
+    built in Python; the same operations, so the same bits)."""
+    bracket = ca.MX.sym("bracket", 2)
+    low, high = bracket[0], bracket[1]
+    middle = (low + high) / 2
+    above = f(middle, *free) > 0
+    return ca.Function("bisection_step", [bracket, *free],
+                       [ca.vertcat(ca.if_else(above, middle, low), ca.if_else(above, high, middle))])
+
+
+def _first_interval_below(values, grid: np.ndarray) -> tuple:
+    """(grid[k − 1], grid[k], 1) for the lowest k ≥ 1 with ``values[k]`` < 0, else
+    (grid[-1], grid[-1], 0): MX expressions of a row of values on the increasing ``grid``.
+
+    The smallest grid point (and its left neighbour) among those whose value is below 0,
+    taken on the whole row at once: the same selection as a scan from the top of one
+    ``if_else`` per grid point, without its ≈ 3 nodes and one element read per point,
+    whose reverse derivative (CasADi's ``jacobian`` of a scalar) costs a row-sized node per
+    read (0.2–0.4 s a crossing on the metric contract's loops; branch h-tmc)."""
+    below = values[1:] < 0
+    found = ca.mmax(below)
+    row = ca.DM(grid).T
+    low = ca.if_else(found, ca.mmin(ca.if_else(below, row[:-1], ca.inf)), grid[-1])
+    high = ca.if_else(found, ca.mmin(ca.if_else(below, row[1:], ca.inf)), grid[-1])
+    return low, high, found
 
 
 def _as_expressions(located: tuple[float, bool]) -> tuple:
@@ -238,15 +275,15 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     """
     grid = ca.DM(np.log(log_grid(band))).T
     h = float(grid[1] - grid[0]) / 2
-    numbers = _number_functions(name, fn, 2)
+    numbers, symbolic = _number_functions(name, fn, 2), None
     if numbers is None:
-        (f, slope, curvature), free = _functions(name, fn, 2)
-        numbers = None if free else (f, slope, curvature)
+        symbolic = _functions(name, fn, 2)
+        numbers = None if symbolic[1] else symbolic[0]
     best = None if numbers is None else _peak_of_numbers(*numbers, np.asarray(grid).ravel(), h)
     if best is not None:  # a loop of numbers: the same steps in floats, no graph to build
         top, u = (ca.MX(v) for v in best)
     else:  # the symbolic path, on the MX graph (it also decides where a number is NaN)
-        (f, slope, curvature), free = _functions(name, fn, 2)
+        (f, slope, curvature), free = symbolic or _functions(name, fn, 2)  # built once
         values, u = _refine_windows(f, slope, curvature, free, grid, h, grid[0], grid[-1])
         top, u = _best(ca.horzcat(values, f.map(grid.shape[1])(grid, *free)),
                        ca.horzcat(u, grid))

@@ -158,7 +158,8 @@ class _Structure:
         for k in range(1, DEGREE + 1):
             powers.append(powers[-1] @ f * self.h / k)  # (F h)^k/k!
         error_row = np.concatenate([-np.ravel(c) * scaling, [0.0, 1.0]])
-        self.error_rows = [ca.DM(error_row @ p).T for p in powers]  # e's coefficients on ξ
+        # e's coefficients on ξ, row k giving ρ_k: one product per sub-step (same bits)
+        self.error_rows = ca.DM(np.array([error_row @ p for p in powers]))
         self.state_rows = [ca.DM(p[:n, :]) for p in powers]  # x̃'s coefficients on ξ
 
     def sample(self, z, reference, segments, t_start, name):
@@ -172,8 +173,8 @@ class _Structure:
             transition = _horner(self.state_rows, end)  # ξ at the start → x̃ at the end
             for _ in range(self.substeps):
                 xi = ca.vertcat(x, u, reference)
-                coefficients = [ca.mtimes(row, xi) for row in self.error_rows]
-                total += _substep_function(name)(ca.vertcat(*coefficients), end, self.h, t)
+                coefficients = ca.mtimes(self.error_rows, xi)
+                total += _substep_function(name)(coefficients, end, self.h, t)
                 x = ca.mtimes(transition, xi)
                 t = t + end * self.h
         return total
