@@ -456,7 +456,6 @@ def test_workers_are_forked_from_this_process_with_what_it_loaded(tmp_path, monk
         "parent mark: set in the parent"] * 3
 
 
-
 @pytest.mark.skipif(not Path("/proc/self/fd").exists(), reason="reads /proc (Linux)")
 def test_a_forked_worker_does_not_hold_the_batch_lock(tmp_path):
     """The lock is the batch process's alone: a worker forked while it is held had it too,
@@ -466,6 +465,7 @@ def test_a_forked_worker_does_not_hold_the_batch_lock(tmp_path):
     outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
                         LocalExecutor(1, job=batch_jobs.lock_descriptors, start="fork"))
     assert [row["message"] for row in outcome.document["rows"]] == ["lock descriptors: 0"] * 2
+
 
 WARM_CHECK = """
 import json, sys
