@@ -17,6 +17,8 @@ Helpers for every test (tests/README.md says when to use which):
   (:func:`feedtune.__main__.run`) inside the test process, returning a
   ``subprocess.CompletedProcess`` (tests/feedtune_cli.py); a ``python -m feedtune`` process
   costs ≈ 1 s of CPU in imports alone.
+- every test must leave SIGINT's and SIGTERM's handlers and the signal mask as it found
+  them (tests/signal_guard.py; a test that does not errors at its teardown).
 - the ``tuned`` fixture: ``tuned(spec)`` is ``feedtune.problem.tune(parse_spec(spec))``,
   once per spec (by its canonical JSON) per test process, for tests that only read a
   tuning's result.
@@ -31,6 +33,7 @@ import pytest
 
 import feedtune
 from feedtune.__main__ import pin_blas_threads
+from signal_guard import pytest_runtest_setup, pytest_runtest_teardown  # noqa: F401
 
 pin_blas_threads()
 

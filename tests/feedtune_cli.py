@@ -29,8 +29,7 @@ What still needs a process of its own, so keep ``subprocess`` there: the process
 (``feedtune.__main__.main`` ends without the interpreter's teardown), signals sent to the
 command, what a fresh interpreter imports (tests/cli/test_startup_imports.py), anything
 printed once per process (IPOPT's banner), the console script itself, and ``feedtune
-batch`` with workers (forked from a process that runs no other thread: an xdist worker has
-execnet's, so in-process the workers would be spawned and the batch would run another path).
+batch`` on a Dask cluster (tests/README.md).
 """
 
 from __future__ import annotations

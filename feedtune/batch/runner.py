@@ -60,9 +60,34 @@ def existing_sha256(path: Path) -> str | None:
     return sha if isinstance(sha, str) else None
 
 
+#: descriptors of the batch locks this process holds; a process forked meanwhile (a batch
+#: worker) must not hold them too, or a killed batch's lock would stay held until its
+#: workers had died as well (a rerun right after a SIGKILL was refused: "another feedtune
+#: batch is writing to this directory")
+_held_locks: set[int] = set()
+
+
+def _drop_held_locks() -> None:
+    """In a forked child: point each held lock's descriptor at /dev/null (the lock's open
+    file stays the parent's alone; the descriptor stays valid for whatever closes it)."""
+    if not _held_locks:
+        return
+    devnull = os.open(os.devnull, os.O_RDONLY)
+    try:
+        for fd in _held_locks:
+            os.dup2(devnull, fd, inheritable=False)
+    finally:
+        os.close(devnull)
+    _held_locks.clear()
+
+
+os.register_at_fork(after_in_child=_drop_held_locks)
+
+
 @contextlib.contextmanager
 def locked(directory: Path):
-    """Hold ``directory``'s batch lock (released by the kernel even after SIGKILL).
+    """Hold ``directory``'s batch lock (released by the kernel even after SIGKILL, as soon
+    as this process is gone: forked workers do not hold it).
 
     The lock file is never opened through a symlink, which could name a file outside
     ``directory`` to create.
@@ -82,8 +107,10 @@ def locked(directory: Path):
         except BlockingIOError:
             raise InputError(f"{directory}: another feedtune batch is writing to this "
                              "directory") from None
+        _held_locks.add(fd)
         yield
     finally:
+        _held_locks.discard(fd)
         handle.close()
 
 

@@ -47,14 +47,20 @@ def run(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
 
 
 def batch(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
-    """``python -m feedtune batch ARGS``."""
+    """``python -m feedtune batch ARGS``: for tests whose subject is the batch's process
+    (a signal or SIGKILL sent to it, a Dask cluster it starts or joins, what a fresh
+    interpreter imports). ≈ 2 s of CPU before its first spec (imports 1.3–1.8 s, the
+    warm-up tuning 0.2–0.3 s; benchmarks/README.md "tproc")."""
     return run("batch", *args, timeout=timeout)
 
 
 def in_process(*args: str) -> subprocess.CompletedProcess:
     """``feedtune ARGS`` through the real entry point in this process (text out;
-    tests/feedtune_cli.py): for commands that start no batch worker (a ``tune``, a batch
-    refused before it starts), which need no process of their own."""
+    tests/feedtune_cli.py), for every command whose subject is not its process: a
+    ``tune``, a batch refused before it starts, and a batch's results, summary, table,
+    JUnit, annotations, resume and baseline. A batch's workers are forked from this
+    process as from ``python -m feedtune batch`` (:func:`feedtune.batch.local.start_method`;
+    spawned if a Dask test left a thread running), after the warm-up, done once here."""
     return run_cli(*args, cwd=REPO, text=True)
 
 
@@ -123,8 +129,8 @@ def mixed_batch(tmp_path_factory):
     bad["plant"]["time_constant"] = -0.02
     (specs / "zz-bad.json").write_text(json.dumps(bad))
     out = root / "out"
-    proc = batch(str(specs), "--out", str(out), "--junit", str(root / "junit.xml"),
-               "--format", "github")
+    proc = in_process("batch", str(specs), "--out", str(out), "--junit",
+                      str(root / "junit.xml"), "--format", "github")
     return root, out, proc
 
 
@@ -188,15 +194,15 @@ def test_a_spec_failing_only_validation_says_metric_values_and_tolerance(tmp_pat
 
     specs, out = tmp_path / "specs", tmp_path / "out"
     write_specs(specs, 2)
-    assert batch(str(specs), "--out", str(out), *ONE_WORKER).returncode == 0
+    assert in_process("batch", str(specs), "--out", str(out), *ONE_WORKER).returncode == 0
     result = json.loads((out / "axis-001.json").read_text())
     block = result["validation"]
     entry = next(e for e in block["entries"] if e["metric"] == "radial_error")
     entry.update(validated=entry["reported"] + 2e-9, gap=2e-9, tolerance=1e-10, ok=False)
     block["ok"] = False
     (out / "axis-001.json").write_text(json.dumps(result, indent=2))
-    proc = batch(str(specs), "--out", str(out), "--junit", str(tmp_path / "junit.xml"),
-                 "--format", "github", *ONE_WORKER)
+    proc = in_process("batch", str(specs), "--out", str(out), "--junit",
+                      str(tmp_path / "junit.xml"), "--format", "github", *ONE_WORKER)
     assert proc.returncode == 1, proc.stderr
     row = rows_by_id(out)["axis-001"]
     (said,) = [line.removeprefix("warning: ") for line in warning_lines(block)]
@@ -229,7 +235,7 @@ def test_a_rerun_skips_solved_specs_and_solves_changed_ones(tmp_path):
     specs = tmp_path / "specs"
     write_specs(specs, 3)
     out = tmp_path / "out"
-    first = batch(str(specs), "--out", str(out))
+    first = in_process("batch", str(specs), "--out", str(out))
     assert first.returncode == 0, first.stderr
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("axis-*.json")}
     changed = json.loads((specs / "axis-002.json").read_text())
@@ -237,7 +243,7 @@ def test_a_rerun_skips_solved_specs_and_solves_changed_ones(tmp_path):
     (specs / "axis-002.json").write_text(json.dumps(changed, indent=4))
     (specs / "axis-000.json").write_text(  # same spec, other formatting: same canonical hash
         json.dumps(json.loads((specs / "axis-000.json").read_text()), indent=8))
-    second = batch(str(specs), "--out", str(out))
+    second = in_process("batch", str(specs), "--out", str(out))
     assert second.returncode == 0, second.stderr
     rows = rows_by_id(out)
     assert [rows[f"axis-00{i}"]["resumed"] for i in range(3)] == [True, True, False]
@@ -252,11 +258,11 @@ def test_a_result_of_another_feedtune_version_is_solved_again(tmp_path):
     specs = tmp_path / "specs"
     write_specs(specs, 1)
     out = tmp_path / "out"
-    assert batch(str(specs), "--out", str(out)).returncode == 0
+    assert in_process("batch", str(specs), "--out", str(out)).returncode == 0
     result = json.loads((out / "axis-000.json").read_text())
     result["provenance"]["feedtune"] = "0.0.0-older"
     (out / "axis-000.json").write_text(json.dumps(result))
-    assert batch(str(specs), "--out", str(out)).returncode == 0
+    assert in_process("batch", str(specs), "--out", str(out)).returncode == 0
     assert rows_by_id(out)["axis-000"]["resumed"] is False
     assert json.loads((out / "axis-000.json").read_text())["provenance"]["feedtune"] != "0.0.0-older"
 
@@ -359,8 +365,8 @@ def test_glob_patterns_and_jsonl_inputs(tmp_path):
     lines = [json.dumps({**example(), "name": f"line-{i}"}) for i in range(2)]
     (tmp_path / "more.jsonl").write_text(lines[0] + "\n\n" + lines[1] + "\n")
     out = tmp_path / "out"
-    proc = batch(str(specs / "*.json"), str(tmp_path / "more.jsonl"), "--out", str(out),
-                 *ONE_WORKER)
+    proc = in_process("batch", str(specs / "*.json"), str(tmp_path / "more.jsonl"), "--out",
+                      str(out), *ONE_WORKER)
     assert proc.returncode == 0, proc.stderr
     rows = rows_by_id(out)
     assert set(rows) == {"axis-000", "axis-001", "line-0", "line-1"}
@@ -373,14 +379,14 @@ def test_baseline_fails_a_spec_whose_objective_got_worse(tmp_path):
     specs = tmp_path / "specs"
     write_specs(specs, 2)
     before = tmp_path / "before"
-    assert batch(str(specs), "--out", str(before), *ONE_WORKER).returncode == 0
+    assert in_process("batch", str(specs), "--out", str(before), *ONE_WORKER).returncode == 0
     worse = json.loads((specs / "axis-001.json").read_text())
     # the optimum gain of the example exceeds 20: capping it raises the objective
     worse["tunables"]["position_gain"]["max"] = 20.0
     (specs / "axis-001.json").write_text(json.dumps(worse))
     after = tmp_path / "after"
-    proc = batch(str(specs), "--out", str(after), "--baseline", str(before), "--junit",
-                 str(tmp_path / "j.xml"), *ONE_WORKER)
+    proc = in_process("batch", str(specs), "--out", str(after), "--baseline", str(before),
+                      "--junit", str(tmp_path / "j.xml"), *ONE_WORKER)
     rows = rows_by_id(after)
     assert rows["axis-001"]["status"] == "optimal"
     assert rows["axis-001"]["baseline"]["verdict"] == "worse", rows["axis-001"]
@@ -388,8 +394,8 @@ def test_baseline_fails_a_spec_whose_objective_got_worse(tmp_path):
     assert rows["axis-000"]["baseline"]["verdict"] == "same"
     assert proc.returncode == 1
     assert "worse than the baseline" in proc.stderr
-    again = batch(str(specs), "--out", str(tmp_path / "again"), "--baseline", str(after),
-                  *ONE_WORKER)
+    again = in_process("batch", str(specs), "--out", str(tmp_path / "again"), "--baseline",
+                       str(after), *ONE_WORKER)
     assert again.returncode == 0, again.stderr  # the same results: nothing got worse
 
 
@@ -448,6 +454,17 @@ def test_workers_are_forked_from_this_process_with_what_it_loaded(tmp_path, monk
                         LocalExecutor(2, job=batch_jobs.parent_mark))
     assert [row["message"] for row in outcome.document["rows"]] == [
         "parent mark: set in the parent"] * 3
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").exists(), reason="reads /proc (Linux)")
+def test_a_forked_worker_does_not_hold_the_batch_lock(tmp_path):
+    """The lock is the batch process's alone: a worker forked while it is held had it too,
+    so after a SIGKILL of the batch a rerun found the directory locked until the orphaned
+    workers had died as well ("another feedtune batch is writing to this directory")."""
+    write_specs(tmp_path / "specs", 2)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(1, job=batch_jobs.lock_descriptors, start="fork"))
+    assert [row["message"] for row in outcome.document["rows"]] == ["lock descriptors: 0"] * 2
 
 
 WARM_CHECK = """
@@ -522,18 +539,44 @@ def test_a_spec_over_its_own_ipopt_time_limit_is_a_row_and_the_rest_complete(tmp
     assert [rows[f"axis-00{i}"]["status"] for i in range(2)] == ["optimal"] * 2
 
 
+def test_a_non_unique_optimum_and_an_implausible_design_are_said_but_fail_nothing(tmp_path):
+    """Issue 14 items 4 and 5 in the batch: the row, the table, the JUnit case and a GitHub
+    ``::warning`` say them; the spec is still ok (exit 0)."""
+    spec = example("koren-1979-sampled-data")
+    spec["name"] = "flat"
+    spec["tunables"] = {"position_gain": {"min": 1, "max": 200},
+                        "sampling_period": {"min": 0.001, "max": 0.02}}
+    spec["constraints"] = []
+    spec["objective"][0]["radius"] = 0.005  # below the loop's minimum radius at V_m
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "specs" / "flat.json").write_text(json.dumps(spec))
+    proc = in_process("batch", str(tmp_path / "specs"), "--out", str(tmp_path / "out"),
+                      "--format", "github", "--junit", str(tmp_path / "junit.xml"))
+    assert proc.returncode == 0, proc.stderr
+    (row,) = json.loads((tmp_path / "out" / "summary.json").read_text())["rows"]
+    assert row["ok"] is True and row["optimum_unique"] is False
+    assert row["notes"][0] == ("optimum not unique: the objective does not decide "
+                               "position_gain, sampling_period")
+    assert any(n.startswith("implausible: min_radius") for n in row["notes"])
+    assert "optimum not unique" in proc.stderr  # the table
+    warnings = [line for line in proc.stdout.splitlines() if line.startswith("::warning ")]
+    assert len(warnings) == len(row["notes"]) and not any(
+        line.startswith("::error") for line in proc.stdout.splitlines())
+    junit = (tmp_path / "junit.xml").read_text()
+    assert "optimum not unique" in junit and "<failure" not in junit
+
+
 # -- SIGKILL and identical executors ------------------------------------------------------
 
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
-    """12 specs and their results from one uninterrupted ``batch -j 1`` process: what a
-    rerun after SIGKILL (all 12), all cores and Dask (the first 6) and a scheduler given by
-    address (the first 3) must give. One process for the three tests: ≈ 2 s of CPU in
-    imports and warm-up each saved (issue 15)."""
+    """12 specs and their results from one uninterrupted ``batch -j 1`` (in this process):
+    what a rerun after SIGKILL (all 12), all cores and Dask (the first 6) and a scheduler
+    given by address (the first 3) must give. One batch for the three tests (issue 15)."""
     root = tmp_path_factory.mktemp("uninterrupted")
     specs, out = root / "specs", root / "out"
     paths = write_specs(specs, 12)
-    proc = batch(str(specs), "--out", str(out), "-j", "1")
+    proc = in_process("batch", str(specs), "--out", str(out), "-j", "1")
     assert proc.returncode == 0, proc.stderr
     return specs, paths, out
 
@@ -562,7 +605,7 @@ def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path
     assert 3 <= len(written) < 12, "the kill should land mid-run"
     for path in written:  # every file there is whole
         json.loads(path.read_text())
-    rerun = batch(str(specs), "--out", str(out), "-j", "1")
+    rerun = in_process("batch", str(specs), "--out", str(out), "-j", "1")
     assert rerun.returncode == 0, rerun.stderr
     assert results(out) == results(reference)
     rows = rows_by_id(out)
@@ -577,10 +620,12 @@ def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path, uninterr
     _, paths, reference = uninterrupted
     specs = [str(path) for path in paths[:6]]
     one, one_rows = first(6, reference, paths)  # one worker: `batch -j 1`
-    outs = {}
-    for label, args in {"all": [], "dask": ["--executor", "dask", "-j", "2"]}.items():
-        outs[label] = tmp_path / label
-        proc = batch(*specs, "--out", str(outs[label]), *args)
+    outs = {label: tmp_path / label for label in ("all", "dask")}
+    # all cores: the local executor's workers, forked here; Dask's cluster in a process of
+    # its own (a local cluster started here would leave its threads in this process)
+    for label, proc in (("all", in_process("batch", *specs, "--out", str(outs["all"]))),
+                        ("dask", batch(*specs, "--out", str(outs["dask"]), "--executor",
+                                       "dask", "-j", "2"))):
         assert proc.returncode == 0, (label, proc.stderr)
     assert len(one) == 6
     assert one == results(outs["all"]) == results(outs["dask"])
@@ -600,7 +645,7 @@ def test_a_second_batch_on_the_same_directory_is_refused(tmp_path):
     out.mkdir()
     with open(out / LOCK_NAME, "a+") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
-        proc = batch(str(specs), "--out", str(out))
+        proc = in_process("batch", str(specs), "--out", str(out))
     assert proc.returncode == 2 and "another feedtune batch" in proc.stderr
 
 
@@ -630,7 +675,7 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
     done = [r for r in rows.values() if r["status"] != "not_run"]
     assert 2 <= len(done) < 10 and all(r["result"] for r in done)
     assert all(not r["ok"] for r in rows.values() if r["status"] == "not_run")
-    assert batch(str(specs), "--out", str(out), "-j", "1").returncode == 0
+    assert in_process("batch", str(specs), "--out", str(out), "-j", "1").returncode == 0
     assert len(results(out)) == 10
 
 
@@ -859,30 +904,3 @@ def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_the
                                        str(tmp_path / "out")])
     assert result.exit_code == 2 and "nope.json: no such file" in result.output
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
-
-
-def test_a_non_unique_optimum_and_an_implausible_design_are_said_but_fail_nothing(tmp_path):
-    """Issue 14 items 4 and 5 in the batch: the row, the table, the JUnit case and a GitHub
-    ``::warning`` say them; the spec is still ok (exit 0)."""
-    spec = example("koren-1979-sampled-data")
-    spec["name"] = "flat"
-    spec["tunables"] = {"position_gain": {"min": 1, "max": 200},
-                        "sampling_period": {"min": 0.001, "max": 0.02}}
-    spec["constraints"] = []
-    spec["objective"][0]["radius"] = 0.005  # below the loop's minimum radius at V_m
-    (tmp_path / "specs").mkdir()
-    (tmp_path / "specs" / "flat.json").write_text(json.dumps(spec))
-    proc = batch(str(tmp_path / "specs"), "--out", str(tmp_path / "out"), "--format", "github",
-                 "--junit", str(tmp_path / "junit.xml"))
-    assert proc.returncode == 0, proc.stderr
-    (row,) = json.loads((tmp_path / "out" / "summary.json").read_text())["rows"]
-    assert row["ok"] is True and row["optimum_unique"] is False
-    assert row["notes"][0] == ("optimum not unique: the objective does not decide "
-                               "position_gain, sampling_period")
-    assert any(n.startswith("implausible: min_radius") for n in row["notes"])
-    assert "optimum not unique" in proc.stderr  # the table
-    warnings = [line for line in proc.stdout.splitlines() if line.startswith("::warning ")]
-    assert len(warnings) == len(row["notes"]) and not any(
-        line.startswith("::error") for line in proc.stdout.splitlines())
-    junit = (tmp_path / "junit.xml").read_text()
-    assert "optimum not unique" in junit and "<failure" not in junit

@@ -16,10 +16,9 @@ workers on the shared 2-core machine (40 specs).
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
+from feedtune_cli import run_cli
 from realistic_specs import realistic_specs
 
 SEED, BALL_SCREWS = 14, 30
@@ -32,8 +31,8 @@ def test_realistic_batch_has_no_validation_failure(tmp_path: Path):
     inputs = tmp_path / "specs.jsonl"
     inputs.write_text("".join(json.dumps(spec) + "\n" for spec in specs))
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "feedtune", "batch", str(inputs), "--out",
-                           str(out), "-j", "2", "-q"], capture_output=True, timeout=600)
+    # in this process (its workers forked from it): what is tested is the batch's results
+    proc = run_cli("batch", str(inputs), "--out", str(out), "-j", "2", "-q")
     summary = json.loads((out / "summary.json").read_text())
     rows = summary["rows"] if isinstance(summary, dict) else summary
     failing = [(r["name"], r["status"], r["message"]) for r in rows if not r["ok"]]
