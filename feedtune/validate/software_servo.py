@@ -295,7 +295,8 @@ class ServoModel:
         phi, gamma, c, eye = self._resolvent_parts
         z = np.exp(1j * omega * self.period)
         resolvent = z[:, None, None] * eye - phi
-        out = np.linalg.solve(resolvent, np.broadcast_to(gamma, (z.size, *gamma.shape)))[:, :, 0] @ c
+        rhs = np.broadcast_to(gamma, (z.size, *gamma.shape))
+        out = np.linalg.solve(resolvent, rhs)[:, :, 0] @ c
         return self.gain * z ** (-self.delay) * out
 
     @functools.cached_property
