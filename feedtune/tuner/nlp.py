@@ -458,6 +458,8 @@ class Problem:
                                 duals)
             if STATUS.get(return_status) not in SOLVED:
                 break
+            if not self.exchange_groups:  # no peak or crossing to refine: nothing to add
+                break
             z = x0[:self.n_z]
             levels = np.asarray(self._exchange_levels(z, *x0[self.n_z:], self.param_values),
                                 dtype=float).ravel()
@@ -482,8 +484,15 @@ class Problem:
 
     def _stable_start(self, z0: np.ndarray) -> np.ndarray | None:
         """``z0`` if its loop is stable, else a stable point near it (see
-        :func:`feedtune.tuner.stability.restore`), or None."""
+        :func:`feedtune.tuner.stability.restore`), or None.
+
+        A point already seen (every start is, for the scales: :meth:`_seen_at`) is judged
+        on the conditions and matrices seen there, the same expressions in the NLP check's
+        Function, so the same numbers without a second call."""
         def evaluate(z):
+            seen = self._seen.get(np.asarray(z, dtype=float).tobytes())
+            if seen is not None:
+                return seen.stability, list(seen.matrices.values())
             conditions, *matrices = self.stability_check(z, self.param_values)
             return (np.asarray(conditions, dtype=float).ravel(),
                     [np.asarray(m, dtype=float) for m in matrices])

@@ -292,13 +292,21 @@ class ServoModel:
         if not self.sampled:
             s = 1j * omega
             return self.gain / (s * (1 + s * self.time_constant))
-        phi, gamma = self.zoh(self.period)
-        _, _, c = self.drive_matrices()
-        m = phi.shape[0]
+        phi, gamma, c, eye = self._resolvent_parts
         z = np.exp(1j * omega * self.period)
-        resolvent = z[:, None, None] * np.eye(m) - phi
-        out = np.linalg.solve(resolvent, np.broadcast_to(gamma, (z.size, m, 1)))[:, :, 0] @ c[0]
+        resolvent = z[:, None, None] * eye - phi
+        rhs = np.broadcast_to(gamma, (z.size, *gamma.shape))
+        out = np.linalg.solve(resolvent, rhs)[:, :, 0] @ c
         return self.gain * z ** (-self.delay) * out
+
+    @functools.cached_property
+    def _resolvent_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(Φ, Γ, C's row, I) of :meth:`open_loop`, once per model: brentq and bounded Brent
+        call it at one ω at a time (≈ 66 calls a batch spec), where building the drive's
+        matrices and looking up the ZOH each time cost as much as the solve. The same
+        arrays as before, so the same numbers to the bit."""
+        phi, gamma = self.zoh(self.period)
+        return phi, gamma, self.drive_matrices()[2][0], np.eye(phi.shape[0])
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
         """(L, H) at ``omega`` [rad/s] (sampled: on the unit circle, below Nyquist)."""

@@ -273,3 +273,20 @@ def test_the_step_responses_orbit_by_doubling_is_the_plain_recurrence():
         rows.append(power[0])
         power = power @ drive
     assert np.max(np.abs(_first_rows(drive, 256) - rows)) <= 1e-13 * np.max(np.abs(rows))
+
+
+def test_open_loop_at_one_frequency_is_the_grids_value_without_rebuilding_the_drive(monkeypatch):
+    """brentq and bounded Brent ask for L at one ω at a time (≈ 66 calls a batch spec): the
+    drive's matrices and its ZOH are built once per model, and L at one ω is the grid's
+    value at that ω to the bit (the same LAPACK solve per frequency)."""
+    from feedtune.validate.software_servo import ServoModel
+
+    for delay, tau in ((0, 0.02), (2, 0.02), (1, None)):
+        model = ServoModel(40.0, tau, 1 / 64, delay)
+        grid = np.geomspace(0.1, math.pi * 64, 57)
+        on_grid = model.open_loop(grid)
+        monkeypatch.setattr(ServoModel, "drive_matrices", lambda self: pytest.fail("rebuilt"))
+        monkeypatch.setattr(ServoModel, "zoh", lambda self, step: pytest.fail("rebuilt"))
+        for i in (0, 20, 56):
+            assert model.open_loop(float(grid[i]))[0] == on_grid[i]
+        monkeypatch.undo()
