@@ -14,8 +14,10 @@ the expressions may depend on the NLP's symbols or be plain numbers.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 from feedtune.lazy import ca, np
+from feedtune.loops.twin import OfLoop, parametric_twin
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
@@ -166,6 +168,10 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
     ``level`` on the band's grid (1, else 0 and ω is the top of the band); both
     expressions of the loop's symbols, or of numbers."""
     grid = np.log(log_grid(band))
+    replay = replayed(name, fn, 1, level)
+    if replay is not None:  # a loop of numbers whose structure's Functions are built
+        f, slope = replay[0]
+        return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     numbers = _number_functions(name, lambda w: fn(w) - level, 1)
     if numbers is not None:  # a loop of numbers: the same steps in floats, no graph to build
         f, slope = (Mapped(g) for g in numbers)
@@ -238,11 +244,20 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     """
     grid = ca.DM(np.log(log_grid(band))).T
     h = float(grid[1] - grid[0]) / 2
+    replay = replayed(name, fn, 2)
+    if replay is not None:  # a loop of numbers whose structure's Functions are built
+        (f, slope, curvature), at_zero = replay
+        best = _peak_of_numbers(f, slope, curvature, np.asarray(grid).ravel(), h)
+        if best is not None:
+            top, u = (ca.MX(v) for v in best)
+            at_zero = ca.MX(at_zero)
+            return ca.fmax(top, at_zero), ca.if_else(at_zero >= top, 0.0, ca.exp(u))
     numbers = _number_functions(name, fn, 2)
     if numbers is None:
         (f, slope, curvature), free = _functions(name, fn, 2)
         numbers = None if free else (f, slope, curvature)
-    best = None if numbers is None else _peak_of_numbers(*numbers, np.asarray(grid).ravel(), h)
+    best = None if numbers is None else _peak_of_numbers(
+        *(Mapped(g) for g in numbers), np.asarray(grid).ravel(), h)
     if best is not None:  # a loop of numbers: the same steps in floats, no graph to build
         top, u = (ca.MX(v) for v in best)
     else:  # the symbolic path, on the MX graph (it also decides where a number is NaN)
@@ -292,7 +307,6 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    f, slope, curvature = (Mapped(fn) for fn in (f, slope, curvature))
     f_grid = f(grid)
     if np.isnan(f_grid).any():
         return None
@@ -368,18 +382,96 @@ class Buffered:
 
 class Mapped:
     """A Function of one scalar, SX-expanded once, evaluated at every element of a row
-    through :class:`Buffered` (one map of it per row length)."""
+    through :class:`Buffered` (one map of it per row length).
 
-    def __init__(self, fn):
+    A Function with more inputs takes them from ``fixed`` (arrays of their sizes), the
+    same for every element (the map shares them); :meth:`bound` gives a view with other
+    values that shares the maps.
+    """
+
+    def __init__(self, fn, fixed: tuple = ()):
         self.fn = _expanded(fn)
+        self.fixed = tuple(fixed)
         self._rows: dict[int, Buffered] = {}  # row length → the map of fn over it
+
+    def bound(self, *fixed) -> "Mapped":
+        """This Function with ``fixed`` for its inputs after the first (maps shared)."""
+        view = object.__new__(Mapped)
+        view.fn, view.fixed, view._rows = self.fn, tuple(fixed), self._rows
+        return view
 
     def __call__(self, x) -> np.ndarray:
         x = np.atleast_1d(np.asarray(x, dtype=float))
         row = self._rows.get(x.size)
         if row is None:  # one point: the Function itself, no map of it
-            row = self._rows[x.size] = Buffered(self.fn if x.size == 1 else self.fn.map(x.size))
-        return row(x)[0]
+            shared = [False] + [True] * (self.fn.n_in() - 1)
+            row = self._rows[x.size] = Buffered(
+                self.fn if x.size == 1 else self.fn.map(x.size, shared, [False] * self.fn.n_out()))
+        return row(x, *self.fixed)[0]
+
+
+#: replayed Functions kept (an LRU): (name, the function's key, derivatives, level,
+#: the loop's structure) → (Mapped of f and its derivatives, Mapped of the value at ω = 0)
+_REPLAY_CACHE_SIZE = 256
+_replays: "OrderedDict[tuple, tuple]" = OrderedDict()
+
+
+def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True):
+    """Row evaluators of ``fn`` − ``level`` and its first ``derivatives`` derivatives for a
+    loop of numbers, built once per loop structure on its parametric twin (issue 15), or
+    None (``fn`` not an :class:`~feedtune.loops.twin.OfLoop`, or a loop without a twin,
+    or a function that reads a number of the loop as more than arithmetic).
+
+    ``fn`` is a function of ω [rad/s] taken in u = ln ω when ``log_omega`` (as every
+    peak and crossing here), else of its own argument. Returns (evaluators, value at
+    ω = 0 as a float or None when ``log_omega`` is false): each evaluator maps a row of
+    u to its values (:class:`Mapped`, the loop's numbers bound). The Functions are those
+    :func:`_functions` builds on the loop of numbers, with its numbers as a parameter
+    instead of folded constants (:mod:`feedtune.loops.twin`): the same operations.
+    """
+    if not isinstance(fn, OfLoop):
+        return None
+    twin = parametric_twin(fn.loop)
+    if twin is None:
+        return None
+    key = (name, fn.key, derivatives, level, log_omega, twin.structure)
+    built = _replays.get(key)
+    if built is None:
+        try:
+            built = _replay_functions(name, fn, derivatives, level, log_omega, twin)
+        except (TypeError, NotImplementedError, RuntimeError, ValueError):
+            built = False  # a number used as more than arithmetic: not replayed
+        _replays[key] = built
+        while len(_replays) > _REPLAY_CACHE_SIZE:
+            _replays.popitem(last=False)
+    else:
+        _replays.move_to_end(key)
+    if built is False:
+        return None
+    rows, at_zero = built
+    values = twin.values
+    return ([row.bound(values) for row in rows],
+            None if at_zero is None else float(at_zero(values)[0][0]))
+
+
+def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: bool, twin):
+    """(Mapped of fn − level and its u-derivatives, Mapped of fn at ω = 0 or None), as
+    Functions of (u, the twin's numbers)."""
+    u = ca.MX.sym("u")
+    on_twin = fn.on(twin.loop)
+    expressions = [on_twin(ca.exp(u) if log_omega else u) - level]
+    for _ in range(derivatives):
+        expressions.append(ca.jacobian(expressions[-1], u))
+    if any(not (ca.is_equal(v, u) or ca.is_equal(v, twin.numbers))
+           for v in ca.symvar(ca.veccat(*expressions))):
+        raise ValueError("symbols besides the loop's numbers")
+    rows = [Mapped(ca.Function(f"{name}_{k}", [u, twin.numbers], [e]))
+            for k, e in enumerate(expressions)]
+    at_zero = None
+    if log_omega:  # fn at ω = 0 itself (u = −∞), a Function of the numbers alone
+        at_zero = Buffered(ca.Function(f"{name}_at_zero", [twin.numbers],
+                                       [ca.MX(on_twin(0.0))]).expand())
+    return rows, at_zero
 
 
 def _window_bound(f, slope, curvature, a, b, seen):

@@ -1,0 +1,207 @@
+"""A loop of numbers' parametric twin: the same loop on CasADi symbols, one per structure.
+
+Evaluating a tuned design builds, for each peak, crossing and scan, a CasADi graph on a
+loop whose matrices are numbers, differentiates it and expands it (issue 15: ≈ 30 ms a
+batch spec of the software servo). Two loops that differ only in their numbers build the
+same graph with other constants. So a loop of numbers is described here as a *structure*
+(its class, every integer, flag and choice, the sparsity of every matrix) and a vector of
+*numbers* (every float, and the nonzeros of every matrix of numbers); the structure's
+twin is the loop rebuilt with those numbers replaced by the entries of one MX symbol.
+Functions built once on the twin (:func:`feedtune.loops.frequency.replayed`) then serve
+every loop of that structure, called with its numbers.
+
+The twin's graph performs the operations the loop of numbers' graph performs, on
+parameters instead of folded constants; they differ only where CasADi simplifies an
+operation on a constant (x·1, x + 0), which changes no value but the sign of a zero.
+Nothing a number shapes can hide in the twin: a number used as a count, a bound of a
+Python loop or a branch raises on a symbol, and the caller then builds on the loop of
+numbers as before.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Callable
+
+from feedtune.lazy import ca, np
+
+#: twins kept (an LRU): one per loop structure, a batch holds a few
+_TWIN_CACHE_SIZE = 64
+_twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol)
+
+
+class NoTwin(Exception):
+    """Raised while describing a loop that holds symbols or an unknown kind of value."""
+
+
+@dataclass(frozen=True, eq=False)
+class Twin:
+    """A loop of numbers as (structure, its twin, the twin's symbol, this loop's numbers).
+
+    Attributes
+    ----------
+    structure : tuple
+        Hashable: equal for two loops whose twins are the same graph.
+    loop
+        The loop rebuilt on the entries of ``numbers`` (shared by every loop of the
+        structure).
+    numbers : casadi.MX
+        The twin's symbol, a column of every number of the loop.
+    values : numpy.ndarray
+        This loop's numbers, in the order of ``numbers``.
+    """
+
+    structure: tuple
+    loop: object
+    numbers: object
+    values: np.ndarray
+
+
+class _Leaves:
+    """The numbers met while describing a value, in order: each a DM (its sparsity kept),
+    or an MX of numbers evaluated together at the end."""
+
+    def __init__(self):
+        self.items: list = []
+
+    def add(self, value) -> tuple:
+        self.items.append(value)
+        return ("number", _sparsity_key(value))
+
+
+def _sparsity_key(value) -> tuple:
+    if isinstance(value, float):
+        return (1, 1, (0, 1), (0,))
+    sp = value.sparsity()
+    return (sp.size1(), sp.size2(), tuple(sp.colind()), tuple(sp.row()))
+
+
+def _describe(value, leaves: _Leaves, fields: Callable):
+    """The structure of ``value``: numbers become ("number", shape) and go to ``leaves``."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, (float, np.floating)):
+        return leaves.add(float(value))
+    if isinstance(value, ca.DM):
+        return leaves.add(value)
+    if isinstance(value, ca.SX):
+        if ca.symvar(value):
+            raise NoTwin("a symbol")  # a loop inside the NLP
+        return leaves.add(ca.evalf(value))
+    if isinstance(value, ca.MX):
+        if ca.symvar(value):
+            raise NoTwin("a symbol")
+        return leaves.add(value)
+    if isinstance(value, (tuple, list)):
+        return (type(value).__name__, tuple(_describe(v, leaves, fields) for v in value))
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return (type(value), tuple((name, _describe(v, leaves, fields))
+                                   for name, v in fields(value)))
+    raise NoTwin(f"a {type(value).__name__}")
+
+
+def _fields(value) -> list[tuple[str, object]]:
+    """A dataclass's init fields and values, read from its ``__dict__`` where they are
+    kept (a loop's :class:`~feedtune.loops.loop.EmbeddedNumber` records every read through
+    its attribute; the twin is no read of the loop's graph)."""
+    return [(f.name, value.__dict__[f.name] if f.name in value.__dict__ else getattr(value, f.name))
+            for f in dataclasses.fields(value) if f.init]
+
+
+def _rebuild(value, take: Callable):
+    """``value`` with every number replaced by ``take(number)`` (the twin's entries)."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, (float, np.floating, ca.DM, ca.MX, ca.SX)):
+        return take(value)
+    if isinstance(value, (tuple, list)):
+        return type(value)(_rebuild(v, take) for v in value)
+    return type(value)(**{name: _rebuild(v, take) for name, v in _fields(value)})
+
+
+def parametric_twin(loop) -> Twin | None:
+    """The :class:`Twin` of a loop of numbers, or None for a loop that holds symbols (inside
+    the NLP) or a value of a kind not described here. The twin of a structure is built on
+    its first loop and kept (an LRU of 64); ``values`` are this loop's numbers.
+
+    Kept on the loop (in its ``__dict__``, as a cached property is), so the reports of one
+    tuned design describe it once.
+    """
+    if "_parametric_twin" in loop.__dict__:
+        return loop.__dict__["_parametric_twin"]
+    twin = None
+    if dataclasses.is_dataclass(loop):
+        leaves = _Leaves()
+        try:
+            structure = _describe(loop, leaves, _fields)
+        except NoTwin:
+            structure = None
+        if structure is not None:
+            twin = _twin_of(loop, structure, leaves.items)
+    loop.__dict__["_parametric_twin"] = twin
+    return twin
+
+
+def _twin_of(loop, structure: tuple, items: list) -> Twin:
+    symbolic = [i for i, v in enumerate(items) if isinstance(v, ca.MX)]
+    if symbolic:  # expressions of numbers: evaluated together, once
+        evaluated = ca.Function("twin_numbers", [], [items[i] for i in symbolic]).call([])
+        items = list(items)
+        for i, value in zip(symbolic, evaluated):
+            items[i] = value
+    values = np.concatenate([[v] if isinstance(v, float) else np.asarray(v.nonzeros(), float)
+                             for v in items]) if items else np.zeros(0)
+    if structure in _twins:
+        _twins.move_to_end(structure)
+        twin_loop, numbers = _twins[structure]
+    else:
+        numbers = ca.MX.sym("numbers", values.size)
+        offset = 0
+
+        def take(value):
+            nonlocal offset
+            if isinstance(value, (float, np.floating)):
+                entry = numbers[offset]
+                offset += 1
+                return entry
+            sp = value.sparsity()
+            entry = ca.MX(sp, numbers[offset:offset + sp.nnz()])
+            offset += sp.nnz()
+            return entry
+
+        twin_loop = _rebuild(loop, take)
+        _twins[structure] = (twin_loop, numbers)
+        while len(_twins) > _TWIN_CACHE_SIZE:
+            _twins.popitem(last=False)
+    return Twin(structure, twin_loop, numbers, values)
+
+
+class OfLoop:
+    """ω ↦ ``factory(loop, *args)(ω)``: a function of a loop's frequency response that
+    names its loop and how it was made, so that a loop of numbers can evaluate it through
+    Functions built once on its structure's twin (:func:`feedtune.loops.frequency.replayed`).
+
+    ``factory`` is a module-level function and ``args`` hashable: together they are the
+    key of those Functions. Called, it is exactly ``factory(loop, *args)`` (made once).
+    """
+
+    __slots__ = ("factory", "loop", "args", "_fn")
+
+    def __init__(self, factory: Callable, loop, *args):
+        self.factory, self.loop, self.args = factory, loop, args
+        self._fn = None
+
+    @property
+    def key(self) -> tuple:
+        return (self.factory, self.args)
+
+    def on(self, loop) -> Callable:
+        """``factory(loop, *args)``: the same function made on another loop (the twin)."""
+        return self.factory(loop, *self.args)
+
+    def __call__(self, omega):
+        if self._fn is None:
+            self._fn = self.factory(self.loop, *self.args)
+        return self._fn(omega)
