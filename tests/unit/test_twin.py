@@ -119,10 +119,12 @@ def test_a_second_loop_builds_nothing(kind, monkeypatch):
 
 
 def _shaping(loop):
-    """A function whose graph a number of the loop shapes (a count): not replayable."""
-    count = math.ceil(loop.gain)
+    """A function whose graph a number of the loop shapes (a count of terms, a branch):
+    not replayable."""
+    terms = range(math.ceil(loop.gain))
+    branch = 1.0 if loop.period < 0.01 else 2.0
 
-    return lambda omega: omega * count
+    return lambda omega: sum(omega**k for k in terms) * branch
 
 
 def test_a_number_that_shapes_the_graph_is_not_replayed():
