@@ -60,8 +60,8 @@ class Twin:
 
 
 class _Leaves:
-    """The numbers met while describing a value, in order: each a DM (its sparsity kept),
-    or an MX of numbers evaluated together at the end."""
+    """The numbers met while describing a value, in order: each a float, a DM (its
+    sparsity kept), or an MX of numbers evaluated together at the end."""
 
     def __init__(self):
         self.items: list = []
@@ -69,6 +69,12 @@ class _Leaves:
     def add(self, value) -> tuple:
         self.items.append(value)
         return ("number", _sparsity_key(value))
+
+
+#: numbers kept as constants of the twin (in its structure): CasADi folds x·0, x·1, x + 0
+#: on them, as it does on the loop of numbers' graph (a structural 0 of a matrix, a unit
+#: coefficient), so the twin's graph is as short as that one and its values its bits
+CONSTANTS = (0.0, 1.0, -1.0)
 
 
 def _sparsity_key(value) -> tuple:
@@ -83,7 +89,7 @@ def _describe(value, leaves: _Leaves, fields: Callable):
     if value is None or isinstance(value, (bool, int, str)):
         return value
     if isinstance(value, (float, np.floating)):
-        return leaves.add(float(value))
+        return ("constant", float(value)) if value in CONSTANTS else leaves.add(float(value))
     if isinstance(value, ca.DM):
         return leaves.add(value)
     if isinstance(value, ca.SX):
@@ -113,6 +119,8 @@ def _fields(value) -> list[tuple[str, object]]:
 def _rebuild(value, take: Callable):
     """``value`` with every number replaced by ``take(number)`` (the twin's entries)."""
     if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, (float, np.floating)) and value in CONSTANTS:
         return value
     if isinstance(value, (float, np.floating, ca.DM, ca.MX, ca.SX)):
         return take(value)
@@ -146,30 +154,36 @@ def parametric_twin(loop) -> Twin | None:
 
 def _twin_of(loop, structure: tuple, items: list) -> Twin:
     symbolic = [i for i, v in enumerate(items) if isinstance(v, ca.MX)]
+    evaluated = list(items)
     if symbolic:  # expressions of numbers: evaluated together, once
-        evaluated = ca.Function("twin_numbers", [], [items[i] for i in symbolic]).call([])
-        items = list(items)
-        for i, value in zip(symbolic, evaluated):
-            items[i] = value
-    values = np.concatenate([[v] if isinstance(v, float) else np.asarray(v.nonzeros(), float)
-                             for v in items]) if items else np.zeros(0)
+        results = ca.Function("twin_numbers", [], [items[i] for i in symbolic]).call([])
+        for i, value in zip(symbolic, results):
+            evaluated[i] = value
+    entries = [[v] if isinstance(v, float) else list(v.nonzeros()) for v in evaluated]
+    # which entries stay constants (CONSTANTS), per leaf: part of the structure
+    kept = tuple(tuple(x if x in CONSTANTS else None for x in leaf) for leaf in entries)
+    values = np.array([x for leaf in entries for x in leaf if x not in CONSTANTS], float)
+    structure = (structure, kept)
     if structure in _twins:
         _twins.move_to_end(structure)
         twin_loop, numbers = _twins[structure]
     else:
         numbers = ca.MX.sym("numbers", values.size)
-        offset = 0
+        offset, leaf_index = 0, 0
 
         def take(value):
-            nonlocal offset
+            nonlocal offset, leaf_index
+            parts = []
+            for constant in kept[leaf_index]:
+                if constant is None:
+                    parts.append(numbers[offset])
+                    offset += 1
+                else:
+                    parts.append(ca.MX(constant))
+            leaf_index += 1
             if isinstance(value, (float, np.floating)):
-                entry = numbers[offset]
-                offset += 1
-                return entry
-            sp = value.sparsity()
-            entry = ca.MX(sp, numbers[offset:offset + sp.nnz()])
-            offset += sp.nnz()
-            return entry
+                return parts[0]
+            return ca.MX(value.sparsity(), ca.vertcat(*parts))
 
         twin_loop = _rebuild(loop, take)
         _twins[structure] = (twin_loop, numbers)
