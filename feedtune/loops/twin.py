@@ -4,18 +4,20 @@ Evaluating a tuned design builds, for each peak, crossing and scan, a CasADi gra
 loop whose matrices are numbers, differentiates it and expands it (issue 15: ≈ 30 ms a
 batch spec of the software servo). Two loops that differ only in their numbers build the
 same graph with other constants. So a loop of numbers is described here as a *structure*
-(its class, every integer, flag and choice, the sparsity of every matrix) and a vector of
-*numbers* (every float, and the nonzeros of every matrix of numbers); the structure's
-twin is the loop rebuilt with those numbers replaced by the entries of one MX symbol.
-Functions built once on the twin (:func:`feedtune.loops.frequency.replayed`) then serve
-every loop of that structure, called with its numbers.
+(its class, every integer, flag and choice, the sparsity of every matrix, which numbers
+are exactly 0 or ±1) and a vector of its other *numbers* (floats, nonzeros of matrices);
+the structure's twin is the loop rebuilt with those numbers replaced by the entries of
+one MX symbol. Functions built once on the twin (:func:`feedtune.loops.frequency.replayed`)
+then serve every loop of that structure, called with its numbers.
 
 The twin's graph performs the operations the loop of numbers' graph performs, on
-parameters instead of folded constants; they differ only where CasADi simplifies an
-operation on a constant (x·1, x + 0), which changes no value but the sign of a zero.
-Nothing a number shapes can hide in the twin: a number used as a count, a bound of a
-Python loop or a branch raises on a symbol, and the caller then builds on the loop of
-numbers as before.
+parameters instead of folded constants. They differ only where CasADi simplifies on
+constant values: 0 and ±1 stay constants of the twin, so x·1 and x + 0 fold alike; what
+remains is a sum that cancels in floats on the loop of numbers and exactly on the twin
+(x + (y − x) → y), as a sampled loop's D(1) = 1 − (1 + x) + x: its M_peak and bandwidth
+move by ≤ 1.8e-13 relative, towards the exact value (docs/design.md). A number that
+shapes a graph (a count of terms, a Python branch) raises on the symbol, and the caller
+then builds on the loop of numbers as before.
 """
 
 from __future__ import annotations
@@ -209,6 +211,7 @@ class OfLoop:
 
     @property
     def key(self) -> tuple:
+        """(factory, args): the same for the function on every loop."""
         return (self.factory, self.args)
 
     def on(self, loop) -> Callable:
