@@ -14,6 +14,7 @@ the expressions may depend on the NLP's symbols or be plain numbers.
 from __future__ import annotations
 
 import math
+import threading
 from collections import OrderedDict
 
 from feedtune.lazy import ca, np
@@ -386,13 +387,14 @@ class Mapped:
 
     A Function with more inputs takes them from ``fixed`` (arrays of their sizes), the
     same for every element (the map shares them); :meth:`bound` gives a view with other
-    values that shares the maps.
+    values that shares the maps. A map's buffer is its thread's (a Dask worker runs specs
+    in threads; one buffer filled by two would mix their numbers).
     """
 
     def __init__(self, fn, fixed: tuple = ()):
         self.fn = _expanded(fn)
         self.fixed = tuple(fixed)
-        self._rows: dict[int, Buffered] = {}  # row length → the map of fn over it
+        self._rows: dict[tuple, Buffered] = {}  # (thread, row length) → the map of fn over it
 
     def bound(self, *fixed) -> "Mapped":
         """This Function with ``fixed`` for its inputs after the first (maps shared)."""
@@ -402,10 +404,11 @@ class Mapped:
 
     def __call__(self, x) -> np.ndarray:
         x = np.atleast_1d(np.asarray(x, dtype=float))
-        row = self._rows.get(x.size)
+        key = (threading.get_ident(), x.size)
+        row = self._rows.get(key)
         if row is None:  # one point: the Function itself, no map of it
             shared = [False] + [True] * (self.fn.n_in() - 1)
-            row = self._rows[x.size] = Buffered(
+            row = self._rows[key] = Buffered(
                 self.fn if x.size == 1 else self.fn.map(x.size, shared, [False] * self.fn.n_out()))
         return row(x, *self.fixed)[0]
 
@@ -414,6 +417,7 @@ class Mapped:
 #: the loop's structure) → (Mapped of f and its derivatives, Mapped of the value at ω = 0)
 _REPLAY_CACHE_SIZE = 256
 _replays: "OrderedDict[tuple, tuple]" = OrderedDict()
+_replays_lock = threading.Lock()
 
 
 def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True):
@@ -435,17 +439,19 @@ def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: boo
     if twin is None:
         return None
     key = (name, fn.key, derivatives, level, log_omega, twin.structure)
-    built = _replays.get(key)
+    with _replays_lock:
+        built = _replays.get(key)
+        if built is not None:
+            _replays.move_to_end(key)
     if built is None:
         try:
             built = _replay_functions(name, fn, derivatives, level, log_omega, twin)
         except (TypeError, NotImplementedError, RuntimeError, ValueError):
             built = False  # a number used as more than arithmetic: not replayed
-        _replays[key] = built
-        while len(_replays) > _REPLAY_CACHE_SIZE:
-            _replays.popitem(last=False)
-    else:
-        _replays.move_to_end(key)
+        with _replays_lock:
+            _replays[key] = built
+            while len(_replays) > _REPLAY_CACHE_SIZE:
+                _replays.popitem(last=False)
     if built is False:
         return None
     rows, at_zero = built

@@ -23,6 +23,7 @@ then builds on the loop of numbers as before.
 from __future__ import annotations
 
 import dataclasses
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Callable
@@ -32,6 +33,7 @@ from feedtune.lazy import ca, np
 #: twins kept (an LRU): one per loop structure, a batch holds a few
 _TWIN_CACHE_SIZE = 64
 _twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol)
+_twins_lock = threading.Lock()  # a Dask worker runs specs in threads
 
 
 class NoTwin(Exception):
@@ -166,9 +168,12 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
     kept = tuple(tuple(x if x in CONSTANTS else None for x in leaf) for leaf in entries)
     values = np.array([x for leaf in entries for x in leaf if x not in CONSTANTS], float)
     structure = (structure, kept)
-    if structure in _twins:
-        _twins.move_to_end(structure)
-        twin_loop, numbers = _twins[structure]
+    with _twins_lock:
+        kept_twin = _twins.get(structure)
+        if kept_twin is not None:
+            _twins.move_to_end(structure)
+    if kept_twin is not None:
+        twin_loop, numbers = kept_twin
     else:
         numbers = ca.MX.sym("numbers", values.size)
         offset, leaf_index = 0, 0
@@ -188,9 +193,10 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
             return ca.MX(value.sparsity(), ca.vertcat(*parts))
 
         twin_loop = _rebuild(loop, take)
-        _twins[structure] = (twin_loop, numbers)
-        while len(_twins) > _TWIN_CACHE_SIZE:
-            _twins.popitem(last=False)
+        with _twins_lock:
+            _twins[structure] = (twin_loop, numbers)
+            while len(_twins) > _TWIN_CACHE_SIZE:
+                _twins.popitem(last=False)
     return Twin(structure, twin_loop, numbers, values)
 
 

@@ -160,3 +160,36 @@ def test_metrics_as_reported(kind, metric, monkeypatch):
         assert np.allclose(new, old, rtol=SAMPLED_REL, atol=0, equal_nan=True)
     else:
         assert np.array_equal(new, old, equal_nan=True), (new, old)
+
+
+def test_threads_evaluate_their_own_numbers():
+    """Loops of one structure in two threads (a Dask worker runs specs in threads) share
+    the replayed Functions but not their buffers: each thread reads its own loop's values.
+    A short switch interval makes the threads interleave between filling a buffer and
+    reading it."""
+    import sys
+    import threading
+
+    loops = _loops("sampled", 2)
+    grid = np.log(frequency.log_grid(loops[0].frequency_band))
+    rows = [frequency.replayed("test_threads", frequency_domain.normalised_gain_squared(loop),
+                               0)[0][0] for loop in loops]
+    expected = [row(grid) for row in rows]
+    wrong = []
+
+    def run(i):
+        for _ in range(300):
+            if not np.array_equal(rows[i](grid), expected[i], equal_nan=True):
+                wrong.append(i)
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=run, args=(i,)) for i in (0, 1)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert not wrong
