@@ -286,7 +286,8 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     :func:`_refine_windows` and :func:`_best` step for step in numpy floats, each
     elementwise operation the IEEE operation CasADi's graph performs (golden-section
     points, comparisons, fmin/fmax, Newton steps), and ``f``, ``f′``, ``f″`` the same
-    CasADi Functions (SX-expanded) mapped over the row. Building that graph (48 golden
+    CasADi Functions (SX-expanded) mapped over the row (:class:`Mapped`, of the loop's
+    own graph or replayed on its twin: :func:`replayed`). Building that graph (48 golden
     steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
 
     Only the windows that can hold the largest value are refined to the end (issue 15):
