@@ -245,7 +245,7 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     """
     grid = ca.DM(np.log(log_grid(band))).T
     h = float(grid[1] - grid[0]) / 2
-    replay = replayed(name, fn, 2)
+    replay = replayed(name, fn, 2, at_zero=True)
     if replay is not None:  # a loop of numbers whose structure's Functions are built
         (f, slope, curvature), at_zero = replay
         best = _peak_of_numbers(f, slope, curvature, np.asarray(grid).ravel(), h)
@@ -421,16 +421,17 @@ _replays: "OrderedDict[tuple, tuple]" = OrderedDict()
 _replays_lock = threading.Lock()
 
 
-def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True):
+def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True,
+             at_zero: bool = False):
     """Row evaluators of ``fn`` − ``level`` and its first ``derivatives`` derivatives for a
     loop of numbers, built once per loop structure on its parametric twin (issue 15), or
     None (``fn`` not an :class:`~feedtune.loops.twin.OfLoop`, or a loop without a twin,
     or a function that reads a number of the loop as more than arithmetic).
 
     ``fn`` is a function of ω [rad/s] taken in u = ln ω when ``log_omega`` (as every
-    peak and crossing here), else of its own argument. Returns (evaluators, value at
-    ω = 0 as a float or None when ``log_omega`` is false): each evaluator maps a row of
-    u to its values (:class:`Mapped`, the loop's numbers bound). The Functions are those
+    peak and crossing here), else of its own argument. Returns (evaluators, fn at ω = 0
+    as a float when ``at_zero``, else None): each evaluator maps a row of u to its values
+    (:class:`Mapped`, the loop's numbers bound). The Functions are those
     :func:`_functions` builds on the loop of numbers, with its numbers as a parameter
     instead of folded constants (:mod:`feedtune.loops.twin`): the same operations.
     """
@@ -439,15 +440,15 @@ def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: boo
     twin = parametric_twin(fn.loop)
     if twin is None:
         return None
-    key = (name, fn.key, derivatives, level, log_omega, twin.structure)
+    key = (name, fn.key, derivatives, level, log_omega, at_zero, twin.structure)
     with _replays_lock:
         built = _replays.get(key)
         if built is not None:
             _replays.move_to_end(key)
     if built is None:
         try:
-            built = _replay_functions(name, fn, derivatives, level, log_omega, twin)
-        except (TypeError, NotImplementedError, RuntimeError, ValueError):
+            built = _replay_functions(name, fn, derivatives, level, log_omega, at_zero, twin)
+        except (TypeError, NotImplementedError, RuntimeError, ValueError, ArithmeticError):
             built = False  # a number used as more than arithmetic: not replayed
         with _replays_lock:
             _replays[key] = built
@@ -455,15 +456,16 @@ def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: boo
                 _replays.popitem(last=False)
     if built is False:
         return None
-    rows, at_zero = built
+    rows, zero = built
     values = twin.values
     return ([row.bound(values) for row in rows],
-            None if at_zero is None else float(at_zero(values)[0][0]))
+            None if zero is None else float(zero(values)[0][0]))
 
 
-def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: bool, twin):
-    """(Mapped of fn − level and its u-derivatives, Mapped of fn at ω = 0 or None), as
-    Functions of (u, the twin's numbers)."""
+def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: bool,
+                      at_zero: bool, twin):
+    """(Mapped of fn − level and its u-derivatives as Functions of (u, the twin's numbers),
+    Buffered of fn at ω = 0 of the numbers or None)."""
     u = ca.MX.sym("u")
     on_twin = fn.on(twin.loop)
     expressions = [on_twin(ca.exp(u) if log_omega else u) - level]
@@ -474,11 +476,11 @@ def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: 
         raise ValueError("symbols besides the loop's numbers")
     rows = [Mapped(ca.Function(f"{name}_{k}", [u, twin.numbers], [e]))
             for k, e in enumerate(expressions)]
-    at_zero = None
-    if log_omega:  # fn at ω = 0 itself (u = −∞), a Function of the numbers alone
-        at_zero = Buffered(ca.Function(f"{name}_at_zero", [twin.numbers],
+    zero = None
+    if at_zero:  # fn at ω = 0 itself (u = −∞), a Function of the numbers alone
+        zero = Buffered(ca.Function(f"{name}_at_zero", [twin.numbers],
                                        [ca.MX(on_twin(0.0))]).expand())
-    return rows, at_zero
+    return rows, zero
 
 
 def _window_bound(f, slope, curvature, a, b, seen):
