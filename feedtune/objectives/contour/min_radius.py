@@ -62,7 +62,7 @@ class MinRadius(Metric):
         low = ca.log(loop.drive.max_velocity / loop.velocity_constant)
         replay = replayed("min_radius_excess", OfLoop(_excess, loop), 0, log_omega=False)
         if replay is not None:  # a loop of numbers whose structure's Function is built
-            return ca.DM(_exact(replay[0][0], to_float(low)))
+            return ca.DM(_exact(_vectorised(replay[0][0]), to_float(low)))
         log_r = ca.MX.sym("log_r")
         excess = _excess(loop)(log_r)
         free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
@@ -102,10 +102,11 @@ def _vectorised(fn: ca.Function):
     """``fn`` of one scalar as a function of a numpy array: evaluated through CasADi's
     buffer, one map per array size (:class:`feedtune.loops.frequency.Mapped`, ≈ 2 µs a
     point for the refinements' scalar calls instead of ≈ 70 µs with DM conversions; the
-    same evaluation, so the same bits). A scan maps hundreds of points at once."""
+    same evaluation, so the same bits). A scan maps hundreds of points at once. A
+    :class:`~feedtune.loops.frequency.Mapped` (replayed on the loop's twin) is one already."""
     from feedtune.loops.frequency import Mapped
 
-    return Mapped(fn)
+    return fn if isinstance(fn, Mapped) else Mapped(fn)
 
 
 def _exact(excess, low: float) -> float:
