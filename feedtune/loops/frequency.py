@@ -14,8 +14,11 @@ the expressions may depend on the NLP's symbols or be plain numbers.
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 
 from feedtune.lazy import ca, np
+from feedtune.loops.twin import OfLoop, parametric_twin
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
@@ -183,6 +186,10 @@ def crossing_if_any(fn, band: tuple[float, float], level: float = 0.0,
     ``level`` on the band's grid (1, else 0 and ω is the top of the band); both
     expressions of the loop's symbols, or of numbers."""
     grid = np.log(log_grid(band))
+    replay = replayed(name, fn, 1, level)
+    if replay is not None:  # a loop of numbers whose structure's Functions are built
+        f, slope = replay[0]
+        return _as_expressions(_first_crossing_of_numbers(f, slope, grid, f(grid)))
     numbers = _number_functions(name, lambda w: fn(w) - level, 1)
     if numbers is not None:  # a loop of numbers: the same steps in floats, no graph to build
         f, slope = (Mapped(g) for g in numbers)
@@ -275,11 +282,20 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
     """
     grid = ca.DM(np.log(log_grid(band))).T
     h = float(grid[1] - grid[0]) / 2
+    replay = replayed(name, fn, 2, at_zero=True)
+    if replay is not None:  # a loop of numbers whose structure's Functions are built
+        (f, slope, curvature), at_zero = replay
+        best = _peak_of_numbers(f, slope, curvature, np.asarray(grid).ravel(), h)
+        if best is not None:
+            top, u = (ca.MX(v) for v in best)
+            at_zero = ca.MX(at_zero)
+            return ca.fmax(top, at_zero), ca.if_else(at_zero >= top, 0.0, ca.exp(u))
     numbers, symbolic = _number_functions(name, fn, 2), None
     if numbers is None:
         symbolic = _functions(name, fn, 2)
         numbers = None if symbolic[1] else symbolic[0]
-    best = None if numbers is None else _peak_of_numbers(*numbers, np.asarray(grid).ravel(), h)
+    best = None if numbers is None else _peak_of_numbers(
+        *(Mapped(g) for g in numbers), np.asarray(grid).ravel(), h)
     if best is not None:  # a loop of numbers: the same steps in floats, no graph to build
         top, u = (ca.MX(v) for v in best)
     else:  # the symbolic path, on the MX graph (it also decides where a number is NaN)
@@ -307,7 +323,8 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     :func:`_refine_windows` and :func:`_best` step for step in numpy floats, each
     elementwise operation the IEEE operation CasADi's graph performs (golden-section
     points, comparisons, fmin/fmax, Newton steps), and ``f``, ``f′``, ``f″`` the same
-    CasADi Functions (SX-expanded) mapped over the row. Building that graph (48 golden
+    CasADi Functions (SX-expanded) mapped over the row (:class:`Mapped`, of the loop's
+    own graph or replayed on its twin: :func:`replayed`). Building that graph (48 golden
     steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
 
     Only the windows that can hold the largest value are refined to the end (issue 15):
@@ -329,7 +346,6 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    f, slope, curvature = (Mapped(fn) for fn in (f, slope, curvature))
     f_grid = f(grid)
     if np.isnan(f_grid).any():
         return None
@@ -405,18 +421,103 @@ class Buffered:
 
 class Mapped:
     """A Function of one scalar, SX-expanded once, evaluated at every element of a row
-    through :class:`Buffered` (one map of it per row length)."""
+    through :class:`Buffered` (one map of it per row length).
 
-    def __init__(self, fn):
+    A Function with more inputs takes them from ``fixed`` (arrays of their sizes), the
+    same for every element (the map shares them); :meth:`bound` gives a view with other
+    values that shares the maps. A map's buffer is its thread's (a Dask worker runs specs
+    in threads; one buffer filled by two would mix their numbers).
+    """
+
+    def __init__(self, fn, fixed: tuple = ()):
         self.fn = _expanded(fn)
-        self._rows: dict[int, Buffered] = {}  # row length → the map of fn over it
+        self.fixed = tuple(fixed)
+        self._rows: dict[tuple, Buffered] = {}  # (thread, row length) → the map of fn over it
+
+    def bound(self, *fixed) -> "Mapped":
+        """This Function with ``fixed`` for its inputs after the first (maps shared)."""
+        view = object.__new__(Mapped)
+        view.fn, view.fixed, view._rows = self.fn, tuple(fixed), self._rows
+        return view
 
     def __call__(self, x) -> np.ndarray:
         x = np.atleast_1d(np.asarray(x, dtype=float))
-        row = self._rows.get(x.size)
+        key = (threading.get_ident(), x.size)
+        row = self._rows.get(key)
         if row is None:  # one point: the Function itself, no map of it
-            row = self._rows[x.size] = Buffered(self.fn if x.size == 1 else self.fn.map(x.size))
-        return row(x)[0]
+            shared = [False] + [True] * (self.fn.n_in() - 1)
+            row = self._rows[key] = Buffered(
+                self.fn if x.size == 1 else self.fn.map(x.size, shared, [False] * self.fn.n_out()))
+        return row(x, *self.fixed)[0]
+
+
+#: replayed Functions kept (an LRU): (name, the function's key, derivatives, level,
+#: the loop's structure) → (Mapped of f and its derivatives, Mapped of the value at ω = 0)
+_REPLAY_CACHE_SIZE = 256
+_replays: "OrderedDict[tuple, tuple]" = OrderedDict()
+_replays_lock = threading.Lock()
+
+
+def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True,
+             at_zero: bool = False):
+    """Row evaluators of ``fn`` − ``level`` and its first ``derivatives`` derivatives for a
+    loop of numbers, built once per loop structure on its parametric twin (issue 15), or
+    None (``fn`` not an :class:`~feedtune.loops.twin.OfLoop`, or a loop without a twin,
+    or a function that reads a number of the loop as more than arithmetic).
+
+    ``fn`` is a function of ω [rad/s] taken in u = ln ω when ``log_omega`` (as every
+    peak and crossing here), else of its own argument. Returns (evaluators, fn at ω = 0
+    as a float when ``at_zero``, else None): each evaluator maps a row of u to its values
+    (:class:`Mapped`, the loop's numbers bound). The Functions are those
+    :func:`_functions` builds on the loop of numbers, with its numbers as a parameter
+    instead of folded constants (:mod:`feedtune.loops.twin`): the same operations.
+    """
+    if not isinstance(fn, OfLoop):
+        return None
+    twin = parametric_twin(fn.loop)
+    if twin is None:
+        return None
+    key = (name, fn.key, derivatives, level, log_omega, at_zero, twin.structure)
+    with _replays_lock:
+        built = _replays.get(key)
+        if built is not None:
+            _replays.move_to_end(key)
+    if built is None:
+        try:
+            built = _replay_functions(name, fn, derivatives, level, log_omega, at_zero, twin)
+        except (TypeError, NotImplementedError, RuntimeError, ValueError, ArithmeticError):
+            built = False  # a number used as more than arithmetic: not replayed
+        with _replays_lock:
+            _replays[key] = built
+            while len(_replays) > _REPLAY_CACHE_SIZE:
+                _replays.popitem(last=False)
+    if built is False:
+        return None
+    rows, zero = built
+    values = twin.values
+    return ([row.bound(values) for row in rows],
+            None if zero is None else float(zero(values)[0][0]))
+
+
+def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: bool,
+                      at_zero: bool, twin):
+    """(Mapped of fn − level and its u-derivatives as Functions of (u, the twin's numbers),
+    Buffered of fn at ω = 0 of the numbers or None)."""
+    u = ca.MX.sym("u")
+    on_twin = fn.on(twin.loop)
+    expressions = [on_twin(ca.exp(u) if log_omega else u) - level]
+    for _ in range(derivatives):
+        expressions.append(ca.jacobian(expressions[-1], u))
+    if any(not (ca.is_equal(v, u) or ca.is_equal(v, twin.numbers))
+           for v in ca.symvar(ca.veccat(*expressions))):
+        raise ValueError("symbols besides the loop's numbers")
+    rows = [Mapped(ca.Function(f"{name}_{k}", [u, twin.numbers], [e]))
+            for k, e in enumerate(expressions)]
+    zero = None
+    if at_zero:  # fn at ω = 0 itself (u = −∞), a Function of the numbers alone
+        zero = Buffered(ca.Function(f"{name}_at_zero", [twin.numbers],
+                                       [ca.MX(on_twin(0.0))]).expand())
+    return rows, zero
 
 
 def _window_bound(f, slope, curvature, a, b, seen):

@@ -72,6 +72,7 @@ def _peak_both_ways(fn, band, monkeypatch):
         assert not free
     grid = np.log(frequency.log_grid(band))
     h = (grid[1] - grid[0]) / 2
+    functions = [frequency.Mapped(fn) for fn in functions]
     screened = frequency._peak_of_numbers(*functions, grid, h)
     with monkeypatch.context() as patch:
         patch.setattr(frequency, "_SCREEN_STEPS", frequency._GOLDEN_STEPS)

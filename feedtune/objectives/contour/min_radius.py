@@ -6,7 +6,9 @@ import math
 
 from feedtune.expr import to_float
 from feedtune.lazy import ca, np
+from feedtune.loops.frequency import replayed
 from feedtune.loops.protocols import Loop
+from feedtune.loops.twin import OfLoop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.contour.circle import radius_gain_excess
 
@@ -57,11 +59,12 @@ class MinRadius(Metric):
         return loop.drive.blu is not None and loop.drive.max_velocity is not None
 
     def evaluate(self, loop: Loop, options):
-        v, blu = loop.drive.max_velocity, loop.drive.blu
+        low = ca.log(loop.drive.max_velocity / loop.velocity_constant)
+        replay = replayed("min_radius_excess", OfLoop(_excess, loop), 0, log_omega=False)
+        if replay is not None:  # a loop of numbers whose structure's Function is built
+            return ca.DM(_exact(_vectorised(replay[0][0]), to_float(low)))
         log_r = ca.MX.sym("log_r")
-        radius = ca.exp(log_r)
-        excess = radius * ca.fabs(radius_gain_excess(loop, v / radius)) / (blu / 2) - 1  # > 0: fails
-        low = ca.log(v / loop.velocity_constant)
+        excess = _excess(loop)(log_r)
         free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
         excess_fn = ca.Function("min_radius_excess", [log_r, *free], [excess])
         if not free:  # a loop of numbers: scalar arithmetic, evaluated faster as SX
@@ -83,14 +86,27 @@ class MinRadius(Metric):
         return ca.exp(refine((lower + upper) / 2, *free))
 
 
+def _excess(loop: Loop):
+    """ln r ↦ r·| |H(jV_m/r)| − 1 | / (BLU/2) − 1 [1]: positive where a circle of radius r
+    [m] at V_m fails."""
+    v, blu = loop.drive.max_velocity, loop.drive.blu
+
+    def excess(log_r):
+        radius = ca.exp(log_r)
+        return radius * ca.fabs(radius_gain_excess(loop, v / radius)) / (blu / 2) - 1
+
+    return excess
+
+
 def _vectorised(fn: ca.Function):
     """``fn`` of one scalar as a function of a numpy array: evaluated through CasADi's
     buffer, one map per array size (:class:`feedtune.loops.frequency.Mapped`, ≈ 2 µs a
     point for the refinements' scalar calls instead of ≈ 70 µs with DM conversions; the
-    same evaluation, so the same bits). A scan maps hundreds of points at once."""
+    same evaluation, so the same bits). A scan maps hundreds of points at once. A
+    :class:`~feedtune.loops.frequency.Mapped` (replayed on the loop's twin) is one already."""
     from feedtune.loops.frequency import Mapped
 
-    return Mapped(fn)
+    return fn if isinstance(fn, Mapped) else Mapped(fn)
 
 
 def _exact(excess, low: float) -> float:

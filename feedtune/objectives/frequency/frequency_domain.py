@@ -14,6 +14,7 @@ from feedtune.expr import to_float
 from feedtune.lazy import ca
 from feedtune.loops.frequency import first_crossing
 from feedtune.loops.protocols import Capability, Loop
+from feedtune.loops.twin import OfLoop
 
 #: what a sampled loop's crossing functions read beyond π/T by default: −1, below the
 #: level of −Im L/|L| and of ln|L|² (0); |H/H(0)|² takes 0 there, below its level ½
@@ -34,10 +35,19 @@ def below_nyquist(loop: Loop, fn, beyond: float = BEYOND_NYQUIST):
     """``fn`` on a continuous loop; on a sampled loop ω ↦ fn(ω) for ωT ≤ π, else
     ``beyond`` (ω [rad/s], T the loop's period, a number or an expression). For the
     functions crossings are located on, never under a square root (its derivative at the
-    constant would be ∞·0)."""
+    constant would be ∞·0). An :class:`~feedtune.loops.twin.OfLoop` ``fn`` gives one."""
     if not loop.discrete:
         return fn
+    if isinstance(fn, OfLoop):
+        return OfLoop(_below_nyquist, loop, fn.factory, fn.args, beyond)
+    return _cut(loop, fn, beyond)
 
+
+def _below_nyquist(loop: Loop, factory, args: tuple, beyond: float):
+    return _cut(loop, factory(loop, *args), beyond)
+
+
+def _cut(loop: Loop, fn, beyond: float):
     def cut(omega):
         return ca.if_else(omega * loop.period <= ca.pi, fn(omega), beyond)
 
@@ -47,7 +57,11 @@ def below_nyquist(loop: Loop, fn, beyond: float = BEYOND_NYQUIST):
 def normalised_gain_squared(loop: Loop):
     """ω ↦ |T(jω)/T(0)|² [1]: the closed loop normalised to unit DC gain (Bhatia Ch. IV A);
     on a sampled loop at z = e^{jωT} (periodic in ω: take :func:`below_nyquist` of it to
-    locate a crossing)."""
+    locate a crossing). An :class:`~feedtune.loops.twin.OfLoop`, as the functions below."""
+    return OfLoop(_normalised_gain_squared, loop)
+
+
+def _normalised_gain_squared(loop: Loop):
     dc = loop.dc_gain()
 
     def gain(omega):
@@ -67,6 +81,10 @@ def phase_crossover_indicator(loop: Loop):
     the band's low end; the sign is the loop's structure, the same at every tunable value
     (the validator locates the same crossing on the unwrapped phase,
     feedtune.validate.continuous)."""
+    return below_nyquist(loop, OfLoop(_phase_crossover_indicator, loop))
+
+
+def _phase_crossover_indicator(loop: Loop):
     low = loop.frequency_band[0]
 
     def raw(omega):
@@ -78,16 +96,20 @@ def phase_crossover_indicator(loop: Loop):
     def indicator(omega):
         return sign * raw(omega)
 
-    return below_nyquist(loop, indicator)
+    return indicator
 
 
 def log_open_loop_gain_squared(loop: Loop):
     """ω ↦ ln |L(jω)|² [1]: positive below the gain crossover of a type-1 loop."""
+    return below_nyquist(loop, OfLoop(_log_open_loop_gain_squared, loop))
+
+
+def _log_open_loop_gain_squared(loop: Loop):
     def gain(omega):
         re, im = loop.open_loop_response(omega)
         return ca.log(re**2 + im**2)
 
-    return below_nyquist(loop, gain)
+    return gain
 
 
 def as_number(omega):

@@ -5,8 +5,18 @@ from feedtune.expr import Supremum
 from feedtune.lazy import ca
 from feedtune.loops.frequency import log_grid, peak
 from feedtune.loops.protocols import Loop
+from feedtune.loops.twin import OfLoop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency.frequency_domain import has_open_loop
+
+
+def sensitivity_squared(loop: Loop):
+    """ω ↦ |S(jω)|² [1] of the loop's ``sensitivity_response``."""
+    def gain(omega):
+        re, im = loop.sensitivity_response(omega)
+        return re**2 + im**2
+
+    return gain
 
 
 class SensitivityPeak(Metric):
@@ -32,9 +42,7 @@ class SensitivityPeak(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop: Loop, options):
-        def gain(omega):
-            re, im = loop.sensitivity_response(omega)
-            return re**2 + im**2
+        gain = OfLoop(sensitivity_squared, loop)
 
         def locate():  # refined when read (the tuner scans numerically instead)
             value, omega_peak = peak(gain, loop.frequency_band, "sensitivity_peak")

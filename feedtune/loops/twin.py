@@ -1,0 +1,230 @@
+"""A loop of numbers' parametric twin: the same loop on CasADi symbols, one per structure.
+
+Evaluating a tuned design builds, for each peak, crossing and scan, a CasADi graph on a
+loop whose matrices are numbers, differentiates it and expands it (issue 15: ≈ 30 ms a
+batch spec of the software servo). Two loops that differ only in their numbers build the
+same graph with other constants. So a loop of numbers is described here as a *structure*
+(its class, every integer, flag and choice, the sparsity of every matrix, which numbers
+are exactly 0 or ±1) and a vector of its other *numbers* (floats, nonzeros of matrices);
+the structure's twin is the loop rebuilt with those numbers replaced by the entries of
+one MX symbol. Functions built once on the twin (:func:`feedtune.loops.frequency.replayed`)
+then serve every loop of that structure, called with its numbers.
+
+The twin's graph performs the operations the loop of numbers' graph performs, on
+parameters instead of folded constants. They differ only where CasADi simplifies on
+constant values: 0 and ±1 stay constants of the twin, so x·1 and x + 0 fold alike; what
+remains is a sum that cancels in floats on the loop of numbers and exactly on the twin
+(x + (y − x) → y), as a sampled loop's D(1) = 1 − (1 + x) + x: its M_peak and bandwidth
+move by ≤ 1.8e-13 relative, towards the exact value (docs/design.md). A number that
+shapes a graph (a count of terms, a Python branch) raises on the symbol, and the caller
+then builds on the loop of numbers as before.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Callable
+
+from feedtune.lazy import ca, np
+
+#: twins kept (an LRU): one per loop structure, a batch holds a few
+_TWIN_CACHE_SIZE = 64
+_twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol)
+_twins_lock = threading.Lock()  # a Dask worker runs specs in threads
+
+
+class NoTwin(Exception):
+    """Raised while describing a loop that holds symbols or an unknown kind of value."""
+
+
+@dataclass(frozen=True, eq=False)
+class Twin:
+    """A loop of numbers as (structure, its twin, the twin's symbol, this loop's numbers).
+
+    Attributes
+    ----------
+    structure : tuple
+        Hashable: equal for two loops whose twins are the same graph.
+    loop
+        The loop rebuilt on the entries of ``numbers`` (shared by every loop of the
+        structure).
+    numbers : casadi.MX
+        The twin's symbol, a column of every number of the loop.
+    values : numpy.ndarray
+        This loop's numbers, in the order of ``numbers``.
+    """
+
+    structure: tuple
+    loop: object
+    numbers: object
+    values: np.ndarray
+
+
+class _Leaves:
+    """The numbers met while describing a value, in order: each a float, a DM (its
+    sparsity kept), or an MX of numbers evaluated together at the end."""
+
+    def __init__(self):
+        self.items: list = []
+
+    def add(self, value) -> tuple:
+        self.items.append(value)
+        return ("number", _sparsity_key(value))
+
+
+#: numbers kept as constants of the twin (in its structure): CasADi folds x·0, x·1, x + 0
+#: on them, as it does on the loop of numbers' graph (a structural 0 of a matrix, a unit
+#: coefficient), so the twin's graph is as short as that one and its values its bits
+CONSTANTS = (0.0, 1.0, -1.0)
+
+
+def _sparsity_key(value) -> tuple:
+    if isinstance(value, float):
+        return (1, 1, (0, 1), (0,))
+    sp = value.sparsity()
+    return (sp.size1(), sp.size2(), tuple(sp.colind()), tuple(sp.row()))
+
+
+def _describe(value, leaves: _Leaves, fields: Callable):
+    """The structure of ``value``: numbers become ("number", shape) and go to ``leaves``."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, (float, np.floating)):
+        return ("constant", float(value)) if value in CONSTANTS else leaves.add(float(value))
+    if isinstance(value, ca.DM):
+        return leaves.add(value)
+    if isinstance(value, ca.SX):
+        if ca.symvar(value):
+            raise NoTwin("a symbol")  # a loop inside the NLP
+        return leaves.add(ca.evalf(value))
+    if isinstance(value, ca.MX):
+        if ca.symvar(value):
+            raise NoTwin("a symbol")
+        return leaves.add(value)
+    if isinstance(value, (tuple, list)):
+        return (type(value).__name__, tuple(_describe(v, leaves, fields) for v in value))
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return (type(value), tuple((name, _describe(v, leaves, fields))
+                                   for name, v in fields(value)))
+    raise NoTwin(f"a {type(value).__name__}")
+
+
+def _fields(value) -> list[tuple[str, object]]:
+    """A dataclass's init fields and values, read from its ``__dict__`` where they are
+    kept (a loop's :class:`~feedtune.loops.loop.EmbeddedNumber` records every read through
+    its attribute; the twin is no read of the loop's graph)."""
+    return [(f.name, value.__dict__[f.name] if f.name in value.__dict__ else getattr(value, f.name))
+            for f in dataclasses.fields(value) if f.init]
+
+
+def _rebuild(value, take: Callable):
+    """``value`` with every number replaced by ``take(number)`` (the twin's entries)."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, (float, np.floating)) and value in CONSTANTS:
+        return value
+    if isinstance(value, (float, np.floating, ca.DM, ca.MX, ca.SX)):
+        return take(value)
+    if isinstance(value, (tuple, list)):
+        return type(value)(_rebuild(v, take) for v in value)
+    return type(value)(**{name: _rebuild(v, take) for name, v in _fields(value)})
+
+
+def parametric_twin(loop) -> Twin | None:
+    """The :class:`Twin` of a loop of numbers, or None for a loop that holds symbols (inside
+    the NLP) or a value of a kind not described here. The twin of a structure is built on
+    its first loop and kept (an LRU of 64); ``values`` are this loop's numbers.
+
+    Kept on the loop (in its ``__dict__``, as a cached property is), so the reports of one
+    tuned design describe it once.
+    """
+    if "_parametric_twin" in loop.__dict__:
+        return loop.__dict__["_parametric_twin"]
+    twin = None
+    if dataclasses.is_dataclass(loop):
+        leaves = _Leaves()
+        try:
+            structure = _describe(loop, leaves, _fields)
+        except NoTwin:
+            structure = None
+        if structure is not None:
+            twin = _twin_of(loop, structure, leaves.items)
+    loop.__dict__["_parametric_twin"] = twin
+    return twin
+
+
+def _twin_of(loop, structure: tuple, items: list) -> Twin:
+    symbolic = [i for i, v in enumerate(items) if isinstance(v, ca.MX)]
+    evaluated = list(items)
+    if symbolic:  # expressions of numbers: evaluated together, once
+        results = ca.Function("twin_numbers", [], [items[i] for i in symbolic]).call([])
+        for i, value in zip(symbolic, results):
+            evaluated[i] = value
+    entries = [[v] if isinstance(v, float) else list(v.nonzeros()) for v in evaluated]
+    # which entries stay constants (CONSTANTS), per leaf: part of the structure
+    kept = tuple(tuple(x if x in CONSTANTS else None for x in leaf) for leaf in entries)
+    values = np.array([x for leaf in entries for x in leaf if x not in CONSTANTS], float)
+    structure = (structure, kept)
+    with _twins_lock:
+        kept_twin = _twins.get(structure)
+        if kept_twin is not None:
+            _twins.move_to_end(structure)
+    if kept_twin is not None:
+        twin_loop, numbers = kept_twin
+    else:
+        numbers = ca.MX.sym("numbers", values.size)
+        offset, leaf_index = 0, 0
+
+        def take(value):
+            nonlocal offset, leaf_index
+            parts = []
+            for constant in kept[leaf_index]:
+                if constant is None:
+                    parts.append(numbers[offset])
+                    offset += 1
+                else:
+                    parts.append(ca.MX(constant))
+            leaf_index += 1
+            if isinstance(value, (float, np.floating)):
+                return parts[0]
+            return ca.MX(value.sparsity(), ca.vertcat(*parts))
+
+        twin_loop = _rebuild(loop, take)
+        with _twins_lock:
+            _twins[structure] = (twin_loop, numbers)
+            while len(_twins) > _TWIN_CACHE_SIZE:
+                _twins.popitem(last=False)
+    return Twin(structure, twin_loop, numbers, values)
+
+
+class OfLoop:
+    """ω ↦ ``factory(loop, *args)(ω)``: a function of a loop's frequency response that
+    names its loop and how it was made, so that a loop of numbers can evaluate it through
+    Functions built once on its structure's twin (:func:`feedtune.loops.frequency.replayed`).
+
+    ``factory`` is a module-level function and ``args`` hashable: together they are the
+    key of those Functions. Called, it is exactly ``factory(loop, *args)`` (made once).
+    """
+
+    __slots__ = ("factory", "loop", "args", "_fn")
+
+    def __init__(self, factory: Callable, loop, *args):
+        self.factory, self.loop, self.args = factory, loop, args
+        self._fn = None
+
+    @property
+    def key(self) -> tuple:
+        """(factory, args): the same for the function on every loop."""
+        return (self.factory, self.args)
+
+    def on(self, loop) -> Callable:
+        """``factory(loop, *args)``: the same function made on another loop (the twin)."""
+        return self.factory(loop, *self.args)
+
+    def __call__(self, omega):
+        if self._fn is None:
+            self._fn = self.factory(self.loop, *self.args)
+        return self._fn(omega)
