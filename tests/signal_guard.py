@@ -8,6 +8,13 @@ run with the handlers a fresh interpreter has. Without this, a leak shows up lat
 elsewhere: a Ctrl-C test whose re-raised SIGINT reaches an ignoring handler, or a
 remembering one that never raises, fails with "the Ctrl-C should have stopped the batch
 by now" (tests/batch/test_batch_cli.py), far from the test that left it.
+
+The state includes what the kernel ignores (``SigIgn`` in /proc/self/status), which
+``signal.getsignal`` does not show when C code changes it, and it is compared between
+tests too: a change after one test's teardown and before the next one's setup (a plugin,
+a session fixture, another thread) errors at the next test's setup, naming both. In a
+full run on 2026-11-27 a ``pytest`` started by a test of this suite found SIGINT ignored
+from its start, i.e. inherited from its xdist worker, while no test had been flagged.
 """
 
 from __future__ import annotations
@@ -19,16 +26,35 @@ import pytest
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _BEFORE = pytest.StashKey[dict]()
+#: (the state a test's teardown left, that test's node id), for the next test's setup
+_LAST: list = [None, None]
+
+
+def kernel_ignored() -> frozenset | None:
+    """Which of SIGNALS the kernel ignores for this process (Linux), else None."""
+    try:
+        with open("/proc/self/status") as status:
+            mask = next(int(line.split()[1], 16) for line in status
+                        if line.startswith("SigIgn:"))
+    except (OSError, StopIteration):
+        return None
+    return frozenset(signal.Signals(s).name for s in SIGNALS if mask >> (s - 1) & 1)
 
 
 def signal_state() -> dict | None:
-    """The handlers of SIGNALS and the blocked signals of this thread; None off the main
-    thread (where neither can be set)."""
+    """The handlers of SIGNALS, the blocked signals of this thread and which of SIGNALS the
+    kernel ignores; None off the main thread (where the first two cannot be set)."""
     if threading.current_thread() is not threading.main_thread():
         return None
     state = {signal.Signals(signum).name: signal.getsignal(signum) for signum in SIGNALS}
     state["blocked"] = frozenset(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+    state["kernel ignores"] = kernel_ignored()
     return state
+
+
+def _changes(before: dict, after: dict) -> dict:
+    return {name: f"{before[name]!r} -> {after[name]!r}" for name in before
+            if after[name] != before[name]}
 
 
 def restore(state: dict) -> None:
@@ -39,7 +65,14 @@ def restore(state: dict) -> None:
 
 @pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_runtest_setup(item):
-    item.stash[_BEFORE] = signal_state()  # before any fixture of this test is set up
+    before = item.stash[_BEFORE] = signal_state()  # before any fixture is set up
+    last, after = _LAST
+    if before is not None and last is not None and before != last:
+        restore(last)
+        item.stash[_BEFORE] = signal_state()
+        raise AssertionError(f"the process's signal handling changed between {after}'s "
+                             f"teardown and {item.nodeid}'s setup (put back now): "
+                             f"{_changes(last, before)}")
     return (yield)
 
 
@@ -49,8 +82,8 @@ def pytest_runtest_teardown(item, nextitem):
     before, after = item.stash.get(_BEFORE, None), signal_state()
     if before is not None and after != before:
         restore(before)
-        changed = {name: f"{before[name]!r} -> {after[name]!r}" for name in before
-                   if after[name] != before[name]}
+        _LAST[:] = signal_state(), item.nodeid
         raise AssertionError(f"{item.nodeid} left the process's signal handling changed "
-                             f"(put back now): {changed}")
+                             f"(put back now): {_changes(before, after)}")
+    _LAST[:] = after, item.nodeid
     return result

@@ -28,17 +28,49 @@ def test_after_them():
 '''
 
 
-def test_a_test_leaving_sigint_ignored_or_blocked_errors_and_is_undone(tmp_path):
+#: a plugin that ignores SIGINT after test_first's teardown, outside every test
+BETWEEN = '''
+import signal
+
+def pytest_runtest_logfinish(nodeid, location):
+    if nodeid.endswith("test_first"):
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+'''
+
+BETWEEN_TESTS = '''
+import signal
+
+def test_first():
+    pass
+
+def test_second():
+    pass
+
+def test_third():
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+'''
+
+
+def _pytest(tmp_path, tests: str) -> subprocess.CompletedProcess:
+    """pytest with the guard alone on ``tests`` in a process of its own, which starts with
+    the interpreter's own SIGINT handler whatever its parent (this test's process) has."""
     (tmp_path / "pytest.ini").write_text("[pytest]\n")  # not the suite's addopts
-    (tmp_path / "test_leaking.py").write_text(LEAKING)
-    done = subprocess.run([sys.executable, "-m", "pytest", "-p", "signal_guard", "-p",
+    (tmp_path / "test_leaking.py").write_text(tests)
+    start = ("import signal, sys, pytest; signal.signal(signal.SIGINT, "
+             "signal.default_int_handler); sys.exit(pytest.main(sys.argv[1:]))")
+    return subprocess.run([sys.executable, "-c", start, "-p", "signal_guard", "-p",
                            "no:cacheprovider", "-rA", "test_leaking.py"], cwd=tmp_path,
                           capture_output=True, text=True, timeout=120,
                           env={"PYTHONPATH": str(TESTS), "PATH": ""})
+
+
+def test_a_test_leaving_sigint_ignored_or_blocked_errors_and_is_undone(tmp_path):
+    done = _pytest(tmp_path, LEAKING)
     lines = done.stdout.splitlines()
     assert "PASSED test_leaking.py::test_after_them" in lines, done.stdout
     for name, left in (("ignored", "'SIGINT': '<built-in function default_int_handler> -> "
-                                   "<Handlers.SIG_IGN: 1>'"),
+                                   "<Handlers.SIG_IGN: 1>', 'kernel ignores': \"frozenset() "
+                                   "-> frozenset({'SIGINT'})\""),
                        ("blocked", "'blocked': 'frozenset() -> frozenset({<Signals.SIGINT: "
                                    "2>})'")):
         assert any(line.startswith(f"ERROR test_leaking.py::test_leaves_sigint_{name} ")
@@ -46,3 +78,20 @@ def test_a_test_leaving_sigint_ignored_or_blocked_errors_and_is_undone(tmp_path)
         assert (f"AssertionError: test_leaking.py::test_leaves_sigint_{name} left the "
                 f"process's signal handling changed (put back now): {{{left}}}"
                 in done.stdout), done.stdout
+
+
+def test_a_change_between_two_tests_errors_at_the_next_setup_and_is_undone(tmp_path):
+    """What no test's own setup–teardown window sees (a plugin, a session fixture's
+    finaliser, C code changing what the kernel ignores) errors at the next test's setup."""
+    (tmp_path / "between.py").write_text(BETWEEN)
+    done = _pytest(tmp_path, BETWEEN_TESTS + "\npytest_plugins = ['between']\n")
+    lines = done.stdout.splitlines()
+    assert "PASSED test_leaking.py::test_first" in lines, done.stdout
+    assert "PASSED test_leaking.py::test_third" in lines, done.stdout
+    assert any(line.startswith("ERROR test_leaking.py::test_second ") for line in lines), \
+        done.stdout
+    assert ("the process's signal handling changed between test_leaking.py::test_first's "
+            "teardown and test_leaking.py::test_second's setup (put back now): {'SIGINT': "
+            "'<built-in function default_int_handler> -> <Handlers.SIG_IGN: 1>', "
+            "'kernel ignores': \"frozenset() -> frozenset({'SIGINT'})\"}") in done.stdout, \
+        done.stdout
