@@ -24,6 +24,7 @@ import feedtune.loops.loop as loop_module
 import feedtune.objectives.contour.min_radius as min_radius
 from feedtune.expr import to_float
 from feedtune.loops import linalg
+from feedtune.loops.frequency import Mapped
 from feedtune.loops.timeresponse import sampled_step_error
 from feedtune.objectives import METRICS
 from feedtune.problem import build_plant, resolve_tunables
@@ -118,13 +119,17 @@ def test_min_radius_refinements_through_the_buffer_give_the_dm_calls_bits(exampl
         fast = float(ca.evalf(metric.evaluate(loop, None)))
 
         def dm_calls(fn):  # the evaluation before: a map per size, called with a DM
+            # (replayed on the loop's twin, fn is a Mapped: its Function and its numbers)
+            fn, fixed = (fn.fn, fn.fixed) if isinstance(fn, Mapped) else (fn, ())
+            shared = [False] + [True] * (fn.n_in() - 1)
             maps = {}
 
             def evaluate(u):
                 size = np.size(u)
                 if size not in maps:
-                    maps[size] = fn if size == 1 else fn.map(size)
-                return np.array(maps[size](np.reshape(u, (1, size))), dtype=float).ravel()
+                    maps[size] = fn if size == 1 else fn.map(size, shared, [False])
+                return np.array(maps[size](np.reshape(u, (1, size)), *fixed),
+                                dtype=float).ravel()
 
             return evaluate
 
