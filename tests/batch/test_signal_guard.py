@@ -53,7 +53,8 @@ def test_third():
 
 def _pytest(tmp_path, tests: str) -> subprocess.CompletedProcess:
     """pytest with the guard alone on ``tests`` in a process of its own, which starts with
-    the interpreter's own SIGINT handler whatever its parent (this test's process) has."""
+    the interpreter's own SIGINT handler whatever its parent has (a suite started with
+    `pytest &` has SIGINT ignored, which a child inherits)."""
     (tmp_path / "pytest.ini").write_text("[pytest]\n")  # not the suite's addopts
     (tmp_path / "test_leaking.py").write_text(tests)
     start = ("import signal, sys, pytest; signal.signal(signal.SIGINT, "
