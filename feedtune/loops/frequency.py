@@ -126,6 +126,14 @@ def is_shared_omega(omega) -> bool:
     return any(omega is shared for _, shared in _LOG_OMEGA.values())
 
 
+def _with_derivatives(expression, u, derivatives: int) -> list:
+    """[``expression``, its first ``derivatives`` derivatives in the scalar symbol ``u``]."""
+    expressions = [expression]
+    for _ in range(derivatives):
+        expressions.append(ca.jacobian(expressions[-1], u))
+    return expressions
+
+
 def _functions(name: str, fn, derivatives: int):
     """fn of u = ln ω and its first ``derivatives`` u-derivatives, as CasADi Functions.
 
@@ -137,9 +145,7 @@ def _functions(name: str, fn, derivatives: int):
     branch h-tmc).
     """
     u, omega = _log_omega("MX")
-    expressions = [fn(omega)]
-    for _ in range(derivatives):
-        expressions.append(ca.jacobian(expressions[-1], u))
+    expressions = _with_derivatives(fn(omega), u, derivatives)
     free = [v for v in ca.symvar(ca.veccat(*expressions)) if not ca.is_equal(v, u)]
     return [_expanded(ca.Function(f"{name}_{k}", [u, *free], [e]))
             for k, e in enumerate(expressions)], free
@@ -157,11 +163,9 @@ def _number_functions(name: str, fn, derivatives: int):
     """
     u, omega = _log_omega("SX")
     try:
-        expressions = [ca.SX(fn(omega))]
+        expressions = _with_derivatives(ca.SX(fn(omega)), u, derivatives)
     except (TypeError, NotImplementedError, RuntimeError):
         return None
-    for _ in range(derivatives):
-        expressions.append(ca.jacobian(expressions[-1], u))
     if any(not ca.is_equal(v, u) for v in ca.symvar(ca.veccat(*expressions))):
         return None
     return [ca.Function(f"{name}_{k}", [u], [e]) for k, e in enumerate(expressions)]
@@ -505,9 +509,8 @@ def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: 
     Buffered of fn at ω = 0 of the numbers or None)."""
     u = ca.MX.sym("u")
     on_twin = fn.on(twin.loop)
-    expressions = [on_twin(ca.exp(u) if log_omega else u) - level]
-    for _ in range(derivatives):
-        expressions.append(ca.jacobian(expressions[-1], u))
+    expressions = _with_derivatives(on_twin(ca.exp(u) if log_omega else u) - level, u,
+                                    derivatives)
     if any(not (ca.is_equal(v, u) or ca.is_equal(v, twin.numbers))
            for v in ca.symvar(ca.veccat(*expressions))):
         raise ValueError("symbols besides the loop's numbers")

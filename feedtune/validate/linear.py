@@ -25,6 +25,7 @@ G. A. Baker, P. Graves-Morris, "Padé Approximants", 2nd ed., 1996, §1.2.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
@@ -46,9 +47,6 @@ PADE_ORDER = 4
 
 #: signals, in the order of the unknown vector
 SIGNALS = ("e_p", "c_p", "v", "e_v", "u", "w", "y", "x", "xdot")
-#: external inputs: reference r, its rate ṙ (feed-forward), and the error e_p when the loop
-#: is opened at the position feedback
-INPUTS = ("r", "rdot", "e_open")
 #: the signals in an order in which, the drive's output y given, each follows from those
 #: before it (frequency domain: :meth:`LinearModel._signal_at`)
 CHAIN = ("x", "xdot", "e_p", "c_p", "v", "e_v", "u", "w")
@@ -351,10 +349,12 @@ class LinearModel(ContinuousModel):
     def _gain(self, omega) -> np.ndarray:
         """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space (once per
         model: Brent's refinement of M_peak asks for one ω at a time)."""
-        h0 = self.__dict__.get("_static_gain")
-        if h0 is None:
-            h0 = self.__dict__["_static_gain"] = -self.c @ np.linalg.solve(self.a, self.b[:, 0])
-        return np.abs(self._closed(omega) / h0)
+        return np.abs(self._closed(omega) / self._static_gain)
+
+    @functools.cached_property
+    def _static_gain(self) -> float:
+        """H(0) [1] of :meth:`_gain`, −C A⁻¹ B on the reference's column."""
+        return -self.c @ np.linalg.solve(self.a, self.b[:, 0])
 
     # -- time responses: the transient about the steady solution -------------------------
 
