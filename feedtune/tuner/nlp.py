@@ -53,6 +53,18 @@ from feedtune.tuner.types import (SOLVED, STATUS, Bound, Outcome, Settings, Star
 SETTLING_ACTIVE = 1e-6
 #: expand the NLP to SX (≈4x faster solves, slower build) up to this many unrolled loop steps
 AUTO_EXPAND_STEPS = 250
+#: an NLP with peaks or crossings over frequency (exchange groups) is left unexpanded when
+#: its MX graph has at most this many nodes per constraint row: its frequency grids are then
+#: whole-row vector nodes (feedtune.tuner.builder keeps a grid's rows as one vector, the
+#: loop's coefficients one SX Function: feedtune.tuner.supremum.FrequencyFunction), which
+#: the MX virtual machine evaluates as fast as their SX expansion, and nlpsol builds no
+#: SX Jacobian (≈ 390 instructions a row, 7 directions through every grid point's Horner
+#: evaluation). Measured (2026-11-27, load 5): examples/user-defined-pid-notch.json (0.71
+#: nodes a row) nlpsol 0.20 → 0.04 s, its Jacobian 0.86 → 0.76 ms a call, the same 57
+#: iterations and bandwidth; Bhatia's and Ward-Leonard's specs and their 24 variants
+#: (0.7-1.0) the same 26 optima in 29.5 → 24.3 s of CPU; examples/user-defined-drive.json
+#: (2.0 nodes a row; it has a dead time) warm 0.29 → 0.46 s unexpanded: expanded
+WHOLE_ROWS_NODES_PER_ROW = 1.5
 #: IPOPT options the tuner always sets, after the caller's: no output (stdout carries the
 #: result), and no options file (IPOPT otherwise reads ./ipopt.opt, which may name a
 #: library to load)
@@ -186,9 +198,6 @@ class Problem:
         """(Functions, key-only Functions, expand) of the NLP ``builder`` holds, whose
         objective is ``f``: what the solver cache keys on and every later problem of this
         structure uses."""
-        expand = self.settings.expand
-        if expand is None:  # auto: expansion pays for itself on short horizons only
-            expand = structure.unrolled_steps <= AUTO_EXPAND_STEPS
         z, p = builder.z, builder.p
         # the objective is divided by its value at each start (a parameter, so one build
         # serves every start); a start that is not stable is first moved to a stable point
@@ -198,7 +207,7 @@ class Problem:
             f = nan_where_unstable(f, structure.stability)
         functions = {
             "nlp": ca.Function("nlp", [builder.w, ca.vertcat(objective_scale, *builder.slots, p)],
-                               [f / objective_scale, ca.vertcat(*builder.rows)],
+                               [f / objective_scale, builder.g],
                                ["x", "p"], ["f", "g"]),
             "settling": ca.Function("settling", [z, p], [ca.vertcat(ca.MX(0, 1), *scaled_settling)]),
             "extra_start": ca.Function("extra_start", [z, p, *builder.scanned],
@@ -211,6 +220,11 @@ class Problem:
                                            [ca.vertcat(*structure.stability),
                                             *structure.matrices.values()]),
         }
+        expand = self.settings.expand
+        if expand is None:  # auto: where expansion pays for itself (see the constants)
+            nlp = functions["nlp"]
+            expand = (structure.unrolled_steps <= AUTO_EXPAND_STEPS and not (
+                groups and nlp.n_instructions() <= WHOLE_ROWS_NODES_PER_ROW * nlp.size1_out(1)))
         return functions, {"check": structure.evaluator.function}, expand
 
     def _options(self, hessian: str, warm: bool) -> dict:

@@ -126,13 +126,30 @@ class FrequencyFunction:
                 value = self.fn(omega)
                 if value.shape != (1, n):
                     raise ValueError(f"{self.name}: fn gives {value.shape}, not (1, {n})")
-                built = ca.Function(self.name, [omega, self.z, self.p], [value])
+                built = self._parted(omega, value)
             except (RuntimeError, ValueError):  # not elementwise: one ω at a time
                 scalar = ca.MX.sym("omega")
                 built = ca.Function(self.name, [scalar, self.z, self.p],
                                     [self.fn(scalar)]).map(n)
             self._symbolic[n] = built
         return built
+
+    def _parted(self, omega: ca.MX, value: ca.MX) -> ca.Function:
+        """(ω, z, p) ↦ ``value``, its parts of z and p alone (the loop's coefficients) one
+        expanded SX Function, the rest the MX graph of whole rows."""
+        zp = ca.veccat(self.z, self.p)
+        rest, symbols, parametric = ca.extract_parametric(value, zp)
+        if not symbols:
+            return ca.Function(self.name, [omega, self.z, self.p], [value])
+        try:
+            numbers = ca.Function(f"{self.name}_coefficients", [self.z, self.p],
+                                  [ca.veccat(*parametric)]).expand()
+        except RuntimeError:  # a node without an SX form
+            return ca.Function(self.name, [omega, self.z, self.p], [value])
+        q = ca.veccat(*symbols)
+        rows = ca.Function(f"{self.name}_rows", [omega, q, self.z, self.p], [rest])
+        return ca.Function(self.name, [omega, self.z, self.p],
+                           [rows(omega, numbers(self.z, self.p), self.z, self.p)])
 
     def rows(self, omegas):
         """f at every entry of the row ``omegas`` (an expression or numbers): a 1×n row of
