@@ -93,6 +93,7 @@ class FrequencyFunction:
         self._symbolic: dict[int, ca.Function] = {}
         self._numeric: dict[int, ca.Function | Buffered] = {}  # row length → its evaluation
         self._split: tuple[ca.Function, ca.Function] | None | bool = False  # not tried yet
+        self._is_elementwise: bool | None = None
         self._numbers_call: Buffered | None = None
         self._last_numbers: tuple[bytes, np.ndarray] | None = None  # (z and p, q)
 
@@ -118,38 +119,42 @@ class FrequencyFunction:
         return self._split
 
     def function(self, n: int) -> ca.Function:
-        """(ω row 1×n, z, p) ↦ f row 1×n, built once per n."""
+        """(ω row 1×n, z, p) ↦ f row 1×n, built once per n: ``point`` replayed on whole
+        rows (:func:`whole_rows`) where ``fn`` has an SX form, else ``fn`` called on the
+        row (or mapped, where it does not work elementwise)."""
         built = self._symbolic.get(n)
         if built is None:
             omega = ca.MX.sym("omega", 1, n)
-            try:
-                value = self.fn(omega)
-                if value.shape != (1, n):
-                    raise ValueError(f"{self.name}: fn gives {value.shape}, not (1, {n})")
-                built = self._parted(omega, value)
-            except (RuntimeError, ValueError):  # not elementwise: one ω at a time
-                scalar = ca.MX.sym("omega")
-                built = ca.Function(self.name, [scalar, self.z, self.p],
-                                    [self.fn(scalar)]).map(n)
+            split = self.split() if self._elementwise() else None
+            if split is not None:
+                point, numbers = split
+                q = ca.MX.sym("q", point.sparsity_in(1))
+                rows = ca.Function(f"{self.name}_rows{n}", [omega, q, self.z, self.p],
+                                   [whole_rows(point, [omega, q, self.z, self.p])])
+                built = ca.Function(self.name, [omega, self.z, self.p],
+                                    [rows(omega, numbers(self.z, self.p), self.z, self.p)])
+            else:
+                try:
+                    value = self.fn(omega)
+                    if value.shape != (1, n):
+                        raise ValueError(f"{self.name}: fn gives {value.shape}, not (1, {n})")
+                    built = ca.Function(self.name, [omega, self.z, self.p], [value])
+                except (RuntimeError, ValueError):  # not elementwise: one ω at a time
+                    scalar = ca.MX.sym("omega")
+                    built = ca.Function(self.name, [scalar, self.z, self.p],
+                                        [self.fn(scalar)]).map(n)
             self._symbolic[n] = built
         return built
 
-    def _parted(self, omega: ca.MX, value: ca.MX) -> ca.Function:
-        """(ω, z, p) ↦ ``value``, its parts of z and p alone (the loop's coefficients) one
-        expanded SX Function, the rest the MX graph of whole rows."""
-        zp = ca.veccat(self.z, self.p)
-        rest, symbols, parametric = ca.extract_parametric(value, zp)
-        if not symbols:
-            return ca.Function(self.name, [omega, self.z, self.p], [value])
-        try:
-            numbers = ca.Function(f"{self.name}_coefficients", [self.z, self.p],
-                                  [ca.veccat(*parametric)]).expand()
-        except RuntimeError:  # a node without an SX form
-            return ca.Function(self.name, [omega, self.z, self.p], [value])
-        q = ca.veccat(*symbols)
-        rows = ca.Function(f"{self.name}_rows", [omega, q, self.z, self.p], [rest])
-        return ca.Function(self.name, [omega, self.z, self.p],
-                           [rows(omega, numbers(self.z, self.p), self.z, self.p)])
+    def _elementwise(self) -> bool:
+        """Whether ``fn`` on a row of two frequencies gives a row of two values (tried once:
+        what is not, such as w·wᵀ, is mapped one ω at a time)."""
+        if self._is_elementwise is None:
+            try:
+                self._is_elementwise = self.fn(ca.MX.sym("omega", 1, 2)).shape == (1, 2)
+            except RuntimeError:
+                self._is_elementwise = False
+        return self._is_elementwise
 
     def rows(self, omegas):
         """f at every entry of the row ``omegas`` (an expression or numbers): a 1×n row of
@@ -200,6 +205,37 @@ class FrequencyFunction:
             points = self._numeric[n] = Buffered(ca.Function(
                 f"{self.name}_row{n}", [omega, q, z, p], [point.map(n)(omega, q, z, p)]))
         return points
+
+
+def whole_rows(point: ca.Function, args: list[ca.MX]) -> ca.MX:
+    """``point`` (an SX Function of one frequency ω, its first input) on the 1×n row of
+    frequencies ``args[0]``: its instructions replayed as MX operations, each on the whole
+    row where it depends on ω and on a scalar where it does not (the other inputs' entries).
+
+    The rows of one grid are then about as many MX nodes as ``point`` has instructions
+    (≈ 65 for the user drive's |T|²), each a vector operation, and the NLP's unexpanded
+    Jacobian differentiates those nodes instead of every grid point's scalar operations
+    (see feedtune.tuner.nlp.WHOLE_ROWS_NODES_PER_ROW). The same operations in the same order
+    as the SX expansion of ``fn`` on a row, so the same values.
+    """
+    work: dict[int, ca.MX] = {}
+    value = None
+    for k in range(point.n_instructions()):
+        op, inputs = point.instruction_id(k), point.instruction_input(k)
+        out = point.instruction_output(k)
+        if op == ca.OP_INPUT:
+            given = args[inputs[0]]
+            work[out[0]] = given if inputs[0] == 0 else given[inputs[1]]
+        elif op == ca.OP_OUTPUT:
+            value = work[inputs[0]]
+        elif op == ca.OP_CONST:
+            work[out[0]] = ca.MX(point.instruction_constant(k))
+        elif len(inputs) == 1:
+            work[out[0]] = ca.MX.unary(op, work[inputs[0]])
+        else:
+            work[out[0]] = ca.MX.binary(op, work[inputs[0]], work[inputs[1]])
+    n = args[0].shape[1]
+    return value if value.shape == (1, n) else ca.repmat(value, 1, n)
 
 
 def window_maxima(f, centres: np.ndarray, h: float | np.ndarray, lower: float,
