@@ -53,3 +53,21 @@ def test_rows_parameters_and_slots_keep_their_order_and_indices():
     ((None, 0.0, -3.0, 2.0), 3.0), ((None, math.inf, 0.0), 1.0), ((), 1.0)])
 def test_scale_is_the_largest_finite_nonzero_magnitude(candidates, expected):
     assert scale(*candidates) == expected
+
+
+def test_a_vector_of_rows_stays_one_vector_of_the_constraints():
+    """A grid's rows enter the NLP as the vector they were built as, not one MX node per
+    entry (560 of the user drive's 1 444 nodes, each differentiated again in every direction
+    of an unexpanded Jacobian): the constraint graph does not grow with the rows, and the
+    rows keep their order and values."""
+    sizes = []
+    for n in (3, 300):
+        builder = NlpBuilder(VARIABLES)
+        builder.constrain(builder.z[0], 0.0, 1.0)
+        rows = builder.constrain_all(ca.DM(np.arange(1.0, n + 1)).T * builder.z[1], -1.0, 1.0)
+        assert rows == range(1, n + 1) and len(builder.rows) == n + 1
+        g = ca.Function("g", [builder.z], [builder.g])
+        sizes.append(g.n_instructions())
+        np.testing.assert_array_equal(np.asarray(g([0.5, 2.0])).ravel(),
+                                      [0.5, *(2.0 * np.arange(1.0, n + 1))])
+    assert sizes[1] == sizes[0]

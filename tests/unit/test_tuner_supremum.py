@@ -380,3 +380,78 @@ def test_warm_limited_memory_rounds_put_the_quasi_newton_pairs_into_the_kkt_matr
     z, status, _, _, _ = problem._solve_from(None, time.perf_counter(), "limited-memory",
                                              problem._last_state)
     assert status == "Solve_Succeeded" and math.exp(z[0]) == pytest.approx(2.0, rel=1e-6)
+
+
+def _resonant_fn(z, p):
+    """|T(jω)|² of k/(s² + 2ζω_n s + ω_n²)-like loop numbers of z and p, written as the
+    loops write it: Horner on Re and Im of polynomials whose coefficients are expressions of
+    the tunables (k = e^z0, ω_n = e^z1, ζ = p0)."""
+    k, wn, zeta = ca.exp(z[0]), ca.exp(z[1]), p[0]
+    numerator, denominator = [k], [1.0, 2 * zeta * wn, wn**2 + k]
+
+    def at(coefficients, omega):
+        re, im = 0, 0
+        for c in coefficients:
+            re, im = -omega * im + c, omega * re
+        return re, im
+
+    def fn(omega):
+        n_re, n_im = at(numerator, omega)
+        d_re, d_im = at(denominator, omega)
+        return (n_re**2 + n_im**2) / (d_re**2 + d_im**2)
+
+    return fn
+
+
+def test_rows_replay_the_split_point_on_whole_rows():
+    """The NLP's rows of a grid are the split's point(ω, q) replayed on the whole row of ω
+    (one MX node per point instruction, the graph the same size for 8 or 800 frequencies)
+    and the loop's coefficients q one SX Function call: the same operations as ``fn`` on
+    the row expanded to SX, so the same values to the bit."""
+    z, p = ca.MX.sym("z", 2), ca.MX.sym("p", 1)
+    fn = FrequencyFunction("t", _resonant_fn(z, p), z, p)
+    z0, p0 = np.array([math.log(4.0), math.log(3.0)]), np.array([0.05])
+    sizes = []
+    for n in (8, 800):
+        omegas = ca.DM(np.geomspace(0.1, 100.0, n)).T
+        built = fn.function(n)
+        called = {built.instruction_MX(k).which_function().name()
+                  for k in range(built.n_instructions()) if built.instruction_id(k) == ca.OP_CALL}
+        assert "t_numbers" in called
+        sizes.append(built.n_instructions()
+                     + sum(built.instruction_MX(k).which_function().n_instructions()
+                           for k in range(built.n_instructions())
+                           if built.instruction_id(k) == ca.OP_CALL
+                           and built.instruction_MX(k).which_function().name() != "t_numbers"))
+        rows = ca.Function("rows", [z, p], [fn.rows(omegas)])
+        expanded = ca.Function("expanded", [z, p], [fn.fn(omegas)]).expand()
+        np.testing.assert_array_equal(np.asarray(rows(z0, p0)), np.asarray(expanded(z0, p0)))
+    assert sizes[1] == sizes[0]
+
+
+def test_frequency_rows_of_whole_vectors_are_solved_unexpanded_to_the_same_optimum():
+    """An NLP whose rows are frequency grids (here 200 points, nearly all its rows) is built
+    unexpanded (auto): its MX graph is a few vector nodes a grid, and nlpsol skips the SX
+    Jacobian of every grid point. Expanded on request, the same optimum (k = 2: the peak
+    k/2 at ω = 1 rad/s held at 1), to IPOPT's tolerance on a value of size 2."""
+    grid = np.geomspace(0.011, 90.0, 200)
+
+    def bound(loop):
+        def fn(omega):
+            return loop.k * omega / (1 + omega**2)
+        value, where = peak(fn, (0.01, 100.0))
+        return Supremum(fn, grid, value, where)
+
+    found = {}
+    for expand in (None, True):
+        problem = Problem([Variable("k", 0.1, 10.0, initial=1.0)], {},
+                          lambda values: ToyLoop(values["k"]),
+                          [Term("k", lambda loop: loop.k, -1.0)],
+                          [Bound("peak", bound, None, 1.0)], {},
+                          Settings(multistart=1, expand=expand, scalar_search=False))
+        assert problem._structure.build[2] is (expand is True)
+        outcome = problem.solve()
+        assert outcome.success, outcome.message
+        found[expand] = outcome.values["k"]
+    assert found[None] == pytest.approx(2.0, rel=1e-6)
+    assert found[None] == pytest.approx(found[True], rel=1e-9)
