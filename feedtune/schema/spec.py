@@ -169,7 +169,8 @@ class SolverSpec(SpecModel):
                           "exchange rounds once it has run this long")
     expand: bool | None = Field(
         None, description="Expand the NLP to CasADi SX before solving: faster solves, slower "
-                          "build; null (default) expands when step responses are short")
+                          "build; null (default) expands when step responses are short, except an "
+                          "NLP of frequency grids kept as whole rows")
     ipopt_options: IpoptOptions = Field(
         default_factory=dict, description="Algorithmic IPOPT options (an allow-list, with "
                                           "IPOPT's types and ranges; units per option)")
