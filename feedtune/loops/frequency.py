@@ -261,13 +261,7 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     if below.size == 0:
         return math.exp(grid[-1]), False
     k = int(below[0]) + 1
-    low, high = float(grid[k - 1]), float(grid[k])
-    for _ in range(_BISECTIONS):
-        middle = (low + high) / 2
-        if f(middle)[0] > 0:
-            low = middle
-        else:
-            high = middle
+    low, high = _bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
     u = (low + high) / 2
     for _ in range(2):
         g = float(slope(u)[0])
@@ -275,6 +269,37 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
         u = u - float(np.fmin(np.fmax(step, low - u), high - u))  # as ca.fmin/ca.fmax
     return math.exp(u), True
 
+
+
+def _bisections_of_numbers(f, low: float, high: float) -> tuple[float, float]:
+    """:data:`_BISECTIONS` bisection steps of [low, high] on ``f`` (a :class:`Mapped`),
+    keeping the half whose lower end has f > 0: through :func:`_bisection_function`
+    kept with ``f`` where :meth:`Mapped.derived` gives it, else step by step in floats
+    (the same operations, so the same bits)."""
+    bisection = f.derived(("bisection", _BISECTIONS),
+                          lambda fn: _bisection_function(fn, _BISECTIONS))
+    if bisection is not None:
+        (bracket,) = bisection.columns(np.array([[low], [high]]))
+        return float(bracket[0, 0]), float(bracket[1, 0])
+    for _ in range(_BISECTIONS):
+        middle = (low + high) / 2
+        if f(middle)[0] > 0:
+            low = middle
+        else:
+            high = middle
+    return low, high
+
+
+def _bisection_function(f, steps: int):
+    """``steps`` bisection steps as one Function of the bracket [low, high] and ``f``'s
+    fixed inputs (issue 15): :func:`_bisection_step` on a Function of numbers, its step
+    expanded to SX and folded, instead of one Python round and one call a step."""
+    fixed = _inputs_after_first(f)
+    step = _bisection_step(f, fixed).expand()
+    start = ca.MX.sym("bracket", 2)
+    repeated = [ca.repmat(x, 1, steps) for x in fixed]  # the fold reads one column a step
+    return ca.Function(f"bisection_{steps}", [start, *fixed],
+                       [step.fold(steps)(start, *repeated)])
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
     """(max of ``fn`` over ω ≥ 0, the ω [rad/s] where it is taken; 0 for ω → 0).
