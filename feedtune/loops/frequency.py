@@ -598,6 +598,9 @@ def _jet_columns(f, slope, curvature, u) -> list[np.ndarray]:
 _REPLAY_CACHE_SIZE = 256
 _replays: "OrderedDict[tuple, tuple]" = OrderedDict()
 _replays_lock = threading.Lock()
+#: (name, the function's key, the loop's structure) of every value :func:`replayed_at`
+#: was asked for (oldest first, as many as replays kept)
+_asked_at: dict[tuple, None] = {}
 
 
 def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True,
@@ -649,8 +652,21 @@ def replayed_at(name: str, fn, x) -> float | None:
     ``log_omega`` off; issue 15), or None where there is none (``x`` an expression, a
     loop of symbols, a number that shapes the graph). The same operations as evaluating
     the graph of ``fn(x)`` built on the loop of numbers, without building it (a response
-    at one ω: a complex solve, ≈ 0.3–1 ms of MX building a report)."""
-    if not isinstance(x, float):
+    at one ω: a complex solve, ≈ 0.3–1 ms of MX building a report). The first value of a
+    (name, function, structure) is None too: building and expanding the replayed Function
+    costs a few graphs, which a single tuning would pay for one value."""
+    if not isinstance(x, float) or not isinstance(fn, OfLoop):
+        return None
+    twin = parametric_twin(fn.loop)
+    if twin is None:
+        return None
+    key = (name, fn.key, twin.structure)
+    with _replays_lock:  # built from a structure's second value on: one is cheaper as a graph
+        first = key not in _asked_at
+        _asked_at[key] = None
+        while len(_asked_at) > _REPLAY_CACHE_SIZE:
+            del _asked_at[next(iter(_asked_at))]
+    if first:
         return None
     replay = replayed(name, fn, 0, log_omega=False)
     return None if replay is None else float(replay[0][0](x)[0])

@@ -163,13 +163,18 @@ def test_radial_error_and_margins_read_the_replayed_response_with_the_graphs_bit
                 expr, magnitude = exact_value(value)
                 return [float(ca.evalf(ca.MX(ca.fabs(expr) if magnitude else expr)))]
 
+            first = evaluate()  # a structure's first value: the graph (nothing built)
             replayed, built = evaluate(), _without_replay(monkeypatch, evaluate)
+            assert np.array_equal(first, built, equal_nan=True)
             assert np.array_equal(replayed, built, equal_nan=True), (metric.name, replayed, built)
+    replays = {key[0] for key, built in frequency._replays.items() if built}
+    assert {"radius_gain_excess", "gain_margin", "gain_margin_real", "phase_margin"} <= replays
 
 
 def test_replayed_at_takes_floats_of_loops_of_numbers_only():
     loop = _loops("sampled", 1)[0]
     fn = frequency_domain.normalised_gain_squared(loop)
+    assert frequency.replayed_at("test_at", fn, 2.0) is None  # the first: not built
     assert frequency.replayed_at("test_at", fn, 2.0) is not None
     assert frequency.replayed_at("test_at", fn, ca.MX(2.0)) is None  # an expression
     assert frequency.replayed_at("test_at", lambda omega: omega, 2.0) is None  # no OfLoop
