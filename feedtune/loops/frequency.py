@@ -261,13 +261,7 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     if below.size == 0:
         return math.exp(grid[-1]), False
     k = int(below[0]) + 1
-    low, high = float(grid[k - 1]), float(grid[k])
-    for _ in range(_BISECTIONS):
-        middle = (low + high) / 2
-        if f(middle)[0] > 0:
-            low = middle
-        else:
-            high = middle
+    low, high = _bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
     u = (low + high) / 2
     for _ in range(2):
         g = float(slope(u)[0])
@@ -275,6 +269,37 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
         u = u - float(np.fmin(np.fmax(step, low - u), high - u))  # as ca.fmin/ca.fmax
     return math.exp(u), True
 
+
+
+def _bisections_of_numbers(f, low: float, high: float) -> tuple[float, float]:
+    """:data:`_BISECTIONS` bisection steps of [low, high] on ``f`` (a :class:`Mapped`),
+    keeping the half whose lower end has f > 0: through :func:`_bisection_function`
+    kept with ``f`` where :meth:`Mapped.derived` gives it, else step by step in floats
+    (the same operations, so the same bits)."""
+    bisection = f.derived(("bisection", _BISECTIONS),
+                          lambda fn: _bisection_function(fn, _BISECTIONS))
+    if bisection is not None:
+        (bracket,) = bisection.columns(np.array([[low], [high]]))
+        return float(bracket[0, 0]), float(bracket[1, 0])
+    for _ in range(_BISECTIONS):
+        middle = (low + high) / 2
+        if f(middle)[0] > 0:
+            low = middle
+        else:
+            high = middle
+    return low, high
+
+
+def _bisection_function(f, steps: int):
+    """``steps`` bisection steps as one Function of the bracket [low, high] and ``f``'s
+    fixed inputs (issue 15): :func:`_bisection_step` on a Function of numbers, its step
+    expanded to SX and folded, instead of one Python round and one call a step."""
+    fixed = _inputs_after_first(f)
+    step = _bisection_step(f, fixed).expand()
+    start = ca.MX.sym("bracket", 2)
+    repeated = [ca.repmat(x, 1, steps) for x in fixed]  # the fold reads one column a step
+    return ca.Function(f"bisection_{steps}", [start, *fixed],
+                       [step.fold(steps)(start, *repeated)])
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
     """(max of ``fn`` over ω ≥ 0, the ω [rad/s] where it is taken; 0 for ω → 0).
@@ -353,7 +378,6 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     f_grid = f(grid)
     if np.isnan(f_grid).any():
         return None
-    ratio = (np.sqrt(5) - 1) / 2
     lower, upper = grid[0], grid[-1]
     a, b = np.fmax(grid - 2 * h, lower), np.fmin(grid + 2 * h, upper)
     outer_a, outer_b = a, b
@@ -369,22 +393,19 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
         keep[1:] |= passed[:-1]
         keep[:-1] |= passed[1:]
         a, b, outer_a, outer_b, seen = a[keep], b[keep], outer_a[keep], outer_b[keep], seen[keep]
-    for step in range(_GOLDEN_STEPS):
-        if step == _SCREEN_STEPS:
-            keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
-            a, b, outer_a, outer_b = a[keep], b[keep], outer_a[keep], outer_b[keep]
-        c = b - ratio * (b - a)
-        d = a + ratio * (b - a)
-        fc, fd = f(c), f(d)
-        if np.isnan(fc).any() or np.isnan(fd).any():
+    screen = min(_SCREEN_STEPS, _GOLDEN_STEPS)
+    a, b, seen, nans = _golden_steps_of_numbers(f, screen, a, b, seen)
+    if nans:
+        return None
+    if screen < _GOLDEN_STEPS:
+        keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+        a, b, outer_a, outer_b = a[keep], b[keep], outer_a[keep], outer_b[keep]
+        a, b, _, nans = _golden_steps_of_numbers(f, _GOLDEN_STEPS - screen, a, b, seen[keep])
+        if nans:
             return None
-        if step < _SCREEN_STEPS:
-            seen = np.fmax(seen, np.fmax(fc, fd))
-        left = fc > fd
-        a, b = np.where(left, a, c), np.where(left, d, b)
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
-        g, c = slope(u), curvature(u)
+        _, g, c = _jet_columns(f, slope, curvature, u)
         step = np.where(c < 0, -g / np.where(c < 0, c, -1.0), 0.0)
         u = np.fmin(np.fmax(u + step, outer_a), outer_b)
     values = np.concatenate([f(u), f_grid])
@@ -394,6 +415,32 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     top = values.max()
     return float(top), float(where[values == top].max())
 
+
+
+def _golden_steps_of_numbers(f, steps: int, a, b, seen) -> tuple:
+    """``steps`` golden-section steps in every window [a, b] (rows) at once: (a, b, seen,
+    whether f was NaN at a point met), ``seen`` raised to the largest f met.
+
+    Through :func:`_golden_function` kept with ``f`` (a :class:`Mapped`) where
+    :meth:`Mapped.derived` gives it, else step by step in numpy floats: the same IEEE
+    operations on the same numbers, so the same bits."""
+    if steps == 0 or a.size == 0:
+        return a, b, seen, False
+    golden = f.derived(("golden", steps), lambda fn: _golden_function(fn, steps))
+    if golden is not None:
+        (state,) = golden.columns(np.stack([a, b, seen, np.zeros_like(a)]))
+        return state[0], state[1], state[2], bool(np.any(state[3]))
+    ratio = (np.sqrt(5) - 1) / 2
+    for _ in range(steps):
+        c = b - ratio * (b - a)
+        d = a + ratio * (b - a)
+        fc, fd = f(c), f(d)
+        if np.isnan(fc).any() or np.isnan(fd).any():
+            return a, b, seen, True
+        seen = np.fmax(seen, np.fmax(fc, fd))
+        left = fc > fd
+        a, b = np.where(left, a, c), np.where(left, d, b)
+    return a, b, seen, False
 
 class Buffered:
     """A Function of numbers called through its evaluation buffer (``Function.buffer``:
@@ -430,29 +477,120 @@ class Mapped:
     A Function with more inputs takes them from ``fixed`` (arrays of their sizes), the
     same for every element (the map shares them); :meth:`bound` gives a view with other
     values that shares the maps. A map's buffer is its thread's (a Dask worker runs specs
-    in threads; one buffer filled by two would mix their numbers).
+    in threads; one buffer filled by two would mix their numbers). Functions derived from
+    this one (:meth:`derived`: the golden-section steps, f with its derivatives) are kept
+    with it and shared by the views too.
     """
 
-    def __init__(self, fn, fixed: tuple = ()):
-        self.fn = _expanded(fn)
+    def __init__(self, fn, fixed: tuple = (), expand: bool = True):
+        self.fn = _expanded(fn) if expand else fn
         self.fixed = tuple(fixed)
         self._rows: dict[tuple, Buffered] = {}  # (thread, row length) → the map of fn over it
+        # key → (what it was built from, the Mapped or the number of requests before it)
+        self._derived: dict[tuple, tuple] = {}
 
     def bound(self, *fixed) -> "Mapped":
         """This Function with ``fixed`` for its inputs after the first (maps shared)."""
         view = object.__new__(Mapped)
         view.fn, view.fixed, view._rows = self.fn, tuple(fixed), self._rows
+        view._derived = self._derived
         return view
 
-    def __call__(self, x) -> np.ndarray:
-        x = np.atleast_1d(np.asarray(x, dtype=float))
-        key = (threading.get_ident(), x.size)
+    def _row(self, size: int) -> Buffered:
+        key = (threading.get_ident(), size)
         row = self._rows.get(key)
         if row is None:  # one point: the Function itself, no map of it
             shared = [False] + [True] * (self.fn.n_in() - 1)
             row = self._rows[key] = Buffered(
-                self.fn if x.size == 1 else self.fn.map(x.size, shared, [False] * self.fn.n_out()))
-        return row(x, *self.fixed)[0]
+                self.fn if size == 1 else self.fn.map(size, shared, [False] * self.fn.n_out()))
+        return row
+
+    def __call__(self, x) -> np.ndarray:
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        return self._row(x.size)(x, *self.fixed)[0]
+
+    def columns(self, x) -> list[np.ndarray]:
+        """Every output at each column of ``x`` (rows × n: a column is one value of the
+        first input): each output as its rows × n, or a row of n for a scalar output."""
+        x = np.asarray(x, dtype=float)
+        n = x.shape[-1]
+        results = self._row(n)(x.ravel(order="F"), *self.fixed)
+        return [r if r.size == n else r.reshape(n, -1).T for r in results]
+
+    def derived(self, key: tuple, build, sources: tuple = ()) -> "Mapped | None":
+        """A :class:`Mapped` of ``build(self.fn, *sources)`` (a Function of the same
+        inputs after the first, used as it is built), kept with this Function per ``key``
+        and ``sources`` (Functions, compared by identity) and bound to this view's
+        ``fixed``; None at the first request, which builds nothing.
+
+        Building takes milliseconds, which pay back only when the same Function serves
+        several loops (a structure's replayed Functions, :func:`replayed`): the first
+        request finds out whether a second comes; a Function made for one loop sees one.
+        """
+        kept = self._derived.get(key)
+        if kept is not None and (len(kept[0]) != len(sources) or any(
+                a is not b for a, b in zip(kept[0], sources))):
+            kept = None
+        if kept is None:
+            self._derived[key] = (sources, 1)
+            return None
+        if not isinstance(kept[1], Mapped):
+            kept = self._derived[key] = (sources, Mapped(build(self.fn, *sources), expand=False))
+        return kept[1].bound(*self.fixed)
+
+
+def _inputs_after_first(fn) -> list:
+    """MX symbols for ``fn``'s inputs after the first (the fixed ones of a :class:`Mapped`)."""
+    return [ca.MX.sym(f"fixed{i}", fn.sparsity_in(i)) for i in range(1, fn.n_in())]
+
+
+def _golden_function(f, steps: int):
+    """``steps`` golden-section steps of one window as one Function (issue 15): the state
+    [a, b, seen, NaNs] of a window and ``f``'s fixed inputs → the state after them.
+
+    Each step is :func:`_peak_of_numbers`' step (c = b − ρ(b − a), d = a + ρ(b − a),
+    keep [a, d] where f(c) > f(d), else [c, b]; ``seen`` the largest f(c), f(d) met; NaNs
+    counts the NaN values of f met, found as ¬(f ≥ −∞), which CasADi does not fold as
+    it folds f ≠ f), the same IEEE operations on the same numbers, evaluated in CasADi
+    instead of one Python round of numpy and two calls a step (≈ 100 calls a peak)."""
+    ratio = (np.sqrt(5) - 1) / 2
+    fixed = _inputs_after_first(f)
+    state = ca.MX.sym("window", 4)
+    a, b, seen, nans = ca.vertsplit(state)
+    c = b - ratio * (b - a)
+    d = a + ratio * (b - a)
+    fc, fd = f(c, *fixed), f(d, *fixed)
+    left = fc > fd
+    step = ca.Function("golden_step", [state, *fixed], [ca.vertcat(
+        ca.if_else(left, a, c), ca.if_else(left, d, b), ca.fmax(seen, ca.fmax(fc, fd)),
+        nans + ca.logic_not(fc >= -ca.inf) + ca.logic_not(fd >= -ca.inf))])
+    step = step.expand()
+    start = ca.MX.sym("window", 4)
+    repeated = [ca.repmat(x, 1, steps) for x in fixed]  # the fold reads one column a step
+    return ca.Function(f"golden_{steps}", [start, *fixed],
+                       [step.fold(steps)(start, *repeated)])
+
+
+def _jet_function(f, slope, curvature):
+    """f, f′ and f″ as one SX Function of (u, the fixed inputs), where the peaks' bounds
+    and Newton steps read all three: the three graphs expanded into one with their
+    common subexpressions merged (f″'s graph repeats f′'s and f's: 247 instead of
+    130 + 262 + 542 instructions on a sampled loop's |T|²). Merging an operation with an
+    identical one on identical operands changes no value: the same bits."""
+    u = ca.MX.sym("u")
+    fixed = _inputs_after_first(f)
+    jet = ca.Function("jet", [u, *fixed], [g(u, *fixed) for g in (f, slope, curvature)])
+    return jet.expand("jet", {"cse": True})
+
+
+def _jet_columns(f, slope, curvature, u) -> list[np.ndarray]:
+    """[f(u), f′(u), f″(u)] for a row ``u``, from three :class:`Mapped`: through
+    :func:`_jet_function` kept with ``f`` where :meth:`Mapped.derived` gives it, else
+    one call of each (the same bits)."""
+    jet = f.derived(("jet",), _jet_function, (slope.fn, curvature.fn))
+    if jet is None:
+        return [f(u), slope(u), curvature(u)]
+    return jet.columns(u)
 
 
 #: replayed Functions kept (an LRU): (name, the function's key, derivatives, level,
@@ -460,6 +598,9 @@ class Mapped:
 _REPLAY_CACHE_SIZE = 256
 _replays: "OrderedDict[tuple, tuple]" = OrderedDict()
 _replays_lock = threading.Lock()
+#: (name, the function's key, the loop's structure) of every value :func:`replayed_at`
+#: was asked for (oldest first, as many as replays kept)
+_asked_at: dict[tuple, None] = {}
 
 
 def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True,
@@ -503,6 +644,33 @@ def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: boo
             None if zero is None else float(zero(values)[0][0]))
 
 
+
+def replayed_at(name: str, fn, x) -> float | None:
+    """``fn(x)`` for a float ``x`` [fn's unit of argument], ``fn`` an
+    :class:`~feedtune.loops.twin.OfLoop` of a loop of numbers, evaluated by the Function of
+    ``fn`` replayed on the loop's twin (built once per structure: :func:`replayed` with
+    ``log_omega`` off; issue 15), or None where there is none (``x`` an expression, a
+    loop of symbols, a number that shapes the graph). The same operations as evaluating
+    the graph of ``fn(x)`` built on the loop of numbers, without building it (a response
+    at one ω: a complex solve, ≈ 0.3–1 ms of MX building a report). The first value of a
+    (name, function, structure) is None too: building and expanding the replayed Function
+    costs a few graphs, which a single tuning would pay for one value."""
+    if not isinstance(x, float) or not isinstance(fn, OfLoop):
+        return None
+    twin = parametric_twin(fn.loop)
+    if twin is None:
+        return None
+    key = (name, fn.key, twin.structure)
+    with _replays_lock:  # built from a structure's second value on: one is cheaper as a graph
+        first = key not in _asked_at
+        _asked_at[key] = None
+        while len(_asked_at) > _REPLAY_CACHE_SIZE:
+            del _asked_at[next(iter(_asked_at))]
+    if first:
+        return None
+    replay = replayed(name, fn, 0, log_omega=False)
+    return None if replay is None else float(replay[0][0](x)[0])
+
 def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: bool,
                       at_zero: bool, twin):
     """(Mapped of fn − level and its u-derivatives as Functions of (u, the twin's numbers),
@@ -536,8 +704,9 @@ def _window_bound(f, slope, curvature, a, b, seen):
     10⁴): a window whose refinement could reach the top is never dropped.
     """
     m, r = (a + b) / 2, (b - a) / 2
-    rise = 2 * (np.abs(slope(m)) * r + 0.5 * np.abs(curvature(m)) * r**2)
-    return np.fmax(seen, f(m)) + rise + 1e-12 * np.max(np.abs(seen))
+    f_m, slope_m, curvature_m = _jet_columns(f, slope, curvature, m)
+    rise = 2 * (np.abs(slope_m) * r + 0.5 * np.abs(curvature_m) * r**2)
+    return np.fmax(seen, f_m) + rise + 1e-12 * np.max(np.abs(seen))
 
 
 def lowest_value(fn, band: tuple, count: int, name: str = "lowest"):

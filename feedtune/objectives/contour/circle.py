@@ -3,7 +3,9 @@
 from pydantic import Field, PositiveFloat
 
 from feedtune.lazy import ca
+from feedtune.loops.frequency import replayed_at
 from feedtune.loops.protocols import Loop
+from feedtune.loops.twin import OfLoop
 from feedtune.schema.model import SpecModel
 
 
@@ -23,3 +25,16 @@ def radius_gain_excess(loop: Loop, omega):
     s_re, s_im = loop.error_response(omega)
     gain = ca.sqrt((1 - s_re) ** 2 + s_im**2)
     return (s_re**2 + s_im**2 - 2 * s_re) / (gain + 1)
+
+
+def _radius_gain_excess_of(loop: Loop):
+    """ω ↦ :func:`radius_gain_excess` of ``loop`` at ω (an :class:`OfLoop` factory)."""
+    return lambda omega: radius_gain_excess(loop, omega)
+
+
+def radius_gain_excess_value(loop: Loop, omega):
+    """:func:`radius_gain_excess` [1]; for a loop of numbers and a float ω [rad/s] its
+    number (a DM), evaluated by the Function replayed on the loop's twin
+    (:func:`feedtune.loops.frequency.replayed_at`: the same operations, no graph built)."""
+    value = replayed_at("radius_gain_excess", OfLoop(_radius_gain_excess_of, loop), omega)
+    return radius_gain_excess(loop, omega) if value is None else ca.DM(value)

@@ -2,7 +2,7 @@
 
 from feedtune.loops.protocols import Loop
 from feedtune.objectives.base import Magnitude, Metric
-from feedtune.objectives.contour.circle import CircleOptions, radius_gain_excess
+from feedtune.objectives.contour.circle import CircleOptions, radius_gain_excess_value
 
 
 class RadialError(Metric):
@@ -22,4 +22,5 @@ class RadialError(Metric):
     lifted_options = ("radius", "feed")  # ω = feed/radius: arithmetic only
 
     def evaluate(self, loop: Loop, options):
-        return Magnitude(options.radius * radius_gain_excess(loop, options.feed / options.radius))
+        omega = options.feed / options.radius
+        return Magnitude(options.radius * radius_gain_excess_value(loop, omega))

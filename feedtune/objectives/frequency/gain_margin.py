@@ -2,8 +2,9 @@
 
 from feedtune.expr import Unbounded
 from feedtune.lazy import ca
-from feedtune.loops.frequency import crossing_if_any
+from feedtune.loops.frequency import crossing_if_any, replayed_at
 from feedtune.loops.protocols import Loop
+from feedtune.loops.twin import OfLoop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency.frequency_domain import (as_number, has_open_loop,
                                                             phase_crossover_indicator)
@@ -37,5 +38,25 @@ class GainMargin(Metric):
     def evaluate(self, loop: Loop, options):
         omega, found = crossing_if_any(phase_crossover_indicator(loop), loop.frequency_band,
                                        0.0, "phase_crossover")
-        re, im = loop.open_loop_response(as_number(omega))
-        return Unbounded(1 / ca.sqrt(re**2 + im**2), found * (re < 0))
+        omega = as_number(omega)
+        inverse = replayed_at("gain_margin", OfLoop(_inverse_gain, loop), omega)
+        real = replayed_at("gain_margin_real", OfLoop(_real_part, loop), omega)
+        if inverse is not None and real is not None:  # a loop of numbers: no graph built
+            return Unbounded(ca.MX(inverse), found * (ca.MX(real) < 0))
+        re, im = loop.open_loop_response(omega)
+        return Unbounded(_inverse(re, im), found * (re < 0))
+
+
+def _inverse(re, im):
+    """1/|L| [1] of L = re + j·im."""
+    return 1 / ca.sqrt(re**2 + im**2)
+
+
+def _inverse_gain(loop: Loop):
+    """ω ↦ 1/|L(jω)| [1] (an :class:`OfLoop` factory)."""
+    return lambda omega: _inverse(*loop.open_loop_response(omega))
+
+
+def _real_part(loop: Loop):
+    """ω ↦ Re L(jω) [1] (an :class:`OfLoop` factory)."""
+    return lambda omega: loop.open_loop_response(omega)[0]

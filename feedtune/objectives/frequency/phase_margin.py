@@ -3,7 +3,9 @@
 import math
 
 from feedtune.lazy import ca
+from feedtune.loops.frequency import replayed_at
 from feedtune.loops.protocols import Loop
+from feedtune.loops.twin import OfLoop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency.frequency_domain import as_number, gain_crossover, has_open_loop
 
@@ -21,5 +23,15 @@ class PhaseMargin(Metric):
         return has_open_loop(loop)
 
     def evaluate(self, loop: Loop, options):
-        re, im = loop.open_loop_response(as_number(gain_crossover(loop)))
+        omega = as_number(gain_crossover(loop))
+        value = replayed_at("phase_margin", OfLoop(_phase_margin_at, loop), omega)
+        return _phase_margin_at(loop)(omega) if value is None else ca.DM(value)
+
+
+def _phase_margin_at(loop: Loop):
+    """ω ↦ 180° + arg L(jω) [deg] (an :class:`OfLoop` factory)."""
+    def margin(omega):
+        re, im = loop.open_loop_response(omega)
         return ca.atan2(-im, -re) * (180 / math.pi)
+
+    return margin
