@@ -81,15 +81,6 @@ class Evaluator:
         other.weights = list(weights)
         return other
 
-    @property
-    def objective_floor(self) -> float | None:
-        """A lower bound of the objective at every point: 0 when every term is a magnitude
-        (|e|, read as its absolute value) with a weight ≥ 0, so that every group's sum and
-        their largest are ≥ 0; None when no bound is known."""
-        if all(self.term_magnitude) and all(w >= 0 for w in self.weights):
-            return 0.0
-        return None
-
     def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
         out = self.function(z=z, p=p[:self.n_params])
 

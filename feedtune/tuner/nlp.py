@@ -300,8 +300,7 @@ class Problem:
         return feasibility(bounds, self.bounds, conditions, matrices, self.discrete)
 
     def solve(self, progress: Callable[[StartOutcome, int], None] | None = None) -> Outcome:
-        """Run the starts in order until every one has run or none left could replace the
-        best (:meth:`_unbeatable`); ``progress(start_outcome, total)`` is called after each."""
+        """Run every start; ``progress(start_outcome, total)`` is called after each."""
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, return_status, status)
         optima = []  # (index, objective, z) of every start that solved feasibly
@@ -350,10 +349,7 @@ class Problem:
                 optima.append((index, objective, z_opt))
             if best is None or self._better(key, best[0]):
                 best = (key, index, z_opt, return_status, status)
-            if self._unbeatable(best[0]):
-                break
         _, index, z_opt, return_status, status = best
-        skipped = len(self.starts) - len(starts)
         equal = equal_optima(optima, index, self.f_scale, self.variables)
         solver, solution = solutions.get(index, (None, None))
         if self.scalar is not None:
@@ -375,11 +371,6 @@ class Problem:
             message = ("the objective is not a finite number at the tuned point (an input far "
                        "outside the model's range, or an optimised metric that is infinite there "
                        "because its quantity does not exist: bound it with a constraint instead)")
-        elif success and skipped:
-            message = (f"start {index + 1} gave the best feasible optimum: its objective is at "
-                       f"the objective's lower bound (0) within the starts' tie, so no later "
-                       f"start could replace it; the last {skipped} of {len(self.starts)} "
-                       f"starts were not run")
         elif success:
             message = f"start {index + 1} of {len(starts)} gave the best feasible optimum"
         elif status in SOLVED:
@@ -553,21 +544,6 @@ class Problem:
             if b.upper is not None:
                 total += max(0.0, value - b.upper) / size
         return total
-
-    def _unbeatable(self, best_key) -> bool:
-        """No later start can replace the best so far (``best_key`` as :meth:`_better`
-        reads it), so the multistart stops: the problem has one free tunable, the best is
-        solved and feasible, and even the objective's lower bound
-        (:attr:`~feedtune.tuner.evaluation.Evaluator.objective_floor`, 0 for a sum of |e|
-        terms) would not beat it by :meth:`_better`'s tie. The chosen start, and so every
-        tuned value, metric and verdict, is the one the remaining starts would have left
-        in place (measured on issue 15's batch: 116 of 120 software-servo specs reach
-        |e| ≈ 1e-17 m from their first start; the later starts of the 1-D ones were 27 %
-        of the starts' CPU). With two or more free tunables the other starts also show a
-        curve of equal optima (the result's ``optimum.spread``), so all of them run."""
-        floor = self.evaluator.objective_floor
-        return (self.n_z == 1 and floor is not None and best_key[0] == 0
-                and not self._better((0, floor, math.inf), best_key))
 
     @staticmethod
     def _better(key, best_key) -> bool:
