@@ -295,8 +295,12 @@ class ServoModel:
         phi, gamma, c, eye = self._resolvent_parts
         z = np.exp(1j * omega * self.period)
         resolvent = z[:, None, None] * eye - phi
-        rhs = np.broadcast_to(gamma, (z.size, *gamma.shape))
-        out = np.linalg.solve(resolvent, rhs)[:, :, 0] @ c
+        if z.size == 1:  # brentq's and Brent's calls: no stack of right-hand sides to
+            # broadcast; LAPACK solves the same matrix for the same Γ, so the same bits
+            out = np.linalg.solve(resolvent[0], gamma)[None, :, 0] @ c
+        else:
+            rhs = np.broadcast_to(gamma, (z.size, *gamma.shape))
+            out = np.linalg.solve(resolvent, rhs)[:, :, 0] @ c
         return self.gain * z ** (-self.delay) * out
 
     @functools.cached_property
