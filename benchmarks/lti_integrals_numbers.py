@@ -20,16 +20,10 @@ import time
 from pathlib import Path
 
 from baseline import baseline_module
+from lti_integrals_build import clear_caches, sampled_loops
 
 REPO = Path(__file__).resolve().parents[1]
 MODULE = "feedtune/loops/sampled_lti_integrals.py"
-
-
-def _clear(module) -> None:
-    """Empty every lru cache of ``module`` (its Functions are built again)."""
-    for value in vars(module).values():
-        if hasattr(value, "cache_clear"):
-            value.cache_clear()
 
 
 def main() -> None:
@@ -45,20 +39,8 @@ def main() -> None:
     import feedtune.loops.sampled_lti_integrals as new
 
     old = baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
-    loops = []
-    for config in cc.CONFIGS:
-        if "implementation=sampled" not in config.id:
-            continue
-        for label, box in (("default", config.default_box),
-                           ("narrow", cc.narrow_box(config, cc.nominal(config)))):
-            loop = config.plant.loop(cc.nominal(config), box)
-            if not loop.has_exact_step_error:
-                continue
-            try:
-                samples = loop.horizon_samples
-            except ValueError:
-                continue  # a horizon over the sample limit: nothing is summed
-            loops.append((f"{config.id} {label}", loop, samples))
+    loops = [(label, loop, samples) for label, loop, samples in sampled_loops(cc)
+             if loop.has_exact_step_error]
     cpu = {label: {"old": 0.0, "new": 0.0} for label, _, _ in loops}
     worst = 0.0
     for _ in range(args.rounds):
@@ -66,7 +48,7 @@ def main() -> None:
             for name in ("iae", "ise", "itae"):
                 values = {}
                 for side, module in (("old", old), ("new", new)):
-                    _clear(module)
+                    clear_caches(module)
                     start = time.process_time()
                     values[side] = float(module.step_integral(loop, name, samples, True))
                     cpu[label][side] += time.process_time() - start
