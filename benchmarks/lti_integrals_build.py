@@ -4,7 +4,7 @@
 For every ``implementation: sampled`` configuration of the contract tests
 (``tests/contract/contract_cases.py``), on its default box and on the factor-2 box around its
 nominal point, each of IAE, ISE and ITAE: the CPU of ``_functions`` (the per-sample step
-Function and the tail Function, built from scratch: the cache cleared) with the baseline's
+Function and the tail Function, built from scratch: the caches cleared) with the baseline's
 module and with this checkout's, and whether both give the same bits at random arguments.
 
     .venv/bin/python benchmarks/lti_integrals_build.py [--baseline main] [--rounds 2]
@@ -23,6 +23,32 @@ REPO = Path(__file__).resolve().parents[1]
 MODULE = "feedtune/loops/sampled_lti_integrals.py"
 
 
+def clear_caches(module) -> None:
+    """Empty every lru cache of ``module``: its Functions are built again."""
+    for value in vars(module).values():
+        if hasattr(value, "cache_clear"):
+            value.cache_clear()
+
+
+def sampled_loops(cc) -> list:
+    """(label, loop, samples): every ``implementation: sampled`` configuration of the contract
+    cases ``cc`` at its nominal point, on its default box and on the factor-2 box around
+    that point, whose horizon is within the sample limit."""
+    loops = []
+    for config in cc.CONFIGS:
+        if "implementation=sampled" not in config.id:
+            continue
+        for label, box in (("default", config.default_box),
+                           ("narrow", cc.narrow_box(config, cc.nominal(config)))):
+            loop = config.plant.loop(cc.nominal(config), box)
+            try:
+                samples = loop.horizon_samples
+            except ValueError:
+                continue  # a horizon over the sample limit: nothing is summed
+            loops.append((f"{config.id} {label}", loop, samples))
+    return loops
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", default="main", help="git revision of the old module")
@@ -38,18 +64,7 @@ def main() -> None:
     import feedtune.loops.sampled_lti_integrals as new
 
     old = baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
-    keys = []
-    for config in cc.CONFIGS:
-        if "implementation=sampled" not in config.id:
-            continue
-        for label, box in (("default", config.default_box),
-                           ("narrow", cc.narrow_box(config, cc.nominal(config)))):
-            loop = config.plant.loop(cc.nominal(config), box)
-            try:
-                samples = loop.horizon_samples
-            except ValueError:
-                continue  # a horizon over the sample limit: no Functions to build
-            keys.append((f"{config.id} {label}", new._key(loop, samples)))
+    keys = [(label, new._key(loop, samples)) for label, loop, samples in sampled_loops(cc)]
     rng = np.random.default_rng(0)
     cpu = {"old": 0.0, "new": 0.0}
     identical = True
@@ -58,7 +73,7 @@ def main() -> None:
             for name in ("iae", "ise", "itae"):
                 built = {}
                 for label, module in (("old", old), ("new", new)):
-                    module._functions.cache_clear()
+                    clear_caches(module)
                     start = time.process_time()
                     built[label] = module._functions(key, name)
                     cpu[label] += time.process_time() - start

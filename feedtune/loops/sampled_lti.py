@@ -336,13 +336,16 @@ class SampledLTILoop(_SampledLoopBase):
 
     @cached_property
     def _state_difference(self):
-        """Φ − I = B + g·k (:attr:`_difference_form`), without forming Φ first."""
+        """Φ − I = B + g·k (:attr:`_difference_form`), without forming Φ first; a loop of
+        numbers holds it as numbers (DM), so that its Hessenberg form and its solves are
+        computed once, on numbers, instead of as graphs that every response of the loop
+        evaluates again (the same operations)."""
         b, g, k = self._difference_form
-        return b + ca.mtimes(g, k)
+        return _numbers_if_fixed(b + ca.mtimes(g, k))
 
     def _settled(self, rhs):
         """(I − Φ)⁻¹·rhs: the steady state per constant input."""
-        return linalg.pivoted_solve(-self._state_difference, rhs)
+        return linalg.pivoted_solve(-self._state_difference, _numbers_if_fixed(rhs))
 
     @cached_property
     def _hessenberg(self):
@@ -458,6 +461,14 @@ class SampledLTILoop(_SampledLoopBase):
             return [(self.period, *late)]
         fraction = self._split[1]
         return [(fraction, *self.command(lag + 1)), (self.period - fraction, *late)]
+
+
+def _numbers_if_fixed(value):
+    """``value`` as a DM when it holds no symbol (an expression of numbers, evaluated
+    once), else ``value`` itself."""
+    if isinstance(value, (ca.SX, ca.MX)) and not ca.symvar(value):
+        return ca.evalf(value)
+    return value
 
 
 def _half_plane(shifted: list) -> list:

@@ -181,31 +181,50 @@ class _Structure:
 
 
 @lru_cache(maxsize=32)
-def _functions(key, name: str):
-    """(step, tail) Functions of one loop structure (``key`` from :func:`_key`)."""
-    a_bytes, b_bytes, c_bytes, n, order, n_segments, t_max, samples = key
-    # the tail sums 2^doublings ≥ 16·samples terms: the settling conditions bound the
-    # spectral radius by SETTLE_FRACTION^(1/samples), so the terms left are below 1e-64
-    doublings = max(1, math.ceil(math.log2(16 * samples)))
+def _structure(a_bytes, b_bytes, c_bytes, n: int, t_max: float) -> _Structure:
+    """:class:`_Structure` of a plant (A, B, C as bytes, order ``n``) for periods up to
+    ``t_max`` [s], shared by the step and tail Functions of its integrals."""
     a = np.frombuffer(a_bytes).reshape(n, n)
     b = np.frombuffer(b_bytes).reshape(n, 1)
     c = np.frombuffer(c_bytes).reshape(1, n)
-    structure = _Structure(a, b, c, t_max)
+    return _Structure(a, b, c, t_max)
+
+
+def _symbols(order: int, n_segments: int):
+    """The Functions' loop arguments as SX symbols: (z, Φ, Γ, segments, T, args)."""
     N = order
-    state = ca.SX.sym("state", N + 2)
     phi, gamma = ca.SX.sym("phi", N, N), ca.SX.sym("gamma", N)
     lengths = [ca.SX.sym(f"h{i}") for i in range(n_segments)]
     rows = [ca.SX.sym(f"K{i}", 1, N) for i in range(n_segments)]
     refs = [ca.SX.sym(f"k{i}") for i in range(n_segments)]
     period = ca.SX.sym("period")
-    segments = list(zip(lengths, rows, refs))
+    args = [phi, gamma, *lengths, *rows, *refs, period]
+    return phi, gamma, list(zip(lengths, rows, refs)), period, args
+
+
+@lru_cache(maxsize=32)
+def _step_function(plant_key, order: int, n_segments: int, name: str):
+    """The per-sample step Function of one loop structure: [z, ∫, t] one sample later. It
+    does not depend on the number of samples summed, so loops of numbers with different
+    horizons share it."""
+    structure = _structure(*plant_key)
+    N = order
+    _, _, segments, period, args = _symbols(order, n_segments)
+    phi, gamma = args[0], args[1]
+    state = ca.SX.sym("state", N + 2)
     z = state[:N]
     piece = structure.sample(z, 1, segments, state[N + 1], name)
     nxt = ca.vertcat(ca.mtimes(phi, z) + gamma, state[N] + piece, state[N + 1] + period)
-    args = [phi, gamma, *lengths, *rows, *refs, period]
-    step = ca.Function(f"lti_sample_{name}", [state, *args], [nxt])
+    return ca.Function(f"lti_sample_{name}", [state, *args], [nxt])
 
-    # tail: per-sample signed moments of the deviation δ from the settled state (r = 0)
+
+@lru_cache(maxsize=32)
+def _tail_function(plant_key, order: int, n_segments: int, name: str, doublings: int):
+    """The closed-form tail Function of one loop structure, summing 2^``doublings`` terms."""
+    structure = _structure(*plant_key)
+    N = order
+    phi, gamma, segments, period, args = _symbols(order, n_segments)
+    # per-sample signed moments of the deviation δ from the settled state (r = 0)
     delta = ca.SX.sym("delta", N)
     first = structure.sample(delta, 0, segments, 0, "signed")
     c1 = ca.jacobian(first[0], delta)
@@ -235,16 +254,36 @@ def _functions(key, name: str):
     else:
         tail = (t_end * sum_e + period * ca.mtimes([c1, weighted, deviation])
                 + ca.mtimes([c2, geometric, deviation]))
-    tail_fn = ca.Function(f"lti_tail_{name}", [z_end, t_end, *args], [tail])
-    return step, tail_fn
+    return ca.Function(f"lti_tail_{name}", [z_end, t_end, *args], [tail])
 
 
-def _key(loop, samples: int) -> tuple:
+def _functions(key, name: str):
+    """(step, tail) Functions of one loop structure (``key`` from :func:`_key`)."""
+    a_bytes, b_bytes, c_bytes, n, order, n_segments, t_max, samples = key
+    plant_key = (a_bytes, b_bytes, c_bytes, n, t_max)
+    # the tail sums 2^doublings ≥ 16·samples terms: the settling conditions bound the
+    # spectral radius by SETTLE_FRACTION^(1/samples), so the terms left are below 1e-64
+    doublings = max(1, math.ceil(math.log2(16 * samples)))
+    return (_step_function(plant_key, order, n_segments, name),
+            _tail_function(plant_key, order, n_segments, name, doublings))
+
+
+def _key(loop, samples: int, numeric: bool = False) -> tuple:
+    """The structure of ``loop``'s integrals: plant, orders, segments, the longest period
+    its sub-steps are sized for, ``samples``.
+
+    Symbols: the period box's upper bound T_max (any period of the box). Numbers: the
+    loop's own period T rounded up to a power of two (at most T_max), so the sub-steps are
+    sized for T within a factor 2 (a long period box cut a 2.2 ms period into 52 sub-steps
+    instead of one) while loops of nearby periods still share their Functions."""
     plant = loop.plant
+    t_max = float(loop.period_box[1])
+    if numeric:
+        t_max = min(t_max, 2.0 ** math.ceil(math.log2(float(ca.evalf(ca.MX(loop.period))))))
     return (np.ascontiguousarray(plant.a, dtype=float).tobytes(),
             np.ascontiguousarray(plant.b, dtype=float).tobytes(),
             np.ascontiguousarray(plant.c, dtype=float).tobytes(),
-            plant.order, loop.order, len(loop.segments()), float(loop.period_box[1]), samples)
+            plant.order, loop.order, len(loop.segments()), t_max, samples)
 
 
 def _arguments(loop, numeric: bool) -> list:
@@ -260,7 +299,7 @@ def _arguments(loop, numeric: bool) -> list:
 def step_integral(loop, name: str, samples: int, numeric: bool):
     """IAE, ISE or ITAE (``name``) of ``loop``'s error after a unit step: ``samples``
     samples folded one by one, then the closed-form tail."""
-    step, tail = _functions(_key(loop, samples), name)
+    step, tail = _functions(_key(loop, samples, numeric), name)
     args = _arguments(loop, numeric)
     n = loop.order
     final = step.fold(samples)(ca.DM.zeros(n + 2), *args)
@@ -271,7 +310,7 @@ def step_integral(loop, name: str, samples: int, numeric: bool):
 def partial_integral(loop, name: str, samples: int) -> float:
     """IAE, ISE or ITAE over the first ``samples`` samples only, for a loop of numbers
     (no tail; what the fold sums)."""
-    step, _ = _functions(_key(loop, samples), name)
+    step, _ = _functions(_key(loop, samples, True), name)
     n = loop.order
     final = step.fold(samples)(ca.DM.zeros(n + 2), *_arguments(loop, True))
     return float(final[n])

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 from feedtune.lazy import ca, np
 
@@ -83,8 +83,18 @@ def expm_function(matrix, t_max: float, minus_identity: bool = False) -> ca.Func
     against scipy.linalg.expm in tests/unit/test_sampled_lti.py). ``casadi.expm`` is not usable (its plugin is missing
     from the wheel, docs/design.md numerical notes).
     """
+    matrix = np.ascontiguousarray(matrix, dtype=float)
+    return _expm_function(matrix.tobytes(), matrix.shape[0], float(t_max), minus_identity)
+
+
+@lru_cache(maxsize=256)
+def _expm_function(matrix_bytes: bytes, n: int, t_max: float,
+                   minus_identity: bool) -> ca.Function:
+    """:func:`expm_function` of M given by its bytes (n×n), built once per process for every
+    loop of the same plant and period box: a loop of numbers built per point (a robust
+    search, a batch, the plant contract's grid) built it again each time, ≈ 4 ms."""
+    matrix = np.frombuffer(matrix_bytes).reshape(n, n)
     m, scaling = balance(matrix)
-    n = m.shape[0]
     norm = float(np.linalg.norm(m, 1)) * t_max
     squarings = max(0, math.ceil(math.log2(norm))) if norm > 0 else 0
     scaled = m * t_max / 2**squarings

@@ -1,0 +1,68 @@
+"""The sampled LTI loop's step integrals on a loop of numbers (what a result reports for a
+tuned design, and the metric contract's default box), new against a git revision's
+``feedtune/loops/sampled_lti_integrals.py``, side by side in one process (issue 15).
+
+For every ``implementation: sampled`` configuration of the contract tests
+(``tests/contract/contract_cases.py``) with a continuous drive, the loop of numbers at its
+nominal point on its default box and on the factor-2 box around that point, each of IAE,
+ISE and ITAE: the CPU of ``step_integral`` from empty caches (its Functions built, then
+evaluated over the loop's horizon) with the baseline's module and with this checkout's,
+alternating, and the largest relative difference of the values.
+
+    .venv/bin/python benchmarks/lti_integrals_numbers.py [--baseline main] [--rounds 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from baseline import baseline_module
+from lti_integrals_build import clear_caches, sampled_loops
+
+REPO = Path(__file__).resolve().parents[1]
+MODULE = "feedtune/loops/sampled_lti_integrals.py"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", default="main", help="git revision of the old module")
+    parser.add_argument("--rounds", type=int, default=2, help="alternating rounds")
+    args = parser.parse_args()
+    sys.path.insert(0, str(REPO / "tests" / "contract"))
+    from feedtune.__main__ import pin_blas_threads
+
+    pin_blas_threads()
+    import contract_cases as cc
+    import feedtune.loops.sampled_lti_integrals as new
+
+    old = baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
+    loops = [(label, loop, samples) for label, loop, samples in sampled_loops(cc)
+             if loop.has_exact_step_error]
+    cpu = {label: {"old": 0.0, "new": 0.0} for label, _, _ in loops}
+    worst = 0.0
+    for _ in range(args.rounds):
+        for label, loop, samples in loops:
+            for name in ("iae", "ise", "itae"):
+                values = {}
+                for side, module in (("old", old), ("new", new)):
+                    clear_caches(module)
+                    start = time.process_time()
+                    values[side] = float(module.step_integral(loop, name, samples, True))
+                    cpu[label][side] += time.process_time() - start
+                worst = max(worst, abs(values["new"] - values["old"]) / abs(values["old"]))
+    print(f"{len(loops)} loops of numbers × 3 integrals × {args.rounds} rounds "
+          "(CPU s: baseline, new, new/baseline)")
+    for label, times in cpu.items():
+        print(f"  {label:<95} {times['old']:7.3f} {times['new']:7.3f} "
+              f"{times['new'] / times['old']:6.3f}")
+    total_old = sum(t["old"] for t in cpu.values())
+    total_new = sum(t["new"] for t in cpu.values())
+    print(f"all: baseline {total_old:.2f} s, new {total_new:.2f} s, new/baseline "
+          f"{total_new / total_old:.3f}; largest relative difference of the values {worst:.1e}")
+
+
+if __name__ == "__main__":
+    main()
