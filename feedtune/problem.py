@@ -338,11 +338,16 @@ def _tune_integer_ratio(spec: Spec, progress, notify) -> TuneResult:
 
 
 def _tune_once(spec: Spec, progress: Callable | None = None,
-               notify: Callable[[str], None] | None = None, scenarios=None) -> TuneResult:
+               notify: Callable[[str], None] | None = None, scenarios=None,
+               validate: bool = True) -> TuneResult:
     """Solve ``spec`` once; a failed solve is a result with ``success`` false.
 
     ``scenarios`` (a :class:`feedtune.robust.ScenarioSet`): the NLP holds one loop per
     scenario of the plant's uncertain numbers, every constraint on each.
+
+    ``validate`` false: the result's ``validation`` is left None (a robust round, whose
+    result :func:`feedtune.robust.tune_robust` validates once, with its scenarios, at the
+    end).
 
     ``progress(start, total)`` is called after each multistart start (see
     :meth:`feedtune.tuner.Problem.solve`); ``notify(text)`` with a sentence for people when
@@ -467,6 +472,8 @@ def _tune_once(spec: Spec, progress: Callable | None = None,
         constraints=constraint_results, stability=outcome.stability, solver=solver,
         provenance=provenance(spec.sha256()), spec=spec.model_dump(mode="json"),
         optimum=optimum, warnings=plausibility_warnings(spec, metrics))
+    if not validate:
+        return result
     return result.model_copy(update={"validation": _validation(result)})
 
 

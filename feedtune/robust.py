@@ -227,7 +227,10 @@ def bound_scale(lower: float | None, upper: float | None) -> float:
 class PointCheck:
     """The spec's constraints and stability of the tuned design at any value of the
     uncertain numbers, on loops of numbers built by the plant (the tuner's own exact
-    evaluation, not the NLP's grid)."""
+    evaluation, not the NLP's grid).
+
+    A point evaluated in full is remembered (``evaluations`` still counts every call): the
+    result's scenario rows (:func:`_robust_result`) are points the last search evaluated."""
 
     def __init__(self, spec: Spec, tuned: Mapping[str, float]):
         self.plant = plant_for(spec.plant)
@@ -236,12 +239,23 @@ class PointCheck:
         self.constraints = [(METRICS[c.metric](), METRICS[c.metric].Options(**_options(c)),
                              c.min, c.max) for c in spec.constraints]
         self.evaluations = 0
+        self._seen: dict[tuple, tuple[list[float | None], dict]] = {}
 
     def __call__(self, numbers: Mapping[str, float],
                  only: int | None = None) -> tuple[list[float | None], dict]:
         """(each constraint's value [its unit] or None, the stability block) at ``numbers``;
         with ``only``, that constraint's value alone (the others None)."""
         self.evaluations += 1
+        key = tuple(sorted(numbers.items()))
+        if only is None and key in self._seen:
+            return self._seen[key]
+        found = self._evaluate(numbers, only)
+        if only is None:
+            self._seen[key] = found
+        return found
+
+    def _evaluate(self, numbers: Mapping[str, float],
+                  only: int | None) -> tuple[list[float | None], dict]:
         loop = self.plant.loop({**self.tuned, **numbers}, self.box)
         if loop.exact_only:  # a simulation: its verdict and metrics are numbers already
             stability = loop.stability()
@@ -400,10 +414,15 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
     round_spec, rounds, converged, note = spec, 0, False, ""
     result = worst = search = None
     unstable = None
+    check = None
     while rounds < robust.max_rounds:
         rounds += 1
+        check = None  # the check of this round's design, once it has one
+        # not validated: every round's result is replaced by the last one, validated with
+        # its scenarios and worst cases in _robust_result
         result = _tune_once(round_spec, progress, notify,
-                            scenarios=ScenarioSet(list(scenarios), robust.objective))
+                            scenarios=ScenarioSet(list(scenarios), robust.objective),
+                            validate=False)
         if not result.success:
             note = f"round {rounds}: the NLP over {len(scenarios)} scenarios did not solve"
             break
@@ -440,7 +459,7 @@ def tune_robust(spec: Spec, progress: Callable | None = None,
         note = (f"robust: after {rounds} rounds ({len(scenarios)} scenarios) a constraint is "
                 "still violated between the scenarios (robust.max_rounds)")
     return _robust_result(spec, result, scenarios, worst, unstable, rounds, converged, note,
-                          _validation, search)
+                          _validation, search, check)
 
 
 def _from(spec: Spec, result: TuneResult) -> Spec:
@@ -459,11 +478,14 @@ def _from(spec: Spec, result: TuneResult) -> Spec:
 
 def _robust_result(spec: Spec, result: TuneResult, scenarios: list[Scenario], worst, unstable,
                    rounds: int, converged: bool, note: str, validation: Callable,
-                   search: str | None) -> TuneResult:
+                   search: str | None, check: PointCheck | None = None) -> TuneResult:
     """The last round's result as the spec's own: the spec and its hash, the nominal
-    loop's stability block, the robust block; success only when converged."""
+    loop's stability block, the robust block; success only when converged. ``check``: the
+    last search's :class:`PointCheck` of this result's design, whose scenario rows it
+    has evaluated already."""
     tuned = {name: t.value for name, t in result.tuned.items()}
-    check = PointCheck(spec, tuned) if tuned else None
+    if check is None and tuned:
+        check = PointCheck(spec, tuned)
     scenario_results = []
     nominal_stability = result.stability
     for k, scenario in enumerate(scenarios):

@@ -50,24 +50,25 @@ def fixed_spec(name: str, **plant_changes) -> dict:
     return spec
 
 
-def write_result(directory, spec: dict):
-    result = tune_dict(spec)
+def write_result(directory, spec: dict, tune=tune_dict):
+    result = tune(spec)
     path = directory / f"{spec['name']}.json"
     path.write_text(result.model_dump_json(indent=2))
     return path
 
 
 @pytest.fixture(scope="module")
-def exported(tmp_path_factory):
+def exported(tmp_path_factory, tuned):
     """name → (Result read from its file, ControlSystems), built once per module: the
-    bundled examples at TUNED, the sampled user loops as :func:`sampled_user_spec`."""
+    bundled examples at TUNED, the sampled user loops as :func:`sampled_user_spec`; each
+    spec tuned by the session's ``tuned`` (test_new_metrics.py evaluates the same specs)."""
     directory = tmp_path_factory.mktemp("results")
     cache = {}
 
     def get(name):
         if name not in cache:
             spec = fixed_spec(name) if name in TUNED else sampled_user_spec(name)
-            loaded = feedtune.load_result(write_result(directory, spec))
+            loaded = feedtune.load_result(write_result(directory, spec, tuned))
             cache[name] = loaded, loaded.to_control()
         return cache[name]
 

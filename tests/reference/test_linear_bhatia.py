@@ -16,7 +16,7 @@ import math
 
 import pytest
 
-from conftest import load_example, tune_dict
+from conftest import load_example
 from feedtune.loops import linalg
 
 EXAMPLE = load_example("bhatia-1971-hydraulic")
@@ -50,17 +50,19 @@ def fixed_at_initial(spec: dict) -> dict:
 
 
 @pytest.fixture(scope="module")
-def both_tuned():
-    return tune_dict(EXAMPLE), tune_dict(user_spec(EXAMPLE))
+def both_tuned(tuned):
+    """Both tunings, from the session's ``tuned`` (the dedicated one is the tuning
+    test_bhatia_showcase.py reads)."""
+    return tuned(EXAMPLE), tuned(user_spec(EXAMPLE))
 
 
-def test_initial_point_metrics_are_the_dedicated_plants():
+def test_initial_point_metrics_are_the_dedicated_plants(tuned):
     """Every metric both plants report, at Bhatia's hand design (all tunables fixed): equal
     to 1e-12 of its own magnitude. The two loops' polynomials are the same products in the
     same order (cascade.close_loops); what is left is the rounding of the metrics' own
     root finding and response integrals (measured: none, the values are bit-identical)."""
-    dedicated = tune_dict(fixed_at_initial(EXAMPLE))
-    user = tune_dict(fixed_at_initial(user_spec(EXAMPLE)))
+    dedicated = tuned(fixed_at_initial(EXAMPLE))
+    user = tuned(fixed_at_initial(user_spec(EXAMPLE)))
     common = set(dedicated.metrics) & set(user.metrics)
     assert common >= {"bandwidth", "m_peak", "velocity_constant", "sensitivity", "phase_margin",
                       "gain_margin", "iae", "overshoot", "settling_time"}

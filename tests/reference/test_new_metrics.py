@@ -39,7 +39,9 @@ SAMPLED = {"koren-1979-sampled-data", "sato-finish"}
 
 
 @pytest.fixture(scope="module")
-def exported(tmp_path_factory):
+def exported(tmp_path_factory, tuned):
+    """name → (Result read from its file, ControlSystems) of FIXED's specs, each tuned by
+    the session's ``tuned`` (test_export_control.py evaluates the same specs)."""
     directory = tmp_path_factory.mktemp("results")
     cache = {}
 
@@ -49,7 +51,7 @@ def exported(tmp_path_factory):
             spec["tunables"] = {k: {"value": v} for k, v in FIXED[name].items()}
             spec["solver"] = {"multistart": 1}
             path = directory / f"{name}.json"
-            path.write_text(tune_dict(spec).model_dump_json())
+            path.write_text(tuned(spec).model_dump_json())
             loaded = feedtune.load_result(path)
             cache[name] = loaded, loaded.to_control()
         return cache[name]

@@ -138,7 +138,7 @@ HAS_DISPATCH = "problem_class" in vars(feedtune.problem)
 
 # needs the problem.py patch of the pulse-generator report (dispatch to tuner.search)
 @pytest.mark.skipif(not HAS_DISPATCH, reason="feedtune.problem does not dispatch exact-only loops yet")
-def test_example_tunes_through_the_spec():
+def test_example_tunes_through_the_spec(tuned_example):
     spec = copy.deepcopy(load_example("tian-vf-pulse"))
     spec["solver"] = {"multistart": 1, "max_iter": 8}
     result = tune_dict(spec)
@@ -147,4 +147,4 @@ def test_example_tunes_through_the_spec():
     assert result.metrics["pulse_settling_time"].value < 0.03719
     assert result.metrics["peak_commanded_acceleration"].unit == "rad/s²"
     assert result.solver.method == "differential_evolution"  # not IPOPT: a discrete simulation
-    assert tune_dict(load_example("koren-1979-reference-pulse")).solver.method == "ipopt"
+    assert tuned_example("koren-1979-reference-pulse").solver.method == "ipopt"

@@ -209,3 +209,39 @@ def test_the_worst_case_objective_is_the_largest_scenario_objective_and_beats_no
     assert abs(nominal_errors[1] - nominal_errors[2]) > 1e-7
     assert max(worst_errors) < max(nominal_errors) - 1e-9
     assert nominal.metrics["radial_error"].value < 1e-12  # zero error at the nominal τ
+
+
+# -- what a robust tuning computes once --------------------------------------------------------
+
+def test_a_robust_tuning_validates_once_and_reuses_the_searched_scenarios(monkeypatch):
+    """Each round's result is replaced by the next round's, so only the last, with its
+    scenarios and worst cases, is validated (one validation however many rounds); its
+    scenario rows are the last search's evaluations of the same design (one PointCheck a
+    round, none more for the result), and equal a fresh evaluation of each scenario, bit
+    for bit."""
+    import feedtune.problem as problem
+    import feedtune.robust as robust
+
+    validations, checks = [], []
+    validate = problem._validation
+    init = robust.PointCheck.__init__
+    monkeypatch.setattr(problem, "_validation",
+                        lambda result: validations.append(result) or validate(result))
+
+    def counted(self, *args, **kwargs):
+        checks.append(self)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(robust.PointCheck, "__init__", counted)
+    spec = copy.deepcopy(SERVO)
+    spec["constraints"] = [{"metric": "damping_ratio", "min": 0.7}]
+    result = tune(parse_spec(spec))
+    assert result.success and result.robust.converged and result.validation["ok"]
+    assert len(validations) == 1 and validations[0].robust is not None
+    assert len(checks) == result.robust.rounds
+    monkeypatch.setattr(robust.PointCheck, "__init__", init)
+    fresh = robust.PointCheck(parse_spec(spec), {"position_gain":
+                                                 result.tuned["position_gain"].value})
+    for scenario in result.robust.scenarios:
+        values, stability = fresh(scenario.parameters)
+        assert scenario.constraints == values and scenario.stable == stability["stable"]
