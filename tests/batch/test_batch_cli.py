@@ -715,17 +715,25 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
     assert len(results(out)) == 10
 
 
-def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
+def _batch_on_a_running_cluster(*args: str) -> tuple[str, subprocess.CompletedProcess]:
+    """(scheduler address, ``feedtune batch ARGS --scheduler ADDRESS``) with a local Dask
+    cluster of one worker process running meanwhile (started first, stopped last)."""
     from distributed import LocalCluster
 
-    _, paths, reference = uninterrupted
-    local, _ = first(3, reference, paths)  # the local executor's results
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
-        proc = batch(*[str(path) for path in paths[:3]], "--out", str(tmp_path / "remote"),
-                     "--scheduler", cluster.scheduler_address)
+        return cluster.scheduler_address, in_process(
+            "batch", *args, "--scheduler", cluster.scheduler_address)
+
+
+def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
+    _, paths, reference = uninterrupted
+    local, _ = first(3, reference, paths)  # the local executor's results
+    # the cluster and the batch joining it, both in a child forked from this process
+    address, proc = in_a_fork(_batch_on_a_running_cluster, *[str(path) for path in paths[:3]],
+                              "--out", str(tmp_path / "remote"))
     assert proc.returncode == 0, proc.stderr
-    assert summary(tmp_path / "remote")["scheduler"] == cluster.scheduler_address
+    assert summary(tmp_path / "remote")["scheduler"] == address
     assert results(tmp_path / "remote") == local
 
 
