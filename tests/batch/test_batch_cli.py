@@ -18,6 +18,7 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 import traceback
 import xml.etree.ElementTree as ET
@@ -141,6 +142,12 @@ def summary(out: Path) -> dict:
 
 def rows_by_id(out: Path) -> dict[str, dict]:
     return {row["id"]: row for row in summary(out)["rows"]}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def threads_before() -> set[str]:
+    """The names of this process's Python threads before the file's first test."""
+    return {thread.name for thread in threading.enumerate()}
 
 
 # -- one batch, read every way ------------------------------------------------------------
@@ -529,8 +536,6 @@ def test_the_warm_up_loads_everything_a_software_servo_spec_loads():
 
 def test_workers_are_spawned_while_another_thread_runs():
     """A lock held by another thread at a fork would stay held in the worker forever."""
-    import threading
-
     from feedtune.batch.local import start_method
 
     assert start_method() == "fork"  # Linux, this test's thread alone
@@ -926,8 +931,6 @@ def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path
 def test_run_batch_works_from_a_thread_other_than_the_main_one(tmp_path):
     """Holding signals back is the main thread's business; a library caller's thread
     cannot touch them, and need not."""
-    import threading
-
     from feedtune.batch.job import Outcome
 
     class Instant:
@@ -955,3 +958,10 @@ def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_the
                                        str(tmp_path / "out")])
     assert result.exit_code == 2 and "nope.json: no such file" in result.output
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+
+
+def test_the_dask_tests_leave_no_thread_in_this_process(threads_before):
+    """Last in the file: the Dask clients above ran in forked children (in_a_fork). One run
+    here left distributed's offload thread in this process for good, and every later batch
+    here spawned its workers instead of forking them (:func:`start_method`)."""
+    assert {thread.name for thread in threading.enumerate()} <= threads_before
