@@ -12,12 +12,15 @@ from __future__ import annotations
 
 import contextlib
 import json
+import multiprocessing
 import os
 import re
 import signal
 import subprocess
 import sys
+import threading
 import time
+import traceback
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -48,8 +51,8 @@ def run(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
 
 def batch(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
     """``python -m feedtune batch ARGS``: for tests whose subject is the batch's process
-    (a signal or SIGKILL sent to it, a Dask cluster it starts or joins, what a fresh
-    interpreter imports). ≈ 2 s of CPU before its first spec (imports 1.3–1.8 s, the
+    (a signal or SIGKILL sent to it, a Dask cluster it joins, what a fresh interpreter
+    imports). ≈ 2 s of CPU before its first spec (imports 1.3–1.8 s, the
     warm-up tuning 0.2–0.3 s; benchmarks/README.md "tproc")."""
     return run("batch", *args, timeout=timeout)
 
@@ -62,6 +65,40 @@ def in_process(*args: str) -> subprocess.CompletedProcess:
     process as from ``python -m feedtune batch`` (:func:`feedtune.batch.local.start_method`;
     spawned if a Dask test left a thread running), after the warm-up, done once here."""
     return run_cli(*args, cwd=REPO, text=True)
+
+
+def _send_outcome(send, function, args) -> None:
+    try:
+        send.send((True, function(*args)))
+    except BaseException:  # noqa: BLE001 — the parent raises it, with this traceback
+        send.send((False, traceback.format_exc()))
+
+
+def in_a_fork(function, *args):
+    """``function(*args)`` in a child forked from this process (its imports and warm-up
+    inherited; spawned, as a batch's workers are, if this process runs other threads), its
+    return value sent back; an exception there is raised here with the child's traceback.
+
+    For a Dask client: its threads (distributed's offload pool, its IO loop) stay in the
+    process that ran it for good, and in this process they would make every later batch
+    here spawn its workers instead of forking them (:func:`feedtune.batch.local.start_method`;
+    ≈ 2 s of CPU a spawned worker: the realistic batch, the untrusted-spec and bad-spec
+    batches of the same xdist worker). A child forked here instead of a ``python -m
+    feedtune`` process: ≈ 1.5 s of imports saved."""
+    from feedtune.batch.local import start_method
+
+    context = multiprocessing.get_context(start_method())
+    receive, send = context.Pipe(duplex=False)
+    child = context.Process(target=_send_outcome, args=(send, function, args))
+    child.start()
+    send.close()
+    try:
+        ok, value = receive.recv()
+    finally:
+        child.join()
+    if not ok:
+        raise AssertionError(f"in the forked child:\n{value}")
+    return value
 
 
 def example(name: str = FAST) -> dict:
@@ -105,6 +142,12 @@ def summary(out: Path) -> dict:
 
 def rows_by_id(out: Path) -> dict[str, dict]:
     return {row["id"]: row for row in summary(out)["rows"]}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def threads_before() -> set[str]:
+    """The names of this process's Python threads before the file's first test."""
+    return {thread.name for thread in threading.enumerate()}
 
 
 # -- one batch, read every way ------------------------------------------------------------
@@ -493,8 +536,6 @@ def test_the_warm_up_loads_everything_a_software_servo_spec_loads():
 
 def test_workers_are_spawned_while_another_thread_runs():
     """A lock held by another thread at a fork would stay held in the worker forever."""
-    import threading
-
     from feedtune.batch.local import start_method
 
     assert start_method() == "fork"  # Linux, this test's thread alone
@@ -621,11 +662,11 @@ def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path, uninterr
     specs = [str(path) for path in paths[:6]]
     one, one_rows = first(6, reference, paths)  # one worker: `batch -j 1`
     outs = {label: tmp_path / label for label in ("all", "dask")}
-    # all cores: the local executor's workers, forked here; Dask's cluster in a process of
-    # its own (a local cluster started here would leave its threads in this process)
+    # all cores: the local executor's workers, forked here; Dask's cluster from a child
+    # forked here (a Dask client would leave its threads in this process: in_a_fork)
     for label, proc in (("all", in_process("batch", *specs, "--out", str(outs["all"]))),
-                        ("dask", batch(*specs, "--out", str(outs["dask"]), "--executor",
-                                       "dask", "-j", "2"))):
+                        ("dask", in_a_fork(in_process, "batch", *specs, "--out",
+                                           str(outs["dask"]), "--executor", "dask", "-j", "2"))):
         assert proc.returncode == 0, (label, proc.stderr)
     assert len(one) == 6
     assert one == results(outs["all"]) == results(outs["dask"])
@@ -679,17 +720,25 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
     assert len(results(out)) == 10
 
 
-def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
+def _batch_on_a_running_cluster(*args: str) -> tuple[str, subprocess.CompletedProcess]:
+    """(scheduler address, ``feedtune batch ARGS --scheduler ADDRESS``) with a local Dask
+    cluster of one worker process running meanwhile (started first, stopped last)."""
     from distributed import LocalCluster
 
-    _, paths, reference = uninterrupted
-    local, _ = first(3, reference, paths)  # the local executor's results
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                       dashboard_address=None) as cluster:
-        proc = batch(*[str(path) for path in paths[:3]], "--out", str(tmp_path / "remote"),
-                     "--scheduler", cluster.scheduler_address)
+        return cluster.scheduler_address, in_process(
+            "batch", *args, "--scheduler", cluster.scheduler_address)
+
+
+def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
+    _, paths, reference = uninterrupted
+    local, _ = first(3, reference, paths)  # the local executor's results
+    # the cluster and the batch joining it, both in a child forked from this process
+    address, proc = in_a_fork(_batch_on_a_running_cluster, *[str(path) for path in paths[:3]],
+                              "--out", str(tmp_path / "remote"))
     assert proc.returncode == 0, proc.stderr
-    assert summary(tmp_path / "remote")["scheduler"] == cluster.scheduler_address
+    assert summary(tmp_path / "remote")["scheduler"] == address
     assert results(tmp_path / "remote") == local
 
 
@@ -700,7 +749,7 @@ def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
 
     _tasks(tmp_path / "specs", {"axis-crash": batch_jobs.CRASH_MARK})
     with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+        outcome = in_a_fork(run_batch, [str(tmp_path / "specs")], tmp_path / "out",
                             DaskExecutor(workers=2, job=batch_jobs.crashing))
     rows = {row["id"]: row for row in outcome.document["rows"]}
     assert rows["axis-crash"]["status"] == "worker_died"
@@ -882,8 +931,6 @@ def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path
 def test_run_batch_works_from_a_thread_other_than_the_main_one(tmp_path):
     """Holding signals back is the main thread's business; a library caller's thread
     cannot touch them, and need not."""
-    import threading
-
     from feedtune.batch.job import Outcome
 
     class Instant:
@@ -911,3 +958,10 @@ def test_the_batch_command_in_process_leaves_the_signal_handlers_as_it_found_the
                                        str(tmp_path / "out")])
     assert result.exit_code == 2 and "nope.json: no such file" in result.output
     assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+
+
+def test_the_dask_tests_leave_no_thread_in_this_process(threads_before):
+    """Last in the file: the Dask clients above ran in forked children (in_a_fork). One run
+    here left distributed's offload thread in this process for good, and every later batch
+    here spawned its workers instead of forking them (:func:`start_method`)."""
+    assert {thread.name for thread in threading.enumerate()} <= threads_before

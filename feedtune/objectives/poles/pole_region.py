@@ -49,10 +49,11 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
         return a if np.all(np.isfinite(a)) else None
 
     def of_numbers(numbers) -> float:
+        numbers = np.asarray(numbers, dtype=float).ravel()  # numpy on a DM: CasADi 3.8 warns
         a = state(numbers)
         if a is None:
             return math.nan
-        return float(measure(s_plane_poles(a, discrete, float(np.ravel(numbers)[-1]))))
+        return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
 
     if not is_symbolic(inputs):
         exact = ca.MX(of_numbers(ca.evalf(inputs)))
