@@ -68,10 +68,12 @@ class FrequencyFunction:
     ``fn(omega)`` is the metric's callable; ``z`` and ``p`` the builder's log tunables and
     the parameters existing when it is made (a numeric call passes that many).
 
-    The NLP's rows: ``fn`` is called once on a whole row of ω, so the loop's polynomial
-    coefficients are computed once for all frequencies, not once per frequency as a
-    Function mapped over ω would (measured on Bhatia's loop: 141 SX instructions per
-    frequency mapped, the Hessian of 258 rows 725k instructions). A callable that does not
+    The NLP's rows: the split's ``point`` (below) replayed on a whole row of ω
+    (:func:`whole_rows`), so the loop's polynomial coefficients are computed once for all
+    frequencies, not once per frequency as a Function mapped over ω would (measured on
+    Bhatia's loop: 141 SX instructions per frequency mapped, the Hessian of 258 rows 725k
+    instructions), and an unexpanded NLP holds one vector node per instruction of
+    ``point``. Without an SX form ``fn`` is called on the row; a callable that does not
     work elementwise on a row falls back to the mapped Function.
 
     The numeric checks (the exchange method's scans, the starts' peaks and crossings): where
@@ -129,11 +131,15 @@ class FrequencyFunction:
             if split is not None:
                 point, numbers = split
                 q = ca.MX.sym("q", point.sparsity_in(1))
-                rows = ca.Function(f"{self.name}_rows{n}", [omega, q, self.z, self.p],
-                                   [whole_rows(point, [omega, q, self.z, self.p])])
-                built = ca.Function(self.name, [omega, self.z, self.p],
-                                    [rows(omega, numbers(self.z, self.p), self.z, self.p)])
-            else:
+                try:
+                    rows = ca.Function(f"{self.name}_rows{n}", [omega, q, self.z, self.p],
+                                       [whole_rows(point, [omega, q, self.z, self.p])])
+                except ValueError:  # an instruction not replayed (a call): fn on the row
+                    split = None
+                else:
+                    built = ca.Function(self.name, [omega, self.z, self.p],
+                                        [rows(omega, numbers(self.z, self.p), self.z, self.p)])
+            if split is None:
                 try:
                     value = self.fn(omega)
                     if value.shape != (1, n):
@@ -216,7 +222,8 @@ def whole_rows(point: ca.Function, args: list[ca.MX]) -> ca.MX:
     (≈ 65 for the user drive's |T|²), each a vector operation, and the NLP's unexpanded
     Jacobian differentiates those nodes instead of every grid point's scalar operations
     (see feedtune.tuner.nlp.WHOLE_ROWS_NODES_PER_ROW). The same operations in the same order
-    as the SX expansion of ``fn`` on a row, so the same values.
+    as the SX expansion of ``fn`` on a row, so the same values. ValueError for an
+    instruction that is not a unary or binary operation (a call).
     """
     work: dict[int, ca.MX] = {}
     value = None
@@ -230,6 +237,8 @@ def whole_rows(point: ca.Function, args: list[ca.MX]) -> ca.MX:
             value = work[inputs[0]]
         elif op == ca.OP_CONST:
             work[out[0]] = ca.MX(point.instruction_constant(k))
+        elif op == ca.OP_CALL or len(inputs) > 2:
+            raise ValueError(f"{point.name()}: instruction {k} (operation {op}) is not replayed")
         elif len(inputs) == 1:
             work[out[0]] = ca.MX.unary(op, work[inputs[0]])
         else:

@@ -18,7 +18,8 @@ from feedtune.tuner.builder import NlpBuilder
 from feedtune.tuner.nlp import Problem
 from feedtune.tuner.supremum import (EXCHANGE_POINTS, EXCHANGE_TOL, ROW_STRIDE, ExchangeGroup,
                                      FrequencyFunction, add_exchange_points,
-                                     make_scan, refined_maximum, supremum_below, tracked)
+                                     make_scan, refined_maximum, supremum_below, tracked,
+                                     whole_rows)
 from feedtune.tuner.types import Bound, Settings, Term, Variable
 
 GRID = np.array([0.1, 0.5, 2.0, 10.0])  # rad/s; the peak at 1 rad/s falls between points
@@ -455,3 +456,22 @@ def test_frequency_rows_of_whole_vectors_are_solved_unexpanded_to_the_same_optim
         found[expand] = outcome.values["k"]
     assert found[None] == pytest.approx(2.0, rel=1e-6)
     assert found[None] == pytest.approx(found[True], rel=1e-9)
+
+
+def test_a_point_with_a_call_is_not_replayed_and_its_rows_are_fn_on_the_row():
+    """An instruction that is no unary or binary operation (a call of a Function kept
+    through the expansion) is refused by the replay, and the rows come from ``fn`` on the
+    row instead: the same values (2·(sin ω + ω²) at k = 2)."""
+    x = ca.MX.sym("x")
+    g = ca.Function("g", [x], [ca.sin(x) + x**2], {"never_inline": True})
+    z, p = ca.MX.sym("z", 1), ca.MX.sym("p", 0)
+    k = ca.exp(z[0])
+    fn = FrequencyFunction("f", lambda w: k * ca.horzcat(*[g(w[i]) for i in range(w.numel())]),
+                           z, p)
+    point = fn.split()[0]
+    with pytest.raises(ValueError, match="not replayed"):
+        whole_rows(point, [ca.MX.sym("w", 1, 3), ca.MX.sym("q", point.sparsity_in(1)), z, p])
+    omegas = np.array([0.5, 1.0, 2.0])
+    rows = ca.Function("rows", [z], [fn.rows(ca.DM(omegas).T)])
+    np.testing.assert_allclose(np.asarray(rows(math.log(2.0))).ravel(),
+                               2 * (np.sin(omegas) + omegas**2), rtol=1e-15)
