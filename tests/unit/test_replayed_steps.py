@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import feedtune.loops.frequency as frequency
+from feedtune.expr import Unbounded
 from feedtune.objectives.contour.circle import CircleOptions
 from feedtune.objectives.contour.radial_error import RadialError
 from feedtune.objectives.frequency import frequency_domain
@@ -157,7 +158,7 @@ def test_radial_error_and_margins_read_the_replayed_response_with_the_graphs_bit
             def evaluate(metric=metric, options=options):
                 loop.__dict__.pop("_gain_crossover", None)
                 value = metric.evaluate(loop, options)
-                if hasattr(value, "exists"):  # an Unbounded: its value and whether it exists
+                if isinstance(value, Unbounded):  # its value and whether it exists
                     return [float(ca.evalf(ca.MX(value.finite))),
                             float(ca.evalf(ca.MX(value.exists)))]
                 expr, magnitude = exact_value(value)
