@@ -49,8 +49,11 @@ def sampled_loops(cc) -> list:
     return loops
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def modules(description: str):
+    """Parse ``--baseline``/``--rounds``, pin BLAS to one thread and load what both
+    integral benchmarks compare: (arguments, the contract cases, this checkout's module,
+    the baseline's module)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--baseline", default="main", help="git revision of the old module")
     parser.add_argument("--rounds", type=int, default=2, help="alternating rounds")
     args = parser.parse_args()
@@ -58,12 +61,16 @@ def main() -> None:
     from feedtune.__main__ import pin_blas_threads
 
     pin_blas_threads()
-    import numpy as np
-
     import contract_cases as cc
     import feedtune.loops.sampled_lti_integrals as new
 
-    old = baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
+    return args, cc, new, baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
+
+
+def main() -> None:
+    args, cc, new, old = modules(__doc__.splitlines()[0])
+    import numpy as np
+
     keys = [(label, new._key(loop, samples)) for label, loop, samples in sampled_loops(cc)]
     rng = np.random.default_rng(0)
     cpu = {"old": 0.0, "new": 0.0}

@@ -14,31 +14,13 @@ alternating, and the largest relative difference of the values.
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
-from pathlib import Path
 
-from baseline import baseline_module
-from lti_integrals_build import clear_caches, sampled_loops
-
-REPO = Path(__file__).resolve().parents[1]
-MODULE = "feedtune/loops/sampled_lti_integrals.py"
+from lti_integrals_build import clear_caches, modules, sampled_loops
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--baseline", default="main", help="git revision of the old module")
-    parser.add_argument("--rounds", type=int, default=2, help="alternating rounds")
-    args = parser.parse_args()
-    sys.path.insert(0, str(REPO / "tests" / "contract"))
-    from feedtune.__main__ import pin_blas_threads
-
-    pin_blas_threads()
-    import contract_cases as cc
-    import feedtune.loops.sampled_lti_integrals as new
-
-    old = baseline_module(args.baseline, MODULE, "baseline_sampled_lti_integrals")
+    args, cc, new, old = modules(__doc__.splitlines()[0])
     loops = [(label, loop, samples) for label, loop, samples in sampled_loops(cc)
              if loop.has_exact_step_error]
     cpu = {label: {"old": 0.0, "new": 0.0} for label, _, _ in loops}
