@@ -157,19 +157,34 @@ def older_objects_unscanned() -> Iterator[None]:
 @contextlib.contextmanager
 def blas_threads(threads: int | None) -> Iterator[None]:
     """numpy's and scipy's BLAS on ``threads`` threads [count] meanwhile, restored after
-    (None: unchanged), by threadpoolctl.
+    (None: unchanged), by threadpoolctl; an OpenBLAS first loaded meanwhile starts on
+    ``threads`` too.
 
     The ``feedtune`` command pins one thread by the environment before numpy loads
     (:func:`feedtune.__main__.pin_blas_threads`); a Python caller has usually imported
-    numpy already, so only a library that talks to the loaded BLAS can do it here.
+    numpy already, so only a library that talks to the loaded BLAS can do it here. CasADi
+    loads its own OpenBLAS (``libcasadi-tp-openblas``, which threadpoolctl does not
+    recognise) with IPOPT's plugin at a process's first solve; it reads
+    ``OPENBLAS_NUM_THREADS`` then, so that is set to ``threads`` during the call unless the
+    caller set it, and removed after. Started on a thread per core, its workers spun
+    ≈ 0.13 s of CPU on the other core during a cold tuning of
+    ``examples/user-defined-pid-notch.json`` (benchmarks/README.md, "Branch h-cold4").
     """
     if threads is None:
         yield
         return
     from threadpoolctl import threadpool_limits
 
-    with threadpool_limits(limits=threads, user_api="blas"):
-        yield
+    variable = "OPENBLAS_NUM_THREADS"
+    ours = variable not in os.environ
+    if ours:
+        os.environ[variable] = str(threads)
+    try:
+        with threadpool_limits(limits=threads, user_api="blas"):
+            yield
+    finally:
+        if ours:
+            os.environ.pop(variable, None)
 
 
 @dataclass(frozen=True)
