@@ -14,6 +14,7 @@ command line.
 from __future__ import annotations
 
 import contextlib
+import gc
 import os
 from dataclasses import dataclass
 from functools import cached_property
@@ -94,7 +95,7 @@ def tune(spec: Spec | Mapping[str, Any] | str | os.PathLike, *,
     parsed = as_spec(spec)
     from feedtune.problem import tune as solve  # the tuner: loaded on first use
 
-    with blas_threads(threads):
+    with blas_threads(threads), older_objects_unscanned():
         return Result(solve(parsed, progress=progress, notify=notify))
 
 
@@ -132,21 +133,58 @@ def as_spec(spec: Spec | Mapping[str, Any] | str | os.PathLike) -> Spec:
 
 
 @contextlib.contextmanager
+def older_objects_unscanned() -> Iterator[None]:
+    """The objects alive before the call (the imported modules, the caller's) left out of
+    the garbage collector's scans meanwhile (``gc.freeze``), given back to its oldest
+    generation after (``gc.unfreeze``); nothing is done if the caller froze objects itself.
+
+    A tuning allocates enough objects to trigger one full collection in a fresh process,
+    which then walks the ≈ 95 000 objects of the imports (numpy, scipy, casadi, pydantic):
+    ≈ 0.05–0.06 s of CPU of a cold 0.5 s tuning of ``examples/user-defined-pid-notch.json``
+    (benchmarks/README.md, "Branch h-cold4"). The tuning's own objects are still collected
+    as before; the older ones are scanned again by the caller's next full collection.
+    """
+    if gc.get_freeze_count():
+        yield
+        return
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
+
+
+@contextlib.contextmanager
 def blas_threads(threads: int | None) -> Iterator[None]:
     """numpy's and scipy's BLAS on ``threads`` threads [count] meanwhile, restored after
-    (None: unchanged), by threadpoolctl.
+    (None: unchanged), by threadpoolctl; an OpenBLAS first loaded meanwhile starts on
+    ``threads`` too.
 
     The ``feedtune`` command pins one thread by the environment before numpy loads
     (:func:`feedtune.__main__.pin_blas_threads`); a Python caller has usually imported
-    numpy already, so only a library that talks to the loaded BLAS can do it here.
+    numpy already, so only a library that talks to the loaded BLAS can do it here. CasADi
+    loads its own OpenBLAS (``libcasadi-tp-openblas``, which threadpoolctl does not
+    recognise) with IPOPT's plugin at a process's first solve; it reads
+    ``OPENBLAS_NUM_THREADS`` then, so that is set to ``threads`` during the call unless the
+    caller set it, and removed after. Started on a thread per core, its workers spun
+    ≈ 0.13 s of CPU on the other core during a cold tuning of
+    ``examples/user-defined-pid-notch.json`` (benchmarks/README.md, "Branch h-cold4").
     """
     if threads is None:
         yield
         return
     from threadpoolctl import threadpool_limits
 
-    with threadpool_limits(limits=threads, user_api="blas"):
-        yield
+    variable = "OPENBLAS_NUM_THREADS"
+    ours = variable not in os.environ
+    if ours:
+        os.environ[variable] = str(threads)
+    try:
+        with threadpool_limits(limits=threads, user_api="blas"):
+            yield
+    finally:
+        if ours:
+            os.environ.pop(variable, None)
 
 
 @dataclass(frozen=True)
