@@ -270,7 +270,6 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     return math.exp(u), True
 
 
-
 def _bisections_of_numbers(f, low: float, high: float) -> tuple[float, float]:
     """:data:`_BISECTIONS` bisection steps of [low, high] on ``f`` (a :class:`Mapped`),
     keeping the half whose lower end has f > 0: through :func:`_bisection_function`
@@ -295,11 +294,17 @@ def _bisection_function(f, steps: int):
     fixed inputs (issue 15): :func:`_bisection_step` on a Function of numbers, its step
     expanded to SX and folded, instead of one Python round and one call a step."""
     fixed = _inputs_after_first(f)
-    step = _bisection_step(f, fixed).expand()
-    start = ca.MX.sym("bracket", 2)
+    return _folded(_bisection_step(f, fixed), steps, f"bisection_{steps}", fixed)
+
+
+def _folded(step, steps: int, name: str, fixed: list):
+    """``steps`` repetitions of ``step`` (a Function of a state column and ``fixed``,
+    giving the next state) as one Function of (the state, ``fixed``): the step expanded
+    to SX and folded (one node instead of one Python round and one call a step)."""
+    start = ca.MX.sym("state", step.sparsity_in(0))
     repeated = [ca.repmat(x, 1, steps) for x in fixed]  # the fold reads one column a step
-    return ca.Function(f"bisection_{steps}", [start, *fixed],
-                       [step.fold(steps)(start, *repeated)])
+    return ca.Function(name, [start, *fixed], [step.expand().fold(steps)(start, *repeated)])
+
 
 def peak(fn, band: tuple[float, float], name: str = "peak"):
     """(max of ``fn`` over ω ≥ 0, the ω [rad/s] where it is taken; 0 for ω → 0).
@@ -416,7 +421,6 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     return float(top), float(where[values == top].max())
 
 
-
 def _golden_steps_of_numbers(f, steps: int, a, b, seen) -> tuple:
     """``steps`` golden-section steps in every window [a, b] (rows) at once: (a, b, seen,
     whether f was NaN at a point met), ``seen`` raised to the largest f met.
@@ -441,6 +445,7 @@ def _golden_steps_of_numbers(f, steps: int, a, b, seen) -> tuple:
         left = fc > fd
         a, b = np.where(left, a, c), np.where(left, d, b)
     return a, b, seen, False
+
 
 class Buffered:
     """A Function of numbers called through its evaluation buffer (``Function.buffer``:
@@ -564,11 +569,7 @@ def _golden_function(f, steps: int):
     step = ca.Function("golden_step", [state, *fixed], [ca.vertcat(
         ca.if_else(left, a, c), ca.if_else(left, d, b), ca.fmax(seen, ca.fmax(fc, fd)),
         nans + ca.logic_not(fc >= -ca.inf) + ca.logic_not(fd >= -ca.inf))])
-    step = step.expand()
-    start = ca.MX.sym("window", 4)
-    repeated = [ca.repmat(x, 1, steps) for x in fixed]  # the fold reads one column a step
-    return ca.Function(f"golden_{steps}", [start, *fixed],
-                       [step.fold(steps)(start, *repeated)])
+    return _folded(step, steps, f"golden_{steps}", fixed)
 
 
 def _jet_function(f, slope, curvature):
@@ -644,7 +645,6 @@ def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: boo
             None if zero is None else float(zero(values)[0][0]))
 
 
-
 def replayed_at(name: str, fn, x) -> float | None:
     """``fn(x)`` for a float ``x`` [fn's unit of argument], ``fn`` an
     :class:`~feedtune.loops.twin.OfLoop` of a loop of numbers, evaluated by the Function of
@@ -670,6 +670,15 @@ def replayed_at(name: str, fn, x) -> float | None:
         return None
     replay = replayed(name, fn, 0, log_omega=False)
     return None if replay is None else float(replay[0][0](x)[0])
+
+
+def value_at(name: str, function_of, loop, x):
+    """``function_of(loop)(x)``: for a loop of numbers and a float ``x`` its number (a DM)
+    by :func:`replayed_at`, else the expression (``function_of``: an
+    :class:`~feedtune.loops.twin.OfLoop` factory, ``loop`` ↦ a function of ``x``)."""
+    value = replayed_at(name, OfLoop(function_of, loop), x)
+    return function_of(loop)(x) if value is None else ca.DM(value)
+
 
 def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: bool,
                       at_zero: bool, twin):

@@ -89,11 +89,6 @@ class NlpBuilder:
         """Every constraint row, in index order, as one column."""
         return ca.vertcat(ca.MX(0, 1), *[ca.vec(block) for block in self._blocks])
 
-    @property
-    def rows(self) -> list:
-        """Every constraint row's expression, in index order."""
-        return [block[k] for block in self._blocks for k in range(block.numel())]
-
     def scanned_values(self, z, p) -> list[float]:
         """The value of every scan a start reads (:meth:`variable`) at log tunables ``z``,
         parameters ``p``."""

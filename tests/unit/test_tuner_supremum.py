@@ -120,7 +120,7 @@ def test_coarse_grid_rows_then_exchange_rows_switched_off():
     supremum_below(builder, value, make_scan("peak", value, builder.z, builder.p), 1.0, 1.0,
                    True, groups)
     coarse = len(GRID[::ROW_STRIDE])
-    assert len(builder.rows) == coarse + EXCHANGE_POINTS
+    assert builder.g.numel() == coarse + EXCHANGE_POINTS
     assert np.all(builder.ubg[:coarse] == 0) and np.all(builder.ubg[coarse:] == np.inf)
     group = groups[0]
     assert list(group.rows) == list(range(coarse, coarse + EXCHANGE_POINTS))

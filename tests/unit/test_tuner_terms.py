@@ -40,7 +40,7 @@ def test_a_magnitude_is_minimised_through_an_epigraph():
     k = ca.exp(builder.z[0])
     weight = builder.parameter("weight0", 1.0)
     f = add_term(builder, 0, Magnitude(k - 3), None, weight, 1.0, 1.0, [])
-    assert len(builder.rows) == 2 and len(builder.extra) == 1
+    assert builder.g.numel() == 2 and len(builder.extra) == 1
     problem = Problem([Variable("k", 1.0, 10.0, initial=8.0)], {}, Loop,
                       [Term("e", lambda loop: Magnitude(loop.values["k"] - 3))], [], {},
                       Settings(multistart=1))
@@ -54,7 +54,7 @@ def test_a_bound_on_a_magnitude_from_below_is_squared():
     builder = NlpBuilder([Variable("k", 1.0, 10.0)])
     e = ca.exp(builder.z[0]) - 3
     add_bound(builder, 0, Magnitude(e), None, Bound("e", None, 2.0, None), None, [])
-    assert len(builder.rows) == 1
+    assert builder.g.numel() == 1
     assert builder.lbg[0] == pytest.approx(1.0) and builder.ubg[0] == np.inf  # (2/2)²
 
 

@@ -3,9 +3,8 @@
 from pydantic import Field, PositiveFloat
 
 from feedtune.lazy import ca
-from feedtune.loops.frequency import replayed_at
+from feedtune.loops.frequency import value_at
 from feedtune.loops.protocols import Loop
-from feedtune.loops.twin import OfLoop
 from feedtune.schema.model import SpecModel
 
 
@@ -35,6 +34,5 @@ def _radius_gain_excess_of(loop: Loop):
 def radius_gain_excess_value(loop: Loop, omega):
     """:func:`radius_gain_excess` [1]; for a loop of numbers and a float ω [rad/s] its
     number (a DM), evaluated by the Function replayed on the loop's twin
-    (:func:`feedtune.loops.frequency.replayed_at`: the same operations, no graph built)."""
-    value = replayed_at("radius_gain_excess", OfLoop(_radius_gain_excess_of, loop), omega)
-    return radius_gain_excess(loop, omega) if value is None else ca.DM(value)
+    (:func:`feedtune.loops.frequency.value_at`: the same operations, no graph built)."""
+    return value_at("radius_gain_excess", _radius_gain_excess_of, loop, omega)

@@ -3,9 +3,8 @@
 import math
 
 from feedtune.lazy import ca
-from feedtune.loops.frequency import replayed_at
+from feedtune.loops.frequency import value_at
 from feedtune.loops.protocols import Loop
-from feedtune.loops.twin import OfLoop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.frequency.frequency_domain import as_number, gain_crossover, has_open_loop
 
@@ -24,8 +23,7 @@ class PhaseMargin(Metric):
 
     def evaluate(self, loop: Loop, options):
         omega = as_number(gain_crossover(loop))
-        value = replayed_at("phase_margin", OfLoop(_phase_margin_at, loop), omega)
-        return _phase_margin_at(loop)(omega) if value is None else ca.DM(value)
+        return value_at("phase_margin", _phase_margin_at, loop, omega)
 
 
 def _phase_margin_at(loop: Loop):
