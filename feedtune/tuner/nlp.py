@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Mapping
+from typing import Callable, Mapping, NamedTuple
 
 import casadi as ca
 import numpy as np
@@ -103,6 +103,25 @@ NO_PARAMETER_MULTIPLIERS = {"calc_lam_p": False, "no_nlp_grad": True}
 FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
                        "output_file": "", "file_print_level": 0}
 
+
+
+class _Run(NamedTuple):
+    """What one start gave (:meth:`Problem._run_start`): its status, IPOPT's return
+    status, objective, iterations and exchange points, whether its end point is feasible,
+    that point z [ln tunable], the bound values and stability conditions there, and
+    (solver, :class:`~feedtune.tuner.optimum.Solution`) of its last IPOPT round (None
+    without one)."""
+
+    status: str
+    return_status: str
+    objective: float | None
+    iterations: int
+    exchanged: int
+    feasible: bool
+    z: np.ndarray
+    bounds: list
+    conditions: np.ndarray
+    solution: tuple | None
 
 class Problem:
     """The NLP, built once (or taken from the caches); :meth:`solve` runs the multistart.
@@ -314,49 +333,36 @@ class Problem:
         return feasibility(bounds, self.bounds, conditions, matrices, self.discrete)
 
     def solve(self, progress: Callable[[StartOutcome, int], None] | None = None) -> Outcome:
-        """Run every start; ``progress(start_outcome, total)`` is called after each."""
+        """Run every start; ``progress(start_outcome, total)`` is called after each.
+
+        A start from the very point an earlier start ran from (one free tunable without an
+        ``initial``: the Halton sequence's first point after the corner is the box's middle,
+        the first start) is that earlier run: the same inputs to the same Functions and
+        solver give the same iterates (a result is the same whether its solver is new or
+        reused), so its outcome is taken over, not computed again, unless that run stopped
+        at its time limit (a clock, not the iterates, ended it)."""
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, return_status, status)
         optima = []  # (index, objective, z) of every start that solved feasibly
         solutions: dict[int, tuple] = {}  # each start's solver and last NLP round
+        ran: dict[bytes, _Run] = {}  # start point → what the start from it gave
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
-            iterations = exchanged = 0
-            attempts = (["scalar"] if self.scalar is not None else
-                        self.hessians if self.has_nlp else [None])
-            resume = None  # where the previous attempt of this start ended, if stable there
-            for hessian in attempts:
-                if hessian == "scalar":
-                    z_opt, return_status, iterations, exchanged, _ = self.scalar.solve_from(
-                        z0, started)
-                    status = STATUS.get(return_status, "error")
-                elif hessian is not None:
-                    z_opt, return_status, its, exchanged, solution = self._solve_from(
-                        z0, started, hessian, resume)
-                    solver = self._last_solver
-                    iterations += its
-                    solutions[index] = (solver, solution)
-                    status = STATUS.get(return_status, "error")
-                else:
-                    z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
-                objective, bounds, conditions, matrices = self._evaluate(z_opt)
-                feasible, _ = self._feasible(bounds, conditions, matrices)
-                if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
-                    break
-                # the next Hessian goes on from a stable end point, with its exchange
-                # points (measured: the limited-memory run stops near the optimum at its
-                # iteration limit, or with a peak just over its bound); from an unstable
-                # one it starts afresh
-                resume = (self._last_state if hessian not in (None, "scalar")
-                          and self._stable(z_opt) else None)
-            elapsed = time.perf_counter() - started
-            if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
-                objective = None
-            starts.append(StartOutcome(index, status, return_status, objective, iterations,
-                                       elapsed, feasible, exchanged))
+            point = np.asarray(z0, dtype=float).tobytes()
+            run = ran.get(point)
+            if run is None:
+                run = self._run_start(z0, started)
+                if run.return_status != "Maximum_WallTime_Exceeded":
+                    ran[point] = run
+            if run.solution is not None:
+                solutions[index] = run.solution
+            status, return_status, objective = run.status, run.return_status, run.objective
+            z_opt, feasible = run.z, run.feasible
+            starts.append(StartOutcome(index, status, return_status, objective, run.iterations,
+                                       time.perf_counter() - started, feasible, run.exchanged))
             if progress is not None:
                 progress(starts[-1], len(self.starts))
-            violation = self._violation(bounds, conditions)
+            violation = self._violation(run.bounds, run.conditions)
             solved = status in SOLVED and feasible and objective is not None
             key = (0, objective, index) if solved else (1, violation, index)
             if solved:
@@ -414,6 +420,43 @@ class Problem:
             starts=starts, equal_optima=equal if success else [],
             flat_tunables=flat if success else None,
             method="brent" if self.scalar is not None else "ipopt")
+
+    def _run_start(self, z0: np.ndarray, started: float) -> "_Run":
+        """Every attempt of the start from ``z0`` (the scalar search, or IPOPT with each
+        Hessian in turn until one ends solved and feasible), ``started`` its clock [s,
+        perf_counter]."""
+        iterations = exchanged = 0
+        solution = None
+        attempts = (["scalar"] if self.scalar is not None else
+                    self.hessians if self.has_nlp else [None])
+        resume = None  # where the previous attempt of this start ended, if stable there
+        for hessian in attempts:
+            if hessian == "scalar":
+                z_opt, return_status, iterations, exchanged, _ = self.scalar.solve_from(
+                    z0, started)
+                status = STATUS.get(return_status, "error")
+            elif hessian is not None:
+                z_opt, return_status, its, exchanged, last = self._solve_from(
+                    z0, started, hessian, resume)
+                iterations += its
+                solution = (self._last_solver, last)
+                status = STATUS.get(return_status, "error")
+            else:
+                z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
+            objective, bounds, conditions, matrices = self._evaluate(z_opt)
+            feasible, _ = self._feasible(bounds, conditions, matrices)
+            if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
+                break
+            # the next Hessian goes on from a stable end point, with its exchange
+            # points (measured: the limited-memory run stops near the optimum at its
+            # iteration limit, or with a peak just over its bound); from an unstable
+            # one it starts afresh
+            resume = (self._last_state if hessian not in (None, "scalar")
+                      and self._stable(z_opt) else None)
+        if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
+            objective = None
+        return _Run(status, return_status, objective, iterations, exchanged, feasible, z_opt,
+                    bounds, conditions, solution)
 
     def _solve_from(self, start: np.ndarray, started: float, hessian: str, resume=None) -> tuple:
         """One start: IPOPT (with this Hessian approximation), then exchange rounds while a

@@ -97,3 +97,67 @@ def test_no_exchange_levels_without_peaks_or_crossings():
     calls = _counted(problem, "_exchange_levels")
     assert problem.solve().success
     assert calls == []
+
+
+def _free_problem(starts: int) -> Problem:
+    """min (k − 2)² over k in [1, 4.9], no initial: the first start is the box's geometric
+    middle, (ln 1 + ln 4.9)/2, and so is the second, ln 1 + (ln 4.9 − ln 1)/2, to the bit
+    (Halton's point 1/2 of the box in one dimension; a lower bound of 1 makes both ln 4.9/2,
+    as every batch spec's position gain)."""
+    problem = Problem([Variable("k", 1.0, 4.9)], {}, Loop,
+                      [Term("f", lambda loop: (loop.values["k"] - 2) ** 2)], [], {},
+                      Settings(multistart=starts, **SETTINGS))
+    assert problem.scalar is None
+    return problem
+
+
+def test_a_start_from_an_earlier_starts_point_is_that_run():
+    """One free tunable without an initial point: starts 1 and 2 are the same point, so
+    the second is the first's run (the same inputs to the same solver give the same
+    iterates, as a fresh problem's solve of start 2 alone shows), and IPOPT runs twice for
+    three starts."""
+    problem = _free_problem(3)
+    np.testing.assert_array_equal(problem.starts[0], problem.starts[1])
+    assert not np.array_equal(problem.starts[0], problem.starts[2])
+    calls = []
+    solve_from = problem._solve_from
+
+    def counted(start, *args):
+        calls.append(np.array(start))
+        return solve_from(start, *args)
+
+    problem._solve_from = counted
+    outcome = problem.solve()
+    assert len(calls) == 2
+    np.testing.assert_array_equal(calls[0], problem.starts[0])
+    np.testing.assert_array_equal(calls[1], problem.starts[2])
+    first, second = outcome.starts[0], outcome.starts[1]
+    assert (second.index, second.status, second.return_status, second.objective,
+            second.iterations, second.feasible, second.exchange_points) == (
+        1, first.status, first.return_status, first.objective, first.iterations,
+        first.feasible, first.exchange_points)
+    # what running start 2 gives: a fresh problem whose only start is that point
+    alone = _free_problem(3)
+    alone.starts = alone.starts[1:2]
+    again = alone.solve()
+    assert (again.starts[0].objective, again.starts[0].iterations) == (
+        second.objective, second.iterations)
+    assert again.values == outcome.values
+    assert [index for index, _ in outcome.equal_optima] == [0, 1, 2]
+
+
+def test_a_start_that_ran_out_of_time_is_run_again(monkeypatch):
+    """A run that its time limit stopped is not taken over: the clock, not the iterates,
+    ended it."""
+    problem = _free_problem(2)
+    calls = []
+
+    def timed_out(start, started, hessian, resume=None):
+        calls.append(start)
+        problem._last_state = None
+        return start, "Maximum_WallTime_Exceeded", 3, 0, None
+
+    problem._solve_from = timed_out
+    outcome = problem.solve()
+    assert len(calls) == 2
+    assert [s.return_status for s in outcome.starts] == ["Maximum_WallTime_Exceeded"] * 2
