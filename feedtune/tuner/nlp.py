@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import to_array, to_float
-from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL
+from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL, TIME_LIMIT
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build, cached_structure, store_structure
 from feedtune.tuner.evaluation import Seen, smallest_magnitudes
@@ -108,9 +108,9 @@ FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
 class _Run(NamedTuple):
     """What one start gave (:meth:`Problem._run_start`): its status, IPOPT's return
     status, objective, iterations and exchange points, whether its end point is feasible,
-    that point z [ln tunable], the bound values and stability conditions there, and
+    that point z [ln tunable], the bound values and stability conditions there,
     (solver, :class:`~feedtune.tuner.optimum.Solution`) of its last IPOPT round (None
-    without one)."""
+    without one), and whether an attempt stopped at a time limit (CPU or wall clock)."""
 
     status: str
     return_status: str
@@ -122,6 +122,8 @@ class _Run(NamedTuple):
     bounds: list
     conditions: np.ndarray
     solution: tuple | None
+    clocked: bool
+
 
 class Problem:
     """The NLP, built once (or taken from the caches); :meth:`solve` runs the multistart.
@@ -339,8 +341,8 @@ class Problem:
         ``initial``: the Halton sequence's first point after the corner is the box's middle,
         the first start) is that earlier run: the same inputs to the same Functions and
         solver give the same iterates (a result is the same whether its solver is new or
-        reused), so its outcome is taken over, not computed again, unless that run stopped
-        at its time limit (a clock, not the iterates, ended it)."""
+        reused), so its outcome is taken over, not computed again, unless an attempt of that
+        run stopped at a time limit (a clock, not the iterates, ended it)."""
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, return_status, status)
         optima = []  # (index, objective, z) of every start that solved feasibly
@@ -352,7 +354,7 @@ class Problem:
             run = ran.get(point)
             if run is None:
                 run = self._run_start(z0, started)
-                if run.return_status != "Maximum_WallTime_Exceeded":
+                if not run.clocked:
                     ran[point] = run
             if run.solution is not None:
                 solutions[index] = run.solution
@@ -426,7 +428,7 @@ class Problem:
         Hessian in turn until one ends solved and feasible), ``started`` its clock [s,
         perf_counter]."""
         iterations = exchanged = 0
-        solution = None
+        solution, clocked = None, False
         attempts = (["scalar"] if self.scalar is not None else
                     self.hessians if self.has_nlp else [None])
         resume = None  # where the previous attempt of this start ended, if stable there
@@ -443,6 +445,7 @@ class Problem:
                 status = STATUS.get(return_status, "error")
             else:
                 z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
+            clocked = clocked or status == TIME_LIMIT
             objective, bounds, conditions, matrices = self._evaluate(z_opt)
             feasible, _ = self._feasible(bounds, conditions, matrices)
             if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
@@ -456,7 +459,7 @@ class Problem:
         if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
             objective = None
         return _Run(status, return_status, objective, iterations, exchanged, feasible, z_opt,
-                    bounds, conditions, solution)
+                    bounds, conditions, solution, clocked)
 
     def _solve_from(self, start: np.ndarray, started: float, hessian: str, resume=None) -> tuple:
         """One start: IPOPT (with this Hessian approximation), then exchange rounds while a

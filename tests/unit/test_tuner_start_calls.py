@@ -10,6 +10,7 @@ import math
 
 import casadi as ca
 import numpy as np
+import pytest
 
 from feedtune.tuner.nlp import Problem
 from feedtune.tuner.types import Settings, Term, Variable
@@ -146,18 +147,40 @@ def test_a_start_from_an_earlier_starts_point_is_that_run():
     assert [index for index, _ in outcome.equal_optima] == [0, 1, 2]
 
 
-def test_a_start_that_ran_out_of_time_is_run_again(monkeypatch):
-    """A run that its time limit stopped is not taken over: the clock, not the iterates,
-    ended it."""
+@pytest.mark.parametrize("limit", ["Maximum_WallTime_Exceeded", "Maximum_CpuTime_Exceeded"])
+def test_a_start_that_ran_out_of_time_is_run_again(limit):
+    """A run that a time limit stopped (IPOPT's wall-clock or CPU limit) is not taken over:
+    the clock, not the iterates, ended it."""
     problem = _free_problem(2)
     calls = []
 
     def timed_out(start, started, hessian, resume=None):
         calls.append(start)
         problem._last_state = None
-        return start, "Maximum_WallTime_Exceeded", 3, 0, None
+        return start, limit, 3, 0, None
 
     problem._solve_from = timed_out
     outcome = problem.solve()
     assert len(calls) == 2
-    assert [s.return_status for s in outcome.starts] == ["Maximum_WallTime_Exceeded"] * 2
+    assert [s.return_status for s in outcome.starts] == [limit] * 2
+
+
+def test_a_start_whose_first_attempt_ran_out_of_time_is_run_again():
+    """The limited-memory attempt stopped by the clock, the exact one then solved: the
+    run still depends on the clock, so a start from the same point runs again."""
+    problem = _free_problem(2)
+    problem.hessians = ["limited-memory", "exact"]
+    calls = []
+    solve_from = problem._solve_from
+
+    def first_timed_out(start, started, hessian, resume=None):
+        calls.append(hessian)
+        if hessian == "limited-memory":
+            problem._last_state = None
+            return start, "Maximum_WallTime_Exceeded", 3, 0, None
+        return solve_from(start, started, hessian, resume)
+
+    problem._solve_from = first_timed_out
+    outcome = problem.solve()
+    assert calls == ["limited-memory", "exact"] * 2
+    assert outcome.success and [s.status for s in outcome.starts] == ["optimal"] * 2
