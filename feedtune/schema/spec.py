@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import re
+import threading
 from typing import Annotated, Any, Callable, Literal, Union, get_origin
 
 from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
@@ -250,11 +251,15 @@ class MetricTerms:
 
     def __init__(self, build: Callable[[str, type], type]):
         self._build = build
+        self._models: dict[str, type] = {}
+        self._lock = threading.Lock()  # one class per metric, also when threads parse specs
 
-    @functools.cache
     def model(self, name: str) -> type:
         """The model of metric ``name``'s items (one class per metric and process)."""
-        return self._build(name, METRICS[name])
+        with self._lock:
+            if name not in self._models:
+                self._models[name] = self._build(name, METRICS[name])
+            return self._models[name]
 
     @functools.cached_property
     def union(self) -> TypeAdapter:
