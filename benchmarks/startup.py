@@ -10,7 +10,12 @@ target are printed.
 The three heaviest imports of `feedtune.schema.spec` (what `validate` loads) are listed from
 `python -X importtime`, so a change shows where the time went.
 
-Run: ``.venv/bin/python benchmarks/startup.py [--repeat N]``
+With ``--baseline DIR`` (another tree of feedtune, e.g. ``git archive main | tar -x -C DIR``)
+each command also runs from DIR (its ``feedtune`` package: ``python -m`` puts the working
+directory first on the path) interleaved with this tree's, on the same example files, and
+the baseline's medians and this tree's CPU over the baseline's are printed too.
+
+Run: ``.venv/bin/python benchmarks/startup.py [--repeat N] [--baseline DIR]``
 """
 
 from __future__ import annotations
@@ -38,13 +43,13 @@ CASES = {  # name: (arguments after `python -m feedtune`, issue 15's target [s] 
 }
 
 
-def wall(command: list[str]) -> tuple[float, float]:
-    """(wall, CPU) time [s] of one run of ``command``, output discarded; CPU is the child's
-    user + system time, which a loaded machine inflates far less than the wall time."""
+def wall(command: list[str], cwd: Path = REPO) -> tuple[float, float]:
+    """(wall, CPU) time [s] of one run of ``command`` in ``cwd``, output discarded; CPU is the
+    child's user + system time, which a loaded machine inflates far less than the wall time."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True,
-                   cwd=REPO, env=ENV)
+                   cwd=cwd, env=ENV)
     elapsed = time.perf_counter() - started
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return elapsed, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -67,21 +72,32 @@ def heaviest_imports(module: str, count: int = 3) -> list[tuple[float, str]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7, help="runs per case [count]")
+    parser.add_argument("--baseline", type=Path, help="another feedtune tree to compare with")
     args = parser.parse_args()
     baseline_command = [sys.executable, "-c", "pass"]
     print(f"load average {os.getloadavg()[0]:.1f}")
     print(f"{'case':<24} {'median [s]':>10} {'baseline [s]':>12} {'ratio':>6} {'CPU [s]':>8} "
-          f"{'base CPU':>8} {'target [s]':>10}")
+          f"{'base CPU':>8} {'target [s]':>10}"
+          + (f" {'tree [s]':>9} {'tree CPU':>8} {'CPU/tree':>8}" if args.baseline else ""))
     for name, (arguments, target) in CASES.items():
-        times, base = [], []
-        wall([sys.executable, "-m", "feedtune", *arguments])  # warm-up, not measured
+        times, base, tree = [], [], []
+        command = [sys.executable, "-m", "feedtune", *arguments]
+        wall(command)  # warm-up, not measured
+        if args.baseline:
+            wall(command, args.baseline)
         for _ in range(args.repeat):  # interleaved: load from elsewhere hits both alike
             base.append(wall(baseline_command))
-            times.append(wall([sys.executable, "-m", "feedtune", *arguments]))
+            times.append(wall(command))
+            if args.baseline:
+                tree.append(wall(command, args.baseline))
         t, b = (statistics.median(w for w, _ in runs) for runs in (times, base))
         cpu, base_cpu = (statistics.median(c for _, c in runs) for runs in (times, base))
-        print(f"{name:<24} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} {cpu:>8.3f} {base_cpu:>8.3f} "
-              f"{'—' if target is None else f'{target:.1f}':>10}")
+        line = (f"{name:<24} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} {cpu:>8.3f} {base_cpu:>8.3f} "
+                f"{'—' if target is None else f'{target:.1f}':>10}")
+        if args.baseline:
+            tree_wall, tree_cpu = (statistics.median(x[i] for x in tree) for i in (0, 1))
+            line += f" {tree_wall:>9.3f} {tree_cpu:>8.3f} {cpu / tree_cpu:>8.2f}"
+        print(line)
     print("\nslowest imports under feedtune.schema.spec (cumulative, one run):")
     for seconds, module in heaviest_imports("feedtune.schema.spec"):
         print(f"  {seconds:6.3f} s  {module.strip()}")

@@ -9,7 +9,9 @@ feedtune's bytecode is written once, before the tests start (:func:`pytest_confi
 suite starts many ``python -m feedtune`` processes and batch workers, and with
 ``pip install -e`` nothing else writes it when ``PYTHONDONTWRITEBYTECODE`` is set (as the
 tests set it for their subprocesses, and as many CI images do), so each of them compiled
-feedtune's sources again (≈ 0.1 s of CPU a process; issue 15).
+feedtune's sources again (≈ 0.1 s of CPU a process; issue 15). So is pytest's
+assertion-rewritten code of the test modules (tests/rewrite_cache.py), which every xdist
+worker rewrote for itself.
 
 Helpers for every test (tests/README.md says when to use which):
 
@@ -32,6 +34,7 @@ from pathlib import Path
 import pytest
 
 import feedtune
+import rewrite_cache
 from feedtune.__main__ import pin_blas_threads
 from signal_guard import pytest_runtest_setup, pytest_runtest_teardown  # noqa: F401
 
@@ -40,11 +43,13 @@ pin_blas_threads()
 
 def pytest_configure(config):
     """Byte-compile the feedtune package in place (its ``__pycache__``, as an import or
-    ``pip install`` would), once: in the process that starts the run, not in each xdist
+    ``pip install`` would), and write pytest's rewritten code of the run's test modules
+    (tests/rewrite_cache.py), once: in the process that starts the run, not in each xdist
     worker. A read-only installation is left as it is."""
     if hasattr(config, "workerinput"):  # an xdist worker: the controller did it
         return
     compileall.compile_dir(Path(feedtune.__file__).parent, quiet=2)
+    rewrite_cache.prewrite(config)
 
 
 #: files whose tests take far more CPU than their number suggests (≈ 50–100 s each on one

@@ -7,7 +7,6 @@ Errors go to stderr as ``error: ...`` lines and end the command with :data:`EXIT
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import os
 import sys
 import typing
@@ -128,6 +127,8 @@ def emit(data: bytes, path: Path | None) -> None:
 
 def _flush_c_stdio() -> None:
     """Flush the C library's stdio buffers (IPOPT writes through them)."""
+    import ctypes  # not at the top: `validate` and `--help` need no C library
+
     with contextlib.suppress(Exception):
         ctypes.CDLL(None).fflush(None)
 

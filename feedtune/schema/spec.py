@@ -8,14 +8,17 @@ objective (weighted metric terms) and constraints (metric bounds), and solver se
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
 import re
-from typing import Annotated, Any, Literal, Union, get_origin
+import threading
+from typing import Annotated, Any, Callable, Literal, Union, get_origin
 
 from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
                       create_model, field_validator, model_serializer, model_validator)
+from pydantic_core import SchemaValidator, core_schema
 from typing_extensions import TypedDict
 
 from feedtune.expr import Unbounded, to_float
@@ -234,11 +237,81 @@ def _tagged_union(models: tuple, tag: str):
     return Annotated[Union[models], Field(discriminator=tag)]
 
 
+class MetricTerms:
+    """Objective terms or constraints: the discriminated union, on ``metric``, of one model
+    per metric, each model built when a spec first names its metric.
+
+    Building the 44 metrics' objective and constraint models took about half of
+    ``feedtune validate``'s model building (issue 15's start-up; benchmarks/README.md), and
+    a spec names a few. An item whose ``metric`` names a metric is validated by a
+    one-member union of that metric's model: the same validation, error locations and
+    messages as the whole union's, which validates every other item (an unknown or missing
+    tag: its error lists every tag) and gives the JSON Schema.
+    """
+
+    def __init__(self, build: Callable[[str, type], type]):
+        self._build = build
+        self._models: dict[str, type] = {}
+        self._lock = threading.Lock()  # one class per metric, also when threads parse specs
+
+    def model(self, name: str) -> type:
+        """The model of metric ``name``'s items (one class per metric and process)."""
+        with self._lock:
+            if name not in self._models:
+                self._models[name] = self._build(name, METRICS[name])
+            return self._models[name]
+
+    @functools.cached_property
+    def union(self) -> TypeAdapter:
+        """The discriminated union of every metric's model."""
+        return TypeAdapter(_tagged_union(tuple(self.model(name) for name in METRICS), "metric"))
+
+    @functools.cache
+    def _one(self, name: str) -> SchemaValidator:
+        return SchemaValidator(core_schema.tagged_union_schema(
+            {name: self.model(name).__pydantic_core_schema__}, "metric", from_attributes=True))
+
+    def validate_python(self, value: Any, strict: bool | None = None):
+        """``value`` (a dict or a model) as the model its ``metric`` names."""
+        tag = value.get("metric") if isinstance(value, dict) else getattr(value, "metric", None)
+        if isinstance(tag, str) and tag in METRICS:
+            return self._one(tag).validate_python(value, strict=strict)
+        return self.union.validate_python(value, strict=strict)
+
+    def __get_pydantic_core_schema__(self, source, handler) -> core_schema.CoreSchema:
+        """Items validated by :meth:`validate_python` (strict when the spec's validation is),
+        serialised as their own model."""
+        def validate(value, handler):
+            return self.validate_python(value, strict=_is_strict(handler))
+
+        return core_schema.no_info_wrap_validator_function(
+            validate, core_schema.int_schema(),
+            serialization=core_schema.wrap_serializer_function_ser_schema(
+                lambda value, serialize: serialize(value), schema=core_schema.any_schema()))
+
+    def __get_pydantic_json_schema__(self, schema, handler):
+        """The whole union's JSON Schema (``feedtune schema``)."""
+        return handler(self.union.core_schema)
+
+
+def _is_strict(handler) -> bool:
+    """Whether the validation that called a wrap validator runs in strict mode (pydantic
+    tells a validator function its mode, not its strictness): ``handler`` validates an
+    int, which a string is only in lax mode."""
+    try:
+        handler("0")
+    except ValidationError:
+        return True
+    return False
+
+
 PlantSpec = _tagged_union(tuple(plant.Params for plant in PLANTS.values()), "type")
 #: plant type → its Params model (where an uncertain form may stand for a number)
 PLANT_MODELS = {name: plant.Params for name, plant in PLANTS.items()}
-ObjectiveTerm = _tagged_union(tuple(_objective_model(n, m) for n, m in METRICS.items()), "metric")
-ConstraintSpec = _tagged_union(tuple(_constraint_model(n, m) for n, m in METRICS.items()), "metric")
+#: the models of objective terms and of constraints, built per metric on first use
+OBJECTIVE_TERMS, CONSTRAINTS = MetricTerms(_objective_model), MetricTerms(_constraint_model)
+ObjectiveTerm = Annotated[Any, OBJECTIVE_TERMS]
+ConstraintSpec = Annotated[Any, CONSTRAINTS]
 
 
 class Spec(SpecModel):
@@ -541,10 +614,10 @@ def _merged(schema: list[tuple[str, str]], semantic: list[tuple[str, str]]) -> l
 # -- checks that need the registries -----------------------------------------------------
 
 _PLANT, _TUNABLE = TypeAdapter(PlantSpec), TypeAdapter(TunableSpec)
-_TERM = {"objective": TypeAdapter(ObjectiveTerm), "constraints": TypeAdapter(ConstraintSpec)}
+_TERM = {"objective": OBJECTIVE_TERMS, "constraints": CONSTRAINTS}
 
 
-def _valid(adapter: TypeAdapter, value: Any):
+def _valid(adapter: TypeAdapter | MetricTerms, value: Any):
     """``value`` validated (strict), or None when it does not validate."""
     try:
         return adapter.validate_python(value, strict=True)

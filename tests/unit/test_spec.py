@@ -384,3 +384,41 @@ def test_options_that_bypass_parse_spec_end_in_a_result_not_a_traceback():
     result = tune(spec.model_construct(**{**dict(spec), "solver": solver}))
     assert result.status == "error" and not result.success
     assert "would load a library" in result.message
+
+
+def _errors(validate, item, strict):
+    """(type, loc, msg) of each error of ``validate(item, strict=strict)``; [] if valid."""
+    from pydantic import ValidationError
+
+    try:
+        validate(item, strict=strict)
+    except ValidationError as exc:
+        return [(e["type"], e["loc"], e["msg"]) for e in exc.errors()]
+    return []
+
+
+@pytest.mark.parametrize("build", ["objective", "constraint"])
+def test_a_term_builds_only_its_metrics_model_and_validates_as_the_whole_union(build):
+    """Issue 15's start-up: an item builds the model of the metric it names, not all 44
+    metrics' (MetricTerms); its validation, error locations and messages, strict and lax,
+    are the whole discriminated union's, which an unknown or missing tag still gets."""
+    from feedtune.objectives import METRICS
+    from feedtune.schema import spec as module
+
+    make = module._objective_model if build == "objective" else module._constraint_model
+    built = []
+    terms = module.MetricTerms(lambda name, metric: built.append(name) or make(name, metric))
+    whole = TypeAdapter(module._tagged_union(tuple(make(n, m) for n, m in METRICS.items()),
+                                             "metric"))
+    valid = terms.validate_python({"metric": "iae", "min": 1.0}
+                                  if build == "constraint" else {"metric": "iae"}, strict=True)
+    assert built == ["iae"] and type(valid).__name__ == f"Iae{build.capitalize()}"
+    items = [{"metric": name, **extra} for name in ("iae", "phase_margin", "decay_rate")
+             for extra in ({}, {"weight": "2"}, {"weight": True}, {"min": 2, "max": 1},
+                           {"max": 1.0}, {"bogus": 1}, {"goal": "maximize"})]
+    items += [{"metric": "nope"}, {"metric": 3}, {"weight": 1}, [], "iae", {"metric": None}]
+    for item in items:
+        for strict in (True, False):
+            expected = _errors(whole.validate_python, item, strict)
+            assert _errors(terms.validate_python, item, strict) == expected, (item, strict)
+    assert sorted(built) == sorted(METRICS)  # the unknown tags built the whole union
