@@ -31,15 +31,6 @@ def pin_blas_threads(environ=os.environ) -> None:
         environ.setdefault(name, "1")
 
 
-def skip_pydantic_plugins(environ=os.environ) -> None:
-    """No pydantic plugins unless the user chose otherwise (``PYDANTIC_DISABLE_PLUGINS``
-    empty or naming some); then pydantic does not look for any, which costs 10 % of
-    ``feedtune validate``'s CPU (:func:`feedtune.schema.model.without_plugin_loader`).
-    feedtune's models need no plugin (they are observability hooks), and the batch workers
-    inherit the setting."""
-    environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
-
-
 def main() -> None:
     """The ``feedtune`` command: :func:`run`, then exit without the interpreter's teardown."""
     exit_without_teardown(run())
@@ -51,7 +42,6 @@ def run(args: list[str] | None = None):
     exit status 130."""
     interrupts.hold()  # released by the command about to run (feedtune.cli.main)
     pin_blas_threads()
-    skip_pydantic_plugins()
     from feedtune.cli import main as command_line
 
     try:

@@ -2,31 +2,7 @@
 and the one number type a result may hold infinite."""
 
 import math
-import os
-import sys
-import types
 from typing import Annotated
-
-
-def without_plugin_loader(environ=os.environ) -> None:
-    """When ``PYDANTIC_DISABLE_PLUGINS`` turns every pydantic plugin off (the ``feedtune``
-    command sets it: :func:`feedtune.__main__.skip_pydantic_plugins`) and no model has been
-    built yet, pydantic's plugin loader is stood in for by one whose ``get_plugins`` returns
-    none, as pydantic's own does then.
-
-    pydantic imports its loader when it builds its first validator, and the loader imports
-    ``importlib.metadata`` at its top, even when the variable turns every plugin off: ≈ 60
-    modules, 10 % of ``feedtune validate``'s CPU (benchmarks/README.md, "Branch h-imp").
-    """
-    name = "pydantic.plugin._loader"
-    if environ.get("PYDANTIC_DISABLE_PLUGINS") in ("__all__", "1", "true") \
-            and name not in sys.modules:
-        loader = types.ModuleType(name, "pydantic's plugin loader with every plugin off")
-        loader.get_plugins = lambda: ()
-        sys.modules[name] = loader
-
-
-without_plugin_loader()
 
 from pydantic import (AfterValidator, AllowInfNan, BaseModel, ConfigDict, PlainSerializer,
                       WithJsonSchema)

@@ -77,14 +77,3 @@ def test_validate_loads_neither_casadi_nor_numpy_on_the_other_examples():
     reports = loaded([["validate", str(path)] for path in paths], ("casadi", "numpy"))
     assert {path.stem: report for path, report in zip(paths, reports)} == {
         path.stem: (0, []) for path in paths}
-
-
-def test_validate_does_not_look_for_pydantic_plugins():
-    """The command turns pydantic's plugins off (``PYDANTIC_DISABLE_PLUGINS``, unless the user
-    set it), so it does not import ``importlib.metadata`` to look for them (≈ 60 modules, 10 %
-    of `validate`'s CPU; feedtune.__main__.skip_pydantic_plugins)."""
-    [(status, heavy)] = loaded(
-        [["validate", str(REPO / "examples" / "koren-1979-sampled-data.json")]],
-        ("importlib.metadata", "email"))
-    assert status == 0
-    assert heavy == []
