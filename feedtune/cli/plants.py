@@ -66,7 +66,7 @@ def _plant_classes() -> dict[str, type]:
 def plant_parameters(name: str | None) -> list[dict] | None:
     """The parameters of plant type ``name`` as :func:`describe_plants` lists them (name,
     unit, description, …), or None for an unknown type: what a report's page shows,
-    without the tunables of every plant's every structure (≈ 0.3 s a report)."""
+    without the tunables of every plant's every structure (≈ 50 ms a report warm)."""
     plant_cls = _plant_classes().get(name)
     return None if plant_cls is None else describe_fields(plant_cls.Params)
 

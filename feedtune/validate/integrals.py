@@ -34,7 +34,6 @@ def error_integrals(t: np.ndarray, e: np.ndarray,
     cross = np.flatnonzero(e0 * e1 < 0)
     if cross.size:
         c0, c1, ct, cd = a0[cross], a1[cross], t0[cross], dt[cross]
-        frac = c0 / (c0 + c1)  # where the zero lies in the piece
     if "iae" in names:
         iae = float(np.sum((a0 + a1) * dt)) / 2
         if cross.size:
@@ -44,6 +43,7 @@ def error_integrals(t: np.ndarray, e: np.ndarray,
     if "itae" in names:
         itae = float(np.sum((a0 * (2 * t0 + t1) + a1 * (t0 + 2 * t1)) * dt)) / 6
         if cross.size:
+            frac = c0 / (c0 + c1)  # where the zero lies in the piece
             triangles = (c0 * frac * cd * (ct + frac * cd / 3)
                          + c1 * (1 - frac) * cd * (ct + frac * cd + 2 * (1 - frac) * cd / 3)) / 2
             itae += float(np.sum(triangles - (c0 * (3 * ct + cd) + c1 * (3 * ct + 2 * cd))
