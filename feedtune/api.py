@@ -395,13 +395,13 @@ class Result:
             ``directory`` holds a file of a name the report writes that an earlier report
             did not write; nothing is written then.
         """
-        from feedtune.cli.plants import describe_plants
+        from feedtune.cli.plants import plant_parameters
         from feedtune.report import build_figures, write_report
 
         result = self.data.model_dump(mode="json")
-        plant = describe_plants().get(((result.get("spec") or {}).get("plant") or {}).get("type"))
+        parameters = plant_parameters(((result.get("spec") or {}).get("plant") or {}).get("type"))
         figures = build_figures(result)
-        written = write_report(result, Path(directory), figures, plant and plant["parameters"])
+        written = write_report(result, Path(directory), figures, parameters)
         return ReportFiles(page=written[0], figures=written[1:],
                       left_out={stem: why for stem, _, png, why in figures if png is None})
 

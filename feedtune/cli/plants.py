@@ -51,8 +51,8 @@ def _plant_tunables(name: str, plant_cls) -> dict[str, dict]:
     return out
 
 
-def describe_plants() -> dict[str, dict]:
-    """Every registered plant: parameters and, per technique, tunables with default bounds."""
+def _plant_classes() -> dict[str, type]:
+    """Every registered plant class by its type name, the data plants' modules imported."""
     import importlib
 
     from feedtune.plants import DATA_PLANTS, PLANTS
@@ -60,8 +60,21 @@ def describe_plants() -> dict[str, dict]:
     data_plants = {name: importlib.import_module(module).__dict__[
         "".join(part.capitalize() for part in name.split("_"))]
         for name, module in DATA_PLANTS.items()}
+    return {**PLANTS, **data_plants}
+
+
+def plant_parameters(name: str | None) -> list[dict] | None:
+    """The parameters of plant type ``name`` as :func:`describe_plants` lists them (name,
+    unit, description, …), or None for an unknown type: what a report's page shows,
+    without the tunables of every plant's every structure (≈ 50 ms a report warm)."""
+    plant_cls = _plant_classes().get(name)
+    return None if plant_cls is None else describe_fields(plant_cls.Params)
+
+
+def describe_plants() -> dict[str, dict]:
+    """Every registered plant: parameters and, per technique, tunables with default bounds."""
     plants = {}
-    for name, plant_cls in {**PLANTS, **data_plants}.items():
+    for name, plant_cls in _plant_classes().items():
         module = sys.modules.get(plant_cls.__module__)
         plants[name] = {
             "summary": _first_line(getattr(module, "__doc__", None)),

@@ -426,7 +426,7 @@ class ContinuousModel:
 
 def _integral(model: ContinuousModel, options: dict, cache: dict, name: str) -> float:
     t, e, _, _ = model.error(options.get("input", "step"), cache)
-    return error_integrals(t, e)[name]
+    return error_integrals(t, e, (name,))[name]
 
 
 def _overshoot(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
@@ -444,7 +444,7 @@ def _settling_time(model: ContinuousModel, options: dict, reported, cache: dict)
 def _load_rejection(model: ContinuousModel, options: dict, reported, cache: dict) -> float:
     t, e, exact, steady = model.error("load", cache)
     if options.get("measure", "peak") == "iae":
-        return error_integrals(t, e)["iae"]
+        return error_integrals(t, e, ("iae",))["iae"]
     # |e| = |e − e_ss + e_ss|, the static error included
     value = max(model._extreme(t, e + steady, lambda tt: exact(tt) + steady, s)
                 for s in (1.0, -1.0))

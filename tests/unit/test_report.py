@@ -212,3 +212,16 @@ def test_the_page_states_warnings_a_non_unique_optimum_and_unmet_constraints(tmp
     assert "Implausible: /objective/0/radius: circle radius 20 m is far outside &lt;practice&gt;" in page
     assert "not unique: the objective does not decide position_gain. fix one of them" in page
     assert "not met (loop unstable)" in page and ">OK<" not in page.split("<h2>Constraints</h2>")[1].split("<h2>")[0]
+
+
+def test_the_pages_plant_parameters_are_those_feedtune_plants_lists():
+    """``Result.report`` reads one plant's parameters (``plant_parameters``), not the
+    description of every plant: the same list as ``feedtune plants --json`` for every
+    registered type, and none for a type no plant has."""
+    from feedtune.cli.plants import describe_plants, plant_parameters
+
+    described = describe_plants()
+    assert described
+    for name, plant in described.items():
+        assert plant_parameters(name) == plant["parameters"], name
+    assert plant_parameters("no-such-plant") is None

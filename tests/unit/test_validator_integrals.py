@@ -57,3 +57,14 @@ def test_one_crossing_piece_is_two_triangles():
     assert got["iae"] == pytest.approx(5.0, rel=1e-15)
     assert got["ise"] == pytest.approx(28 / 3, rel=1e-15)
     assert got["itae"] == pytest.approx(7 / 6 + 45 / 2, rel=1e-15)
+
+
+@pytest.mark.parametrize("names", [("iae",), ("ise",), ("itae",), ("iae", "itae")])
+def test_the_integrals_asked_for_alone_are_the_same_floats(names):
+    """``names``: only those integrals are computed and returned, each the very float of
+    the three computed together (the same operations: the validator asks for one)."""
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.5e-3, 2e-3, 400))  # [s]
+    e = np.exp(-t / 0.1) * np.cos(2 * np.pi * t / 0.05)  # [m], many sign changes
+    every = error_integrals(t, e)
+    assert error_integrals(t, e, names) == {name: every[name] for name in names}
