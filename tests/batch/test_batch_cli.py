@@ -723,11 +723,16 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
 
 
 def _batch_on_a_running_cluster(*args: str) -> tuple[str, subprocess.CompletedProcess]:
-    """(scheduler address, ``feedtune batch ARGS --scheduler ADDRESS``) with a local Dask
-    cluster of one worker process running meanwhile (started first, stopped last)."""
+    """(scheduler address, ``feedtune batch ARGS --scheduler ADDRESS``) with a Dask cluster
+    of one single-threaded worker listening on TCP running meanwhile (started first,
+    stopped last). The worker is a thread of this process (already warm, a forked child
+    of the test process), not a fresh interpreter loading the tuner again (≈ 3 s of CPU):
+    what is tested is the batch joining a scheduler at an address, not its worker's
+    process (a Dask worker process is tested by the executors' comparison and a worker's
+    death)."""
     from distributed import LocalCluster
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
                       dashboard_address=None) as cluster:
         return cluster.scheduler_address, in_process(
             "batch", *args, "--scheduler", cluster.scheduler_address)
