@@ -16,7 +16,6 @@ import multiprocessing
 import multiprocessing.process
 import multiprocessing.util
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -763,30 +762,62 @@ def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
     assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
 
 
+def _serve_dask(send, address: str | None) -> None:
+    """Until killed: a Dask scheduler on a free TCP port of 127.0.0.1, its address sent by
+    ``send``, when ``address`` is None; else a single-threaded Dask worker of the
+    scheduler at ``address``. Dask's log lines go nowhere."""
+    import asyncio
+
+    from distributed import Scheduler, Worker
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    os.close(devnull)
+
+    async def serve() -> None:
+        if address is None:
+            async with Scheduler(host="127.0.0.1", port=0, dashboard=False,
+                                 dashboard_address=":0") as scheduler:
+                send.send(scheduler.address)
+                await scheduler.finished()
+        else:
+            async with Worker(address, nthreads=1) as worker:
+                await worker.finished()
+
+    asyncio.run(serve())
+
+
 @contextlib.contextmanager
 def dask_scheduler(workers: int):
     """A Dask scheduler and ``workers`` single-threaded workers, each a process of its own
-    (so a test can kill the scheduler); yields (address, scheduler process)."""
-    command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-               "--port", "0", "--no-dashboard"]
-    scheduler = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    (so a test can kill the scheduler); yields (address, scheduler process).
+
+    Each is a child forked from this process (spawned if it runs other threads, as
+    in_a_fork's), not a ``python -m distributed.cli.dask_scheduler`` or ``dask_worker``:
+    the batch under test is the process of its own here; a worker forked from this
+    process has the tuner loaded (≈ 2 s of CPU less than a fresh one's first spec)."""
+    from feedtune.batch.local import start_method
+
+    context = multiprocessing.get_context(start_method())
+    receive, send = context.Pipe(duplex=False)
+    scheduler = context.Process(target=_serve_dask, args=(send, None), daemon=True)
+    scheduler.start()
+    send.close()
     processes = [scheduler]
     try:
-        for line in scheduler.stderr:
-            found = re.search(r"Scheduler at:\s+(\S+)", line)
-            if found:
-                break
-        else:
+        if not receive.poll(120):
             raise RuntimeError("the Dask scheduler did not start")
-        address = found.group(1)
-        processes += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
-                                        address, "--nthreads", "1", "--no-dashboard"],
-                                       stderr=subprocess.DEVNULL) for _ in range(workers)]
+        address = receive.recv()
+        for _ in range(workers):
+            processes.append(context.Process(target=_serve_dask, args=(None, address),
+                                             daemon=True))
+            processes[-1].start()
         yield address, scheduler
     finally:
+        receive.close()
         for process in processes:
             process.kill()
-            process.wait()
+            process.join()
 
 
 def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_path):
