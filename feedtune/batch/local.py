@@ -70,7 +70,10 @@ def start_method() -> str:
 
 
 def _die_with_parent() -> None:
-    """Ask Linux to SIGKILL this process when its parent dies (no orphans after a kill)."""
+    """Ask Linux to SIGKILL this process when its parent dies (no orphans after a kill),
+    and end it now if the parent died before it asked: a worker whose batch was killed as
+    it started waited for work forever (its connection to the batch never reaches its end:
+    a forked worker holds the batch's end of it too)."""
     try:
         import ctypes
 
@@ -78,6 +81,8 @@ def _die_with_parent() -> None:
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
+    if os.getppid() != multiprocessing.parent_process().pid:
+        os._exit(1)
 
 
 def _worker_main(connection, job: Callable, mask: frozenset) -> None:

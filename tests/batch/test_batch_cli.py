@@ -990,6 +990,67 @@ def test_a_signal_reaching_a_worker_as_it_starts_prints_no_traceback(tmp_path, c
     assert [row["status"] for row in outcome.document["rows"]] == ["optimal"] * 2
 
 
+#: a batch SIGKILLed right after it started its worker, which pauses as it starts (its pid
+#: written to argv[1]), so that the batch is gone before the worker's own code runs
+KILLED_AS_A_WORKER_STARTS = """
+import multiprocessing.process, multiprocessing.util, os, signal, sys, threading, time
+import feedtune.batch.job
+from feedtune.batch.local import LocalExecutor
+
+feedtune.batch.job.warm_up = lambda: None  # nothing to load: the worker's start is tested
+
+
+def pause(_anchor):
+    with open(sys.argv[1], "w") as out:
+        out.write(str(os.getpid()))
+    time.sleep(1.0)
+
+
+anchor = threading.Event()
+multiprocessing.util.register_after_fork(anchor, pause)
+started = multiprocessing.process.BaseProcess.start
+
+
+def start_then_die(process):
+    started(process)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+multiprocessing.process.BaseProcess.start = start_then_die
+LocalExecutor(1, start="fork").run([(0, b"{}", None)], lambda index, outcome: None)
+"""
+
+
+def running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (Linux: /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rpartition(")")[2].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_a_worker_whose_batch_died_as_it_started_does_not_wait_forever(tmp_path):
+    """A worker asks the kernel to kill it when its batch dies; a batch killed before the
+    worker had asked left it waiting for work forever (the worker holds the batch's end
+    of their connection too, so it never reads an end of file)."""
+    with open(tmp_path / "stderr", "w") as stderr:  # not a pipe: the worker would hold it
+        done = subprocess.run([sys.executable, "-c", KILLED_AS_A_WORKER_STARTS,
+                               str(tmp_path / "worker")], stdout=subprocess.DEVNULL,
+                              stderr=stderr, timeout=120, cwd=REPO)
+    assert done.returncode == -signal.SIGKILL, (tmp_path / "stderr").read_text()
+    pid = int((tmp_path / "worker").read_text())
+    try:
+        deadline = time.monotonic() + 30
+        while running(pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not running(pid), "the orphaned worker is still waiting"
+    finally:
+        if running(pid):
+            os.kill(pid, signal.SIGKILL)
+
+
 def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path, monkeypatch):
     """A Ctrl-C landing inside one spec's bookkeeping (here: as its result is written) is
     held until the file and its summary row are both done, then stops the batch."""
