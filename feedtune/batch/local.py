@@ -92,9 +92,10 @@ def _worker_main(connection, job: Callable, mask: frozenset) -> None:
     It starts with STOP_SIGNALS blocked (:meth:`LocalExecutor._spawn`) and unblocks them
     (back to ``mask``, the parent's signal mask before the start) only once its own
     handlers are set: a forked worker is a copy of the batch's process, whose handlers turn
-    these signals into a KeyboardInterrupt, and one arriving before this line (a Ctrl-C to
-    the terminal's process group, a CI's SIGTERM to every process) printed multiprocessing's
-    traceback of the worker's start instead of being ignored or ending it.
+    these signals into a KeyboardInterrupt, and one arriving before the worker's own
+    handlers were set (a Ctrl-C to the terminal's process group, a CI's SIGTERM to every
+    process) printed multiprocessing's traceback of the worker's start instead of being
+    ignored or ending it.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     # a forked worker inherits the parent's handler (the batch defers SIGTERM while it
