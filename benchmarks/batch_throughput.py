@@ -25,13 +25,19 @@ b. the batch, ``feedtune.batch.runner.run_batch`` with ``LocalExecutor(workers=W
    mode runs with one BLAS thread per process, as the ``feedtune`` command sets it
    (``feedtune.__main__.pin_blas_threads``; set here before numpy loads);
 c. a resumed rerun of the last batch's directory (every result already there: each spec
-   is parsed and hashed, nothing is solved).
+   is parsed and hashed, nothing is solved);
+d. with ``--dask``, the same batch on a local Dask cluster of the largest worker count
+   (``DaskExecutor``: the cluster's start, its worker processes' start-up and their first
+   specs included), its result files compared with the local executor's field by field
+   (:func:`compare_results`): the executors must give the same results.
 
 It prints one table: specs/s and ms/spec (wall) per mode, the batch's per-spec overhead
 relative to a single solve, (batch s/spec − single s/spec) / single s/spec, the speed-up
 of each worker count over 1 worker, the mean time inside ``solve`` per spec (the summary
 rows' ``time``: parse + tune as a worker measured it) and CPU ms/spec (this process and
-its joined worker processes), which tell contention on a shared machine from overhead.
+its worker processes: the joined ones and, for the Dask cluster's, those still running
+or reaped by another of them, e.g. multiprocessing's forkserver; :func:`_cpu`), which tell
+contention on a shared machine from overhead.
 With ``feedtune.tuner.cache.solver_cache_info()`` (when it exists) it also prints this
 process's solver-cache hit rate over the single solves.
 
@@ -47,6 +53,7 @@ meant to be faster only should leave every one equal.
     .venv/bin/python benchmarks/batch_throughput.py                 # 2000 specs
     .venv/bin/python benchmarks/batch_throughput.py --specs 300 --workers 1 2 --keep
     .venv/bin/python benchmarks/batch_throughput.py --specs 300 --workers 1 2 --baseline main
+    .venv/bin/python benchmarks/batch_throughput.py --specs 150 --workers 2 --dask --baseline main
 """
 
 from __future__ import annotations
@@ -206,12 +213,19 @@ def _cache_rate(before, after) -> str:
     return f"{rate} ({hits} hits, {misses} misses over the timed single solves; now {after!r})"
 
 
-def batch(spec_dir: Path, out: Path, workers: int, start: str | None = None) -> dict:
+def batch(spec_dir: Path, out: Path, workers: int, start: str | None = None,
+          dask: bool = False) -> dict:
     """One run_batch of every spec in ``spec_dir`` into ``out`` (``start``: the workers'
-    start method, when not the executor's default)."""
+    start method, when not the executor's default; ``dask``: on a local Dask cluster of
+    ``workers`` processes instead)."""
     cpu = _cpu()
-    executor = (LocalExecutor(workers=workers) if start is None
-                else LocalExecutor(workers=workers, start=start))
+    if dask:
+        from feedtune.batch.dask_cluster import DaskExecutor
+
+        executor = DaskExecutor(workers=workers)
+    else:
+        executor = (LocalExecutor(workers=workers) if start is None
+                    else LocalExecutor(workers=workers, start=start))
     outcome = run_batch([str(spec_dir)], out, executor)
     document = outcome.document
     return {"count": document["specs"], "wall": outcome.wall,
@@ -221,10 +235,38 @@ def batch(spec_dir: Path, out: Path, workers: int, start: str | None = None) -> 
 
 
 def _cpu() -> float:
-    """CPU seconds of this process and its finished (joined) children, the workers."""
+    """CPU seconds of this process and of every process started below it: the finished
+    (joined) children, the workers, and on Linux (``/proc``) every descendant still running
+    with the children it has reaped itself (a Dask cluster's forkserver keeps running, and
+    its worker processes are its children, not this process's)."""
     own = resource.getrusage(resource.RUSAGE_SELF)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    total = own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    return total + _running_descendants_cpu()
+
+
+def _running_descendants_cpu() -> float:
+    """utime + stime + cutime + cstime of every running descendant (Linux; else 0)."""
+    try:
+        tick = os.sysconf("SC_CLK_TCK")
+        parents, times = {}, {}
+        for entry in os.listdir("/proc"):
+            if not entry.isdigit():
+                continue
+            try:
+                with open(f"/proc/{entry}/stat") as stat:
+                    fields = stat.read().rpartition(")")[2].split()
+            except OSError:  # gone meanwhile
+                continue
+            parents[int(entry)] = int(fields[1])
+            times[int(entry)] = sum(int(f) for f in fields[11:15]) / tick
+    except (OSError, ValueError, AttributeError):
+        return 0.0
+    below, frontier = set(), {os.getpid()}
+    while frontier:
+        frontier = {pid for pid, parent in parents.items() if parent in frontier} - below
+        below |= frontier
+    return sum(times[pid] for pid in below)
 
 
 # -- report ------------------------------------------------------------------------------
@@ -251,6 +293,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="also measure git revision REV's feedtune, alternating with this one")
     parser.add_argument("--rounds", type=int, default=1,
                         help="with --baseline: pairs of runs (baseline, current)")
+    parser.add_argument("--dask", action="store_true",
+                        help="also run the batch on a local Dask cluster (the largest worker "
+                             "count), last, and compare its results with the local executor's")
     parser.add_argument("--json", metavar="FILE", help=argparse.SUPPRESS)  # for --baseline
     # for --baseline: keep the largest worker count's result files in this directory
     parser.add_argument("--results", metavar="DIR", help=argparse.SUPPRESS)
@@ -285,6 +330,8 @@ def main(argv: list[str] | None = None) -> int:
         spawned = (batch(spec_dir, root / f"out-{last}-spawned", last, start="spawn")
                    if _chooses_start() else None)
         resumed = batch(spec_dir, root / f"out-{last}", last)
+        # last: a Dask client leaves threads here, after which local workers would spawn
+        dask = batch(spec_dir, root / f"out-{last}-dask", last, dask=True) if args.dask else None
         if args.results:
             shutil.copytree(root / f"out-{last}", args.results, dirs_exist_ok=True)
         load_after = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
@@ -308,20 +355,27 @@ def main(argv: list[str] | None = None) -> int:
                        "the tuner itself)", spawned, single_per, one))
         print(_row(f"resumed rerun, {last} worker{'s' if last > 1 else ''} (nothing solved)",
                    resumed, None, one))
+        if dask is not None:
+            print(_row(f"batch, local Dask cluster of {last} worker{'s' if last > 1 else ''} "
+                       "(its start included)", dask, single_per, one))
         print()
         for label, m in [("single", single), *((f"batch {w}", runs[w]) for w in workers),
-                         ("resumed", resumed)]:
+                         ("resumed", resumed), *((("dask", dask),) if dask else ())]:
             counts = ", ".join(f"{n} {s}" for s, n in sorted(m["statuses"].items()))
             print(f"statuses, {label}: {counts}")
         if resumed["resumed"] != resumed["count"]:
             print(f"WARNING: only {resumed['resumed']} of {resumed['count']} rows resumed")
+        if dask is not None:
+            print(f"Dask against the local executor ({last} workers): "
+                  + compare_results(root / f"out-{last}", root / f"out-{last}-dask"))
         cache = single["cache"]
         print("solver cache, single solves: " + (cache if cache else
               "feedtune.tuner.cache has no solver_cache_info(); not reported"))
         if args.json:
             modes = {"single": single, **{f"batch, {w} worker(s)": runs[w] for w in workers},
                      **({f"batch, {last} worker(s), spawned": spawned} if spawned else {}),
-                     "resumed": resumed}
+                     "resumed": resumed,
+                     **({f"batch, local Dask cluster of {last}": dask} if dask else {})}
             Path(args.json).write_text(json.dumps({
                 "tree": str(TREE), "load": [load, load_after], "cache": cache,
                 "modes": {label: {"specs_per_s": m["count"] / m["wall"],
@@ -424,7 +478,12 @@ def compare(args, argv: list[str]) -> int:
             pair = []
             for tree in (root, REPO):
                 out = root / f"run-{round_}-{'baseline' if tree == root else 'current'}.json"
-                env = {**os.environ, "FEEDTUNE_BENCH_TREE": str(tree)}
+                # PYTHONPATH too: a fresh interpreter started below (a Dask cluster's
+                # forkserver, which imports feedtune before any worker tells it sys.path)
+                # must load the same tree
+                env = {**os.environ, "FEEDTUNE_BENCH_TREE": str(tree),
+                       "PYTHONPATH": os.pathsep.join(
+                           [str(tree), *filter(None, [os.environ.get("PYTHONPATH")])])}
                 results = root / f"results-{round_}-{'baseline' if tree == root else 'current'}"
                 subprocess.run([sys.executable, __file__, *forwarded, "--json", str(out),
                                 "--results", str(results)], check=True, env=env)

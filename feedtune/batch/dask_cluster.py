@@ -10,6 +10,10 @@ that kills its worker when alone is charged ``worker_died``. Workers keep their 
 cache between tasks, as local workers do. At most ``WINDOW`` tasks per worker are in
 flight, so a batch of a million specs does not sit in the scheduler's memory at once.
 
+A local cluster's worker processes are forked from a server that has loaded and warmed the
+tuner once (:func:`warm_worker_processes`), not started as fresh interpreters that each
+load it again.
+
 A cluster that cannot be used stops the batch with :class:`~feedtune.batch.runner.ExecutorError`
 (exit status 2), keeping every result that finished: no connection to the scheduler, or no
 worker, within ``worker_timeout``; or the scheduler lost mid-run (Dask then cancels every
@@ -18,7 +22,10 @@ task in flight: those specs stay ``not_run`` for a rerun, not ``error``).
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import multiprocessing
+import sys
 from concurrent.futures import CancelledError
 from typing import Callable
 
@@ -27,8 +34,40 @@ from feedtune.batch.runner import ExecutorError
 from feedtune.schema.status import ERROR
 
 WINDOW = 64
+#: what the local cluster's forkserver imports before it forks a worker (the second warms
+#: the tuner up on import)
+PRELOAD = ("distributed", "feedtune.batch.warm")
 #: default wait for the scheduler's connection and its first worker [s]
 WORKER_TIMEOUT = 60.0
+
+
+@contextlib.contextmanager
+def warm_worker_processes():
+    """Meanwhile, the worker processes of a local Dask cluster (and those its nannies start
+    again after a death) are forked from multiprocessing's forkserver, which has imported
+    PRELOAD once, i.e. distributed, the tuner and the validator, and tuned
+    :data:`~feedtune.batch.job.WARM_UP_SPEC` (:mod:`feedtune.batch.warm`), instead of
+    being fresh interpreters (Dask's default, spawn) that each import them and build their
+    first spec's solver on their own: ≈ 3.9 s → 0.5 s of CPU a worker after the server's
+    ≈ 3 s once (two workers, 3 specs, load 9; benchmarks/README.md "Branch h-tbat").
+
+    The server is forked from no thread-running process (it is a fresh interpreter of its
+    own), so this is safe where forking the batch's process is not (the Dask client runs
+    threads). Only where the local executor would fork (:func:`~feedtune.batch.local.
+    start_method`: Linux); elsewhere Dask's own start is left alone.
+    """
+    if "forkserver" not in multiprocessing.get_all_start_methods() or sys.platform == "darwin":
+        yield
+        return
+    import dask
+    from distributed.utils import get_mp_context
+
+    with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
+        # distributed sets its own preload list at its first call in a process, and never
+        # again: after that call, this one is the server's (when it starts, at the first
+        # worker; a server already running keeps its own)
+        get_mp_context().set_forkserver_preload(list(PRELOAD))
+        yield
 
 
 class DaskExecutor:
@@ -60,8 +99,10 @@ class DaskExecutor:
         client_level = client_log.level
         client_log.setLevel(logging.CRITICAL)
         cluster = client = None
+        local = contextlib.ExitStack()
         try:
             if self.address is None:
+                local.enter_context(warm_worker_processes())
                 cluster = LocalCluster(n_workers=self.workers or default_workers(),
                                        threads_per_worker=1, processes=True,
                                        dashboard_address=None)
@@ -83,6 +124,7 @@ class DaskExecutor:
                 client.close()
             if cluster is not None:
                 cluster.close()
+            local.close()
             client_log.setLevel(client_level)
 
     def _run(self, client, tasks, on_outcome, where: str) -> None:

@@ -23,6 +23,7 @@ loading the rest on its first spec (≈ 0.9 s + 0.8 s of CPU per worker, issue 1
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.resource_tracker
 import os
 import signal
 import sys
@@ -39,6 +40,8 @@ from feedtune.batch.job import TIMEOUT, WORKER_DIED, Outcome, solve
 CHUNK_SECONDS = 0.5
 #: how long the parent waits for messages before checking time limits [s]
 POLL_SECONDS = 0.2
+#: what the batch's process handles itself (Ctrl-C, and SIGTERM: how CI cancels)
+STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
 
 
 def default_workers() -> int:
@@ -67,7 +70,10 @@ def start_method() -> str:
 
 
 def _die_with_parent() -> None:
-    """Ask Linux to SIGKILL this process when its parent dies (no orphans after a kill)."""
+    """Ask Linux to SIGKILL this process when its parent dies (no orphans after a kill),
+    and end it now if the parent died before it asked: a worker whose batch was killed as
+    it started waited for work forever (its connection to the batch never reaches its end:
+    a forked worker holds the batch's end of it too)."""
     try:
         import ctypes
 
@@ -75,15 +81,28 @@ def _die_with_parent() -> None:
         libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         pass
+    if os.getppid() != multiprocessing.parent_process().pid:
+        os._exit(1)
 
 
-def _worker_main(connection, job: Callable) -> None:
+def _worker_main(connection, job: Callable, mask: frozenset) -> None:
     """A worker: run ``job`` on each spec of each chunk the parent sends, reporting each
-    spec's start and end."""
+    spec's start and end.
+
+    It starts with STOP_SIGNALS blocked (:meth:`LocalExecutor._spawn`) and unblocks them
+    (back to ``mask``, the parent's signal mask before the start) only once its own
+    handlers are set: a forked worker is a copy of the batch's process, whose handlers turn
+    these signals into a KeyboardInterrupt, and one arriving before the worker's own
+    handlers were set (a Ctrl-C to the terminal's process group, a CI's SIGTERM to every
+    process) printed multiprocessing's traceback of the worker's start instead of being
+    ignored or ending it.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     # a forked worker inherits the parent's handler (the batch defers SIGTERM while it
-    # writes a result): here SIGTERM ends the process, as in a spawned one
+    # writes a result): here SIGTERM ends the process, as in a spawned one; one that came
+    # meanwhile does so now
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     _die_with_parent()
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # solver chatter must not reach the batch's stdout
@@ -148,7 +167,7 @@ class LocalExecutor:
         self._context = multiprocessing.get_context(method)
         try:
             for _ in range(min(self.workers, len(queue))):
-                workers.append(self._spawn())
+                self._spawn(workers)
             for worker in workers:
                 self._feed(worker, queue, durations)
             while any(w.chunk for w in workers) or queue:
@@ -161,7 +180,7 @@ class LocalExecutor:
                         self._receive(worker, on_outcome, durations)  # what it sent before dying
                         self._lost(worker, queue, on_outcome, WORKER_DIED,
                                    _death_message(worker.process.exitcode))
-                        workers[workers.index(worker)] = worker = self._spawn()
+                        worker = self._spawn(workers, replacing=worker)
                     elif (self.timeout is not None and worker.current is not None
                           and time.perf_counter() - worker.since > self.timeout):
                         worker.process.kill()
@@ -169,7 +188,7 @@ class LocalExecutor:
                         self._lost(worker, queue, on_outcome, TIMEOUT,
                                    f"took longer than the batch's time limit of {self.timeout:g} s "
                                    "per spec; its worker was stopped")
-                        workers[workers.index(worker)] = worker = self._spawn()
+                        worker = self._spawn(workers, replacing=worker)
                     if not worker.chunk:
                         self._feed(worker, queue, durations)
         finally:
@@ -184,13 +203,38 @@ class LocalExecutor:
                     worker.process.kill()
                     worker.process.join()
 
-    def _spawn(self) -> _Worker:
-        parent, child = self._context.Pipe()
-        process = self._context.Process(target=_worker_main, args=(child, self.job), daemon=True,
-                                        name="feedtune-batch-worker")
-        process.start()
-        child.close()
-        return _Worker(process, parent)
+    def _spawn(self, workers: list[_Worker], replacing: _Worker | None = None) -> _Worker:
+        """Start a worker and put it in ``workers`` (in ``replacing``'s place, if given).
+
+        STOP_SIGNALS are blocked from before the fork until the worker is in ``workers``:
+        a Ctrl-C or SIGTERM landing between the two raised its KeyboardInterrupt here with
+        the new worker in no list, so :meth:`run` never stopped it, and at the batch's exit
+        multiprocessing sent it SIGTERM, which a worker still starting (forked with this
+        process's handlers) turned into a traceback on stderr (the flaky
+        ``test_a_signal_early_in_the_batch_is_exit_130_without_a_traceback[sigterm-0.6]``).
+        The signal is handled once the worker is listed; the worker unblocks them itself
+        (:func:`_worker_main`).
+        """
+        if self._context.get_start_method() != "fork":
+            # multiprocessing starts its resource tracker with the first spawned process
+            # and unblocks these signals after that, whatever was blocked before: first
+            multiprocessing.resource_tracker.ensure_running()
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+        try:
+            parent, child = self._context.Pipe()
+            process = self._context.Process(target=_worker_main,
+                                            args=(child, self.job, frozenset(mask)),
+                                            daemon=True, name="feedtune-batch-worker")
+            process.start()
+            child.close()
+            worker = _Worker(process, parent)
+            if replacing is None:
+                workers.append(worker)
+            else:
+                workers[workers.index(replacing)] = worker
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        return worker
 
     def _feed(self, worker: _Worker, queue: deque, durations: list[float]) -> None:
         if not queue:

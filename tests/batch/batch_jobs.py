@@ -9,6 +9,7 @@ import os
 import signal
 import sys
 import time
+from pathlib import Path
 
 from feedtune.batch.job import Outcome, solve
 
@@ -70,3 +71,19 @@ def lock_descriptors(data: bytes, existing):
         except OSError:  # the descriptor listdir itself used, closed meanwhile
             pass
     return Outcome("error", f"lock descriptors: {sum(n.endswith(LOCK_NAME) for n in names)}")
+
+
+def signal_once(flag: Path, signum: int):
+    """A function for ``multiprocessing.util.register_after_fork``: in the first worker
+    process started after it is registered (the one that creates ``flag``), send that
+    process ``signum`` while it starts, before its own code runs; later workers start
+    undisturbed."""
+
+    def send(_anchor) -> None:
+        try:
+            os.close(os.open(flag, os.O_CREAT | os.O_EXCL))
+        except FileExistsError:
+            return
+        os.kill(os.getpid(), signum)
+
+    return send

@@ -13,8 +13,9 @@ from __future__ import annotations
 import contextlib
 import json
 import multiprocessing
+import multiprocessing.process
+import multiprocessing.util
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -721,11 +722,16 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
 
 
 def _batch_on_a_running_cluster(*args: str) -> tuple[str, subprocess.CompletedProcess]:
-    """(scheduler address, ``feedtune batch ARGS --scheduler ADDRESS``) with a local Dask
-    cluster of one worker process running meanwhile (started first, stopped last)."""
+    """(scheduler address, ``feedtune batch ARGS --scheduler ADDRESS``) with a Dask cluster
+    of one single-threaded worker listening on TCP running meanwhile (started first,
+    stopped last). The worker is a thread of this process (already warm, a forked child
+    of the test process), not a fresh interpreter loading the tuner again (≈ 3 s of CPU):
+    what is tested is the batch joining a scheduler at an address, not its worker's
+    process (a Dask worker process is tested by the executors' comparison and a worker's
+    death)."""
     from distributed import LocalCluster
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
                       dashboard_address=None) as cluster:
         return cluster.scheduler_address, in_process(
             "batch", *args, "--scheduler", cluster.scheduler_address)
@@ -756,30 +762,62 @@ def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
     assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
 
 
+def _serve_dask(send, address: str | None) -> None:
+    """Until killed: a Dask scheduler on a free TCP port of 127.0.0.1, its address sent by
+    ``send``, when ``address`` is None; else a single-threaded Dask worker of the
+    scheduler at ``address``. Dask's log lines go nowhere."""
+    import asyncio
+
+    from distributed import Scheduler, Worker
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 2)
+    os.close(devnull)
+
+    async def serve() -> None:
+        if address is None:
+            async with Scheduler(host="127.0.0.1", port=0, dashboard=False,
+                                 dashboard_address=":0") as scheduler:
+                send.send(scheduler.address)
+                await scheduler.finished()
+        else:
+            async with Worker(address, nthreads=1) as worker:
+                await worker.finished()
+
+    asyncio.run(serve())
+
+
 @contextlib.contextmanager
 def dask_scheduler(workers: int):
     """A Dask scheduler and ``workers`` single-threaded workers, each a process of its own
-    (so a test can kill the scheduler); yields (address, scheduler process)."""
-    command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-               "--port", "0", "--no-dashboard"]
-    scheduler = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    (so a test can kill the scheduler); yields (address, scheduler process).
+
+    Each is a child forked from this process (spawned if it runs other threads, as
+    in_a_fork's), not a ``python -m distributed.cli.dask_scheduler`` or ``dask_worker``:
+    the batch under test is the process of its own here; a worker forked from this
+    process has the tuner loaded (≈ 2 s of CPU less than a fresh one's first spec)."""
+    from feedtune.batch.local import start_method
+
+    context = multiprocessing.get_context(start_method())
+    receive, send = context.Pipe(duplex=False)
+    scheduler = context.Process(target=_serve_dask, args=(send, None), daemon=True)
+    scheduler.start()
+    send.close()
     processes = [scheduler]
     try:
-        for line in scheduler.stderr:
-            found = re.search(r"Scheduler at:\s+(\S+)", line)
-            if found:
-                break
-        else:
+        if not receive.poll(120):
             raise RuntimeError("the Dask scheduler did not start")
-        address = found.group(1)
-        processes += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker",
-                                        address, "--nthreads", "1", "--no-dashboard"],
-                                       stderr=subprocess.DEVNULL) for _ in range(workers)]
+        address = receive.recv()
+        for _ in range(workers):
+            processes.append(context.Process(target=_serve_dask, args=(None, address),
+                                             daemon=True))
+            processes[-1].start()
         yield address, scheduler
     finally:
+        receive.close()
         for process in processes:
             process.kill()
-            process.wait()
+            process.join()
 
 
 def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_path):
@@ -885,6 +923,132 @@ def test_a_signal_early_in_the_batch_is_exit_130_without_a_traceback(tmp_path, s
         "interrupted: the results written so far are kept; rerun the same command to finish")
     if (out / "summary.json").exists():
         assert len(summary(out)["rows"]) == 3
+
+
+def _raise_keyboard_interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def batch_signal_handlers():
+    """SIGINT and SIGTERM raise KeyboardInterrupt meanwhile, as once ``feedtune batch``
+    runs (its ``_Stop``), and are put back afterwards."""
+    previous = {signum: signal.signal(signum, _raise_keyboard_interrupt)
+                for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def test_a_signal_as_a_worker_starts_leaves_no_worker_behind(tmp_path, monkeypatch):
+    """The flaky ``[sigterm-0.6]`` case above, made deterministic: the SIGTERM reaches the
+    batch right after a worker process has started. It raised its KeyboardInterrupt before
+    the executor had listed that worker, so the batch ended without stopping it, and at
+    exit multiprocessing sent it SIGTERM, which the worker, still starting with the batch's
+    handlers, printed as a traceback. Now the worker is stopped with the batch."""
+    started = multiprocessing.process.BaseProcess.start
+
+    def start_then_sigterm(process):
+        started(process)
+        signal.raise_signal(signal.SIGTERM)
+
+    write_specs(tmp_path / "specs", 2)
+    monkeypatch.setattr(multiprocessing.process.BaseProcess, "start", start_then_sigterm)
+    try:
+        with batch_signal_handlers():
+            outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                                LocalExecutor(1, start="fork"))
+        assert outcome.interrupted
+        assert [p.name for p in multiprocessing.active_children()] == []
+    finally:
+        for process in multiprocessing.active_children():  # left behind: not for the next test
+            process.kill()
+            process.join()
+
+
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_a_signal_reaching_a_worker_as_it_starts_prints_no_traceback(tmp_path, capfd, stop):
+    """A Ctrl-C in a terminal reaches every process of its group, and CI's SIGTERM may
+    too: a worker starting (forked with the batch's handlers, which raise
+    KeyboardInterrupt) printed multiprocessing's traceback of its start. Now it ignores
+    Ctrl-C, and SIGTERM ends it as in a spawned worker; the batch completes."""
+    write_specs(tmp_path / "specs", 2)
+    anchor = threading.Event()  # the hook is registered while this object lives
+    multiprocessing.util.register_after_fork(anchor, batch_jobs.signal_once(tmp_path / "once",
+                                                                            stop))
+    try:
+        with batch_signal_handlers():
+            outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                                LocalExecutor(1, start="fork"))
+    finally:
+        del anchor
+    assert (tmp_path / "once").exists()  # the signal was sent
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert [row["status"] for row in outcome.document["rows"]] == ["optimal"] * 2
+
+
+#: a batch SIGKILLed right after it started its worker, which pauses as it starts (its pid
+#: written to argv[1]), so that the batch is gone before the worker's own code runs
+KILLED_AS_A_WORKER_STARTS = """
+import multiprocessing.process, multiprocessing.util, os, signal, sys, threading, time
+import feedtune.batch.job
+from feedtune.batch.local import LocalExecutor
+
+feedtune.batch.job.warm_up = lambda: None  # nothing to load: the worker's start is tested
+
+
+def pause(_anchor):
+    with open(sys.argv[1], "w") as out:
+        out.write(str(os.getpid()))
+    time.sleep(1.0)
+
+
+anchor = threading.Event()
+multiprocessing.util.register_after_fork(anchor, pause)
+started = multiprocessing.process.BaseProcess.start
+
+
+def start_then_die(process):
+    started(process)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+multiprocessing.process.BaseProcess.start = start_then_die
+LocalExecutor(1, start="fork").run([(0, b"{}", None)], lambda index, outcome: None)
+"""
+
+
+def running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (Linux: /proc)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rpartition(")")[2].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_a_worker_whose_batch_died_as_it_started_does_not_wait_forever(tmp_path):
+    """A worker asks the kernel to kill it when its batch dies; a batch killed before the
+    worker had asked left it waiting for work forever (the worker holds the batch's end
+    of their connection too, so it never reads an end of file)."""
+    with open(tmp_path / "stderr", "w") as stderr:  # not a pipe: the worker would hold it
+        done = subprocess.run([sys.executable, "-c", KILLED_AS_A_WORKER_STARTS,
+                               str(tmp_path / "worker")], stdout=subprocess.DEVNULL,
+                              stderr=stderr, timeout=120, cwd=REPO)
+    assert done.returncode == -signal.SIGKILL, (tmp_path / "stderr").read_text()
+    pid = int((tmp_path / "worker").read_text())
+    try:
+        deadline = time.monotonic() + 30
+        while running(pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not running(pid), "the orphaned worker is still waiting"
+    finally:
+        if running(pid):
+            os.kill(pid, signal.SIGKILL)
 
 
 def test_a_ctrl_c_while_a_result_is_written_waits_until_its_row_says_so(tmp_path, monkeypatch):
