@@ -98,6 +98,23 @@ def simulated(name: str, kind: str, seed: int, points: int | None = None):
                           source=f"{name}-time")
 
 
+@pytest.fixture(scope="module")
+def identified():
+    """``identified(name, kind)``: (the seed-17 data set of :func:`simulated`, its
+    identification by the case's model), made once per module: three tests read the same
+    one (the linear frequency response, the hydraulic time series). Read it, do not change
+    it."""
+    made = {}
+
+    def get(name: str, kind: str):
+        if (name, kind) not in made:
+            data = simulated(name, kind, seed=17)
+            made[name, kind] = data, identify([data], CASES[name][0])
+        return made[name, kind]
+
+    return get
+
+
 def true_values(name: str) -> np.ndarray:
     rational, _, _ = truth(name)
     return CASES[name][0].values(rational.numerator, rational.denominator, rational.dead_time)
@@ -105,10 +122,8 @@ def true_values(name: str) -> np.ndarray:
 
 @pytest.mark.parametrize("kind", ["frequency", "time"])
 @pytest.mark.parametrize("name", list(CASES))
-def test_identified_within_their_standard_errors(name, kind):
-    model = CASES[name][0]
-    data = simulated(name, kind, seed=17)
-    result = identify([data], model)
+def test_identified_within_their_standard_errors(name, kind, identified):
+    data, result = identified(name, kind)
     expected = true_values(name)
     for (parameter, value), want in zip(result.values.items(), expected):
         sigma = result.standard_errors[parameter]
@@ -122,11 +137,11 @@ def test_identified_within_their_standard_errors(name, kind):
     assert result.fit.nrmse[0] == pytest.approx(noise, rel=0.2)
 
 
-def test_linear_numerator_s1_is_weakly_determined_but_consistent():
+def test_linear_numerator_s1_is_weakly_determined_but_consistent(identified):
     """b_1 of the two-mass drive (0.0462/6 N·m⁻¹·rad·s⁻¹) only shapes the anti-resonance's
     damping: its σ is ≈ 0.4 % from the frequency data, 40 % from the time data, and
     within 4σ of the truth in both (the test above)."""
-    result = identify([simulated("linear", "frequency", seed=17)], CASES["linear"][0])
+    _, result = identified("linear", "frequency")
     assert result.standard_errors["numerator_s1"] <= 0.01 * result.values["numerator_s1"]
 
 
@@ -157,13 +172,13 @@ def test_standard_error_is_the_spread_of_the_estimates():
     assert 0.7 < ratio < 1.3, ratio
 
 
-def test_equation_error_alone_is_biased_on_noisy_time_data():
+def test_equation_error_alone_is_biased_on_noisy_time_data(identified):
     """Why the output-error stage runs: the state-variable-filter equation error of the
     hydraulic drive's velocity (1 % noise) is off the truth by many output-error σ (the
     noise enters its regressors), the output-error estimate is not."""
-    data = [simulated("hydraulic_rotary", "time", seed=17)]
+    data, result = identified("hydraulic_rotary", "time")
+    data = [data]
     model = models.hydraulic_rotary()
-    result = identify(data, model)
     lo, hi = band(data)
     omega0 = float(np.sqrt(lo * hi))
     x, _ = linear_fit(data, model.structure, omega0, None)
