@@ -99,7 +99,7 @@ def solve(data: bytes, existing_sha256: str | None = None) -> Outcome:
 
 
 #: a spec that exercises what a worker's first spec would load lazily: the tuner, IPOPT's
-#: library, the multistart's Halton sequence (scipy.stats), restoration (scipy.optimize),
+#: library, the multistart's Halton sequence, restoration (scipy.optimize),
 #: the reports' shared CasADi Functions and the validator (Koren's sampled-data example,
 #: two starts)
 WARM_UP_SPEC = {
@@ -117,7 +117,7 @@ _warmed = False
 
 def warm_up() -> None:
     """Load, once per process, what the first spec of a worker would otherwise load on its
-    own clock (≈ 0.8 s of CPU: scipy.stats alone is 0.3–0.5 s), by tuning WARM_UP_SPEC.
+    own clock (≈ 0.5 s of CPU), by tuning WARM_UP_SPEC.
 
     The local executor calls it before forking its workers, so they start with all of it
     loaded and pay for it once between them (issue 15). Its result is discarded; a failure

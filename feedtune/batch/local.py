@@ -107,8 +107,8 @@ def _worker_main(connection, job: Callable, mask: frozenset) -> None:
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # solver chatter must not reach the batch's stdout
     os.close(devnull)
-    # load and warm the tuner (CasADi: 1.5 s, the first tuning's IPOPT, scipy.stats and
-    # validator another 0.8 s; more under load) before any spec's clock starts, so
+    # load and warm the tuner (CasADi: 1.5 s, the first tuning's IPOPT and the
+    # validator another 0.5 s; more under load) before any spec's clock starts, so
     # --timeout measures the spec, not this worker's start (a forked worker has it already)
     from feedtune.batch.job import warm_up
 

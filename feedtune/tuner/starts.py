@@ -29,11 +29,30 @@ def starting_points(variables: list[Variable], count: int) -> np.ndarray:
 @functools.lru_cache(maxsize=64)
 def _halton(dimension: int, count: int) -> np.ndarray:
     """The unscrambled Halton points 2 … ``count`` in [0, 1)^``dimension`` (read-only),
-    once per process: scipy's sequence object costs ≈ 0.5–1 ms to set up (its primes and
-    permutation tables), as much as a batch spec's restoration checks, and the points are
-    the same for every spec of a dimension."""
-    from scipy.stats import qmc  # 0.2 s of imports: only when a second start is wanted
-
-    unit = qmc.Halton(dimension, scramble=False).random(count)[1:]
+    once per process: coordinate j of point i is the radical inverse of i in the j-th prime
+    base (van der Corput), summed digit by digit as scipy's ``qmc.Halton(d,
+    scramble=False)`` sums it, so the points are scipy's to the bit
+    (tests/unit/test_tuner_starts.py). Written here rather than taken from scipy because
+    ``scipy.stats`` costs 0.2–0.5 s of imports in every process that tunes (issue 15)."""
+    unit = np.empty((count - 1, dimension))
+    for column, base in enumerate(_primes(dimension)):
+        for row, index in enumerate(range(1, count)):
+            value, scale = 0.0, 1.0 / base
+            while index > 0:
+                index, digit = divmod(index, base)
+                value += digit * scale
+                scale /= base
+            unit[row, column] = value
     unit.flags.writeable = False
     return unit
+
+
+def _primes(count: int) -> list[int]:
+    """The first ``count`` primes, the Halton sequence's bases."""
+    primes: list[int] = []
+    candidate = 2
+    while len(primes) < count:
+        if all(candidate % p for p in primes):
+            primes.append(candidate)
+        candidate += 1
+    return primes

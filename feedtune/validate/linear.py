@@ -32,7 +32,6 @@ from dataclasses import replace
 import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import brentq
-from scipy.signal import ss2tf
 
 from feedtune.validate.cascade import compensator
 from feedtune.validate.continuous import (PAIR_MEASUREMENTS, SENSITIVITY, Block, ContinuousModel,
@@ -76,6 +75,7 @@ def drive_transfer(model: dict) -> tuple[np.ndarray, np.ndarray]:
 
         return (model["gain"] * np.real(np.poly(roots(model.get("zeros", [])))),
                 np.real(np.poly(roots(model["poles"]))))
+    from scipy.signal import ss2tf  # 0.5 s of imports: only here
     num, den = ss2tf(*(np.asarray(model[k], float) for k in ("a", "b", "c")),
                      np.asarray(model.get("d", [[0.0]]), float))
     return num[0], den
@@ -115,6 +115,7 @@ def controller_transfer(loop: str, plant: dict, tuned: dict) -> tuple[np.ndarray
             num = np.polyadd(np.polymul(num, [tf, 1.0]), kp * ti * td * np.array([1.0, 0.0, 0.0]))
             den = np.polymul(den, [tf, 1.0])
     comp = compensator(plant.get(f"{loop}_compensator", "none"), f"{loop}_compensator", tuned)
+    from scipy.signal import ss2tf  # 0.5 s of imports: only here
     c_num, c_den = ss2tf(comp.a, comp.b, comp.c, comp.d) if comp.order else (comp.d[0], [1.0])
     num, den = np.polymul(num, np.ravel(c_num)), np.polymul(den, c_den)
     if plant.get("notch", "none") == f"{loop}_loop":

@@ -47,7 +47,6 @@ import math
 
 import numpy as np
 from scipy.linalg import expm, matrix_balance
-from scipy.signal import cont2discrete
 
 from feedtune.validate import sampled_frequency
 from feedtune.validate.continuous import Block
@@ -80,6 +79,7 @@ def _hold(a: np.ndarray, b: np.ndarray, step: float) -> tuple[np.ndarray, np.nda
     n = a.shape[0]
     if step == 0:
         return np.eye(n), np.zeros((n, 1))
+    from scipy.signal import cont2discrete  # 0.5 s of imports: only here
     phi, gamma, *_ = cont2discrete((a, b, np.zeros((1, n)), np.zeros((1, 1))), step, "zoh")
     return phi, gamma
 
@@ -132,6 +132,7 @@ class SampledLinearModel:
                 raise NotCovered("a sampled cascade's position controller is a gain")
             self.position_gain = float(position.d[0, 0])
         if law.order:
+            from scipy.signal import cont2discrete  # 0.5 s of imports: only here
             ad, bd, cd, dd, _ = cont2discrete((law.a, law.b, law.c, law.d), period, method)
         else:
             ad, bd, cd, dd = law.a, law.b, law.c, law.d
