@@ -150,3 +150,14 @@ def test_reports_that_are_numbers_are_kept_without_the_reports_function(monkeypa
     numbers = {key: (_Constant(ca.DM(i)), None) for i, key in enumerate("xyz")}
     assert [float(v) for v in Reports(numbers)._evaluate_all(object()).values()] == [0, 1, 2]
     assert built == []
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_loops_of_a_structure_share_its_structure_object(kind):
+    """The replayed Functions' keys hold the structure: the one kept with the twin, so a
+    look-up compares it by identity, not element by element."""
+    from feedtune.loops.twin import parametric_twin
+
+    first, second, _ = _loops(kind)
+    a, b = parametric_twin(first), parametric_twin(second)
+    assert a.structure == b.structure and a.structure is b.structure
