@@ -404,12 +404,7 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    # f, f′ and f″ on the grid in one call where the jet is built (the whole windows'
-    # bound below reads them at the interior windows' centres, the grid points): the
-    # same bits as f(grid) and as the jet at those centres, one call of the grid fewer
-    jet = f.kept(("jet",), (slope.fn, curvature.fn))
-    at_grid = None if jet is None else (grid, *jet.columns(grid))
-    f_grid = f(grid) if at_grid is None else at_grid[1]
+    f_grid = f(grid)
     if np.isnan(f_grid).any():
         return None
     lower, upper = grid[0], grid[-1]
@@ -422,7 +417,7 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     # and their neighbours (a peak near a window's edge lies in its neighbour too, where
     # the bound on the whole window, read at its centre, can fall short of it)
     if _SCREEN_STEPS < _GOLDEN_STEPS:  # screening on (tests switch it off)
-        passed = _window_bound(f, slope, curvature, a, b, seen, at_grid) >= f_grid.max()
+        passed = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
         keep = passed.copy()
         keep[1:] |= passed[:-1]
         keep[:-1] |= passed[1:]
@@ -550,15 +545,6 @@ class Mapped:
         n = x.shape[-1]
         results = self._row(n)(x.ravel(order="F"), *self.fixed)
         return [r if r.size == n else r.reshape(n, -1).T for r in results]
-
-    def kept(self, key: tuple, sources: tuple = ()) -> "Mapped | None":
-        """The Function :meth:`derived` built for ``key`` and ``sources``, bound to this
-        view's ``fixed``, or None where it is not built yet (not counted as a request)."""
-        kept = self._derived.get(key)
-        if (kept is None or not isinstance(kept[1], Mapped) or len(kept[0]) != len(sources)
-                or any(a is not b for a, b in zip(kept[0], sources))):
-            return None
-        return kept[1].bound(*self.fixed)
 
     def derived(self, key: tuple, build, sources: tuple = ()) -> "Mapped | None":
         """A :class:`Mapped` of ``build(self.fn, *sources)`` (a Function of the same
@@ -738,7 +724,7 @@ def _replay_functions(name: str, fn, derivatives: int, level: float, log_omega: 
     return rows, zero
 
 
-def _window_bound(f, slope, curvature, a, b, seen, known=None):
+def _window_bound(f, slope, curvature, a, b, seen):
     """Upper bound on the value each window's refinement can still reach [units of f].
 
     After :data:`_SCREEN_STEPS` golden steps the bracket [a, b] is 5.6 % of its window
@@ -749,21 +735,9 @@ def _window_bound(f, slope, curvature, a, b, seen, known=None):
     whose ends are within rounding of its grid points), and adds 1e-12 of the largest |f|
     seen for the rounding of f (≈ 1e-16 relative, 1e-12 leaves a condition number of
     10⁴): a window whose refinement could reach the top is never dropped.
-
-    ``known`` (points, f, f′, f″ there: rows) gives the jet at every midpoint equal to
-    one of ``points`` (the same element; a whole window's midpoint is its grid point up
-    to rounding), read instead of evaluated again: the same numbers.
     """
     m, r = (a + b) / 2, (b - a) / 2
-    if known is None:
-        f_m, slope_m, curvature_m = _jet_columns(f, slope, curvature, m)
-    else:
-        same = m == known[0]
-        f_m, slope_m, curvature_m = (np.array(values) for values in known[1:])
-        if not same.all():
-            others = _jet_columns(f, slope, curvature, m[~same])
-            for target, values in zip((f_m, slope_m, curvature_m), others):
-                target[~same] = values
+    f_m, slope_m, curvature_m = _jet_columns(f, slope, curvature, m)
     rise = 2 * (np.abs(slope_m) * r + 0.5 * np.abs(curvature_m) * r**2)
     return np.fmax(seen, f_m) + rise + 1e-12 * np.max(np.abs(seen))
 

@@ -2,8 +2,7 @@
 
 A loop of numbers' peaks and crossings are located in floats (``feedtune.loops.frequency``);
 from a structure's second loop on they are returned as numbers (DM), the log grid of a band
-is computed once, the golden and bisection folds are one straight SX graph, the peak's
-whole-window bound reads the jet on the grid that the peak evaluates anyway, and the
+is computed once, the golden and bisection folds are one straight SX graph, and the
 reports' one Function evaluates only the expressions. Each must leave every number's
 bits as they were (the batch's 300 result files are compared field by field in
 ``benchmarks/batch_throughput.py``); here on Koren's loops at seeded points of their box.
@@ -95,32 +94,6 @@ def test_the_folds_are_one_sx_graph_with_the_bits_of_the_float_steps():
     assert f._derived["golden", 42][1].fn.is_a("SXFunction")
     for x, y in zip(floats[:3], folded[:3]):
         assert np.array_equal(x, y)
-
-
-@pytest.mark.parametrize("kind", KINDS)
-def test_the_whole_windows_bound_reads_the_grids_jet_with_the_same_bits(kind):
-    """Where a window's midpoint is its grid point the jet on the grid is read; elsewhere
-    (the band's ends, a midpoint off by rounding) it is evaluated: the bound of every
-    window equal to evaluating the jet at each midpoint."""
-    for loop in _loops(kind):
-        frequency._replays.clear()
-        (f, slope, curvature), _ = frequency.replayed(
-            "test_bound", frequency_domain.normalised_gain_squared(loop), 2)
-        grid = np.log(frequency.log_grid(loop.frequency_band))
-        h = (grid[1] - grid[0]) / 2
-        a, b = np.fmax(grid - 2 * h, grid[0]), np.fmin(grid + 2 * h, grid[-1])
-        seen = f(grid)
-        assert f.kept(("jet",), (slope.fn, curvature.fn)) is None
-        evaluated = frequency._window_bound(f, slope, curvature, a, b, seen)  # asks once
-        assert f.kept(("jet",), (slope.fn, curvature.fn)) is None  # kept() is no request
-        frequency._jet_columns(f, slope, curvature, grid)  # the second request builds it
-        jet = f.kept(("jet",), (slope.fn, curvature.fn))
-        assert jet is not None
-        known = (grid, *jet.columns(grid))
-        assert not np.all((a + b) / 2 == grid)  # the band's ends at least are evaluated
-        read = frequency._window_bound(f, slope, curvature, a, b, seen, known)
-        assert np.array_equal(read, evaluated)
-        assert np.array_equal(known[1], f(grid))
 
 
 class _Constant:
