@@ -214,8 +214,13 @@ class Reports:
         return values[key] if key in values else self.fns[key](loop)
 
     def _evaluate_all(self, loop) -> dict:
-        """Report name → its number as a DM, for every report whose expression builds."""
-        exprs = {}
+        """Report name → its number as a DM, for every report whose expression builds.
+
+        The expressions (MX graphs of the loop's numbers) are evaluated together in one
+        Function; a value that is a number already (a replayed peak, crossing or radius)
+        is kept as it is, not passed through that Function as a constant (the same
+        number, ≈ 25 µs less a report)."""
+        exprs, numbers = {}, {}
         remembered = self._remembered[1] if self._remembered[0] is loop else {}
         for key, fn in self.fns.items():
             try:
@@ -224,17 +229,19 @@ class Reports:
                 continue
             expr, magnitude = exact_value(value)
             value = ca.fabs(expr) if magnitude else expr
-            if isinstance(value, (ca.MX, ca.DM, int, float)):
-                exprs[key] = ca.MX(value)
-        if not exprs:
-            return {}
-        try:
-            reports = ca.Function("reports", [], list(exprs.values()))
-        except RuntimeError as exc:  # symbols of a loop inside the NLP (CasADi finds them
-            if "are free" in str(exc):  # while it builds: no second walk over the graphs)
-                return {}
-            raise
-        return dict(zip(exprs, reports.call([])))
+            if isinstance(value, ca.MX):
+                exprs[key] = value
+            elif isinstance(value, (ca.DM, int, float)):  # a number already: no graph
+                numbers[key] = ca.DM(value)
+        if exprs:
+            try:
+                reports = ca.Function("reports", [], list(exprs.values()))
+            except RuntimeError as exc:  # symbols of a loop inside the NLP (CasADi finds them
+                if "are free" in str(exc):  # while it builds: no second walk over the graphs)
+                    return {}
+                raise
+            numbers.update(zip(exprs, reports.call([])))
+        return {key: numbers[key] for key in self.fns if key in numbers}
 
 
 def _variants(default) -> list:

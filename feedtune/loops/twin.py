@@ -32,7 +32,7 @@ from feedtune.lazy import ca, np
 
 #: twins kept (an LRU): one per loop structure, a batch holds a few
 _TWIN_CACHE_SIZE = 64
-_twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol)
+_twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol, it)
 _twins_lock = threading.Lock()  # a Dask worker runs specs in threads
 
 
@@ -173,7 +173,10 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
         if kept_twin is not None:
             _twins.move_to_end(structure)
     if kept_twin is not None:
-        twin_loop, numbers = kept_twin
+        # the structure kept with the twin, not this loop's equal copy: the keys of the
+        # Functions replayed on it (``frequency.replayed``: ≈ 10 look-ups a tuned design)
+        # then compare it by identity instead of element by element
+        twin_loop, numbers, structure = kept_twin
     else:
         numbers = ca.MX.sym("numbers", values.size)
         offset, leaf_index = 0, 0
@@ -194,7 +197,7 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
 
         twin_loop = _rebuild(loop, take)
         with _twins_lock:
-            _twins[structure] = (twin_loop, numbers)
+            _twins[structure] = (twin_loop, numbers, structure)
             while len(_twins) > _TWIN_CACHE_SIZE:
                 _twins.popitem(last=False)
     return Twin(structure, twin_loop, numbers, values)

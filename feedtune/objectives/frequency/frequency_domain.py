@@ -115,8 +115,9 @@ def _log_open_loop_gain_squared(loop: Loop):
 def as_number(omega):
     """``omega`` as a float when it is an expression of numbers only (a loop of numbers:
     the response at it is then plain float arithmetic, the same operations as evaluating
-    its graph, without building one), else ``omega`` itself."""
-    if isinstance(omega, ca.MX) and omega.is_constant():
+    its graph, without building one), else ``omega`` itself. A number (a DM: a
+    crossing located in floats) is a float too."""
+    if isinstance(omega, ca.DM) or (isinstance(omega, ca.MX) and omega.is_constant()):
         return to_float(omega)
     return omega
 

@@ -42,7 +42,7 @@ class GainMargin(Metric):
         inverse = replayed_at("gain_margin", OfLoop(_inverse_gain, loop), omega)
         real = replayed_at("gain_margin_real", OfLoop(_real_part, loop), omega)
         if inverse is not None and real is not None:  # a loop of numbers: no graph built
-            return Unbounded(ca.MX(inverse), found * (ca.MX(real) < 0))
+            return Unbounded(ca.DM(inverse), found * (ca.DM(real) < 0))  # numbers: DM
         re, im = loop.open_loop_response(omega)
         return Unbounded(_inverse(re, im), found * (re < 0))
 
