@@ -98,12 +98,38 @@ def poly_at_jw(p: list, omega):
 
 
 def companion_matrix(p: list):
-    """Companion matrix whose eigenvalues are the roots of ``p`` (highest power first)."""
+    """Companion matrix whose eigenvalues are the roots of ``p`` (highest power first).
+
+    Coefficients that are all Python numbers give a DM written straight into the layout
+    of the expression's (:func:`_companion_layout`): the same entries and sparsity, in
+    one conversion instead of a concatenation per row (a loop of numbers is built at
+    every point of a robust search, a batch's reports and the contract tests' grids)."""
     n = len(p) - 1
+    if all(isinstance(c, (int, float)) for c in p):
+        pattern, slots = _companion_layout(n)
+        lead = p[0]
+        return ca.DM(pattern, [value if column is None else -p[column + 1] / lead
+                               for column, value in slots])
     rows = [ca.horzcat(*[-c / p[0] for c in p[1:]])]
     if n > 1:
         rows.append(ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1)))
     return ca.vertcat(*rows)
+
+
+@functools.lru_cache(maxsize=None)
+def _companion_layout(n: int) -> tuple:
+    """(sparsity, slots) of :func:`companion_matrix`'s matrix of degree ``n``: per stored
+    entry (column-major), the column of the first row it holds −p[column + 1]/p[0] of, or
+    None and its constant (the subdiagonal's 1, the last column's 0)."""
+    rows = [ca.horzcat(*[ca.SX.sym(f"c{k}") for k in range(n)])]
+    if n > 1:
+        rows.append(ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1)))
+    matrix = ca.vertcat(*rows)
+    pattern = matrix.sparsity()
+    row, column = pattern.row(), pattern.get_col()
+    entries = matrix.nonzeros()
+    return pattern, tuple((column[k], None) if row[k] == 0 else (None, float(entries[k]))
+                          for k in range(len(row)))
 
 
 def balanced_polynomial(p: list) -> list:
