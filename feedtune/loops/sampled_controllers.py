@@ -123,7 +123,7 @@ def cascade_controller(position_gain, velocity_numerator: list, velocity_denomin
     rate = feedforward / period
     weights = weights + ca.horzcat(rate, 0, 0)
     order = a.shape[0]
-    a_ff = ca.vertcat(ca.horzcat(a, -b * rate), ca.DM.zeros(1, order + 1))
+    a_ff = ca.vertcat(ca.horzcat(a, -b * rate), type(a).zeros(1, order + 1))
     b_ff = ca.vertcat(ca.mtimes(b, weights), ca.horzcat(1, 0, 0))
     c_ff = ca.horzcat(c, -d * rate)
     return DiscreteController(a_ff, b_ff, c_ff, ca.mtimes(d, weights), uses_velocity=True)
