@@ -15,25 +15,10 @@ trees' numbers agree (largest difference relative to max(|value|, 1)).
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
-import sys
-import tempfile
-from pathlib import Path
 
-from baseline import export_package, short_revision
-
-REPO = Path(__file__).resolve().parents[1]
+from baseline import numbers_side_by_side
 
 CHILD = r"""
-import json, sys, time
-sys.path.insert(0, {contract!r})
-from feedtune.__main__ import pin_blas_threads
-pin_blas_threads()
-import numpy as np
-import contract_cases as cc
-
 values = []
 start = time.process_time()
 for config in cc.CONFIGS:
@@ -44,21 +29,20 @@ for config in cc.CONFIGS:
         loop = plant.loop(point, config.default_box)
         for matrix in loop.stability_matrices().values():
             values += cc.as_array(matrix).ravel().tolist()
+        if {full}:  # what the plant contract also reads
+            values += cc.as_array(loop.input_matrix).ravel().tolist()
+            values += [float(cc.as_array(c)[0, 0]) for c in loop.characteristic_polynomial]
+            values += [float(cc.as_array(c)[0, 0]) for c in loop.stability_conditions()]
+            for matrix in loop.open_loop_matrices:
+                values += cc.as_array(matrix).ravel().tolist()
+            values.append(float(cc.as_array(loop.dc_gain())[0, 0]))
         for omega in (0.3, 3.0, 30.0):
             for response in (loop.frequency_response, loop.error_response,
-                             loop.open_loop_response):
+                             loop.open_loop_response) + ((loop.sensitivity_response,) if {full} else ()):
                 values += [float(cc.as_array(part)[0, 0]) for part in response(omega)]
         values.append(float(cc.as_array(loop.velocity_constant)[0, 0]))
 print(json.dumps({{"cpu": time.process_time() - start, "values": values}}))
 """
-
-
-def _run(tree: Path, stride: int) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(tree)}
-    code = CHILD.format(contract=str(REPO / "tests" / "contract"), stride=stride)
-    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tempfile.gettempdir(),
-                         capture_output=True, text=True, check=True).stdout
-    return json.loads(out.strip().splitlines()[-1])
 
 
 def main() -> None:
@@ -66,21 +50,11 @@ def main() -> None:
     parser.add_argument("--baseline", default="main", help="git revision of the old package")
     parser.add_argument("--rounds", type=int, default=2, help="alternating rounds")
     parser.add_argument("--stride", type=int, default=3, help="every stride-th grid point")
+    parser.add_argument("--full", action="store_true",
+                        help="also the input matrix, the characteristic polynomial, the "
+                             "stability conditions, the open loop's matrices, H(1) and S")
     args = parser.parse_args()
-    old_tree = export_package(args.baseline, Path(tempfile.mkdtemp(prefix="feedtune-baseline-")))
-    trees = {short_revision(args.baseline): old_tree, "new": REPO}
-    cpu = {label: [] for label in trees}
-    worst = 0.0
-    for _ in range(args.rounds):
-        results = {label: _run(tree, args.stride) for label, tree in trees.items()}
-        for label, result in results.items():
-            cpu[label].append(result["cpu"])
-        old, new = (results[label]["values"] for label in trees)
-        worst = max(worst, max(abs(a - b) / max(abs(a), 1.0) for a, b in zip(old, new)))
-    (old_label, old_cpu), (_, new_cpu) = cpu.items()
-    print(f"{len(old)} numbers per round; CPU s per round: {old_label} "
-          f"{', '.join(f'{c:.2f}' for c in old_cpu)}; new {', '.join(f'{c:.2f}' for c in new_cpu)}")
-    print(f"new/{old_label} {sum(new_cpu) / sum(old_cpu):.3f}; largest difference {worst:.1e}")
+    numbers_side_by_side(CHILD, args.baseline, args.rounds, stride=args.stride, full=args.full)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,7 @@ import math
 import functools
 import sys
 
-from feedtune.lazy import ca
+from feedtune.lazy import ca, np
 
 
 def characteristic_polynomial(matrix) -> list:
@@ -98,12 +98,38 @@ def poly_at_jw(p: list, omega):
 
 
 def companion_matrix(p: list):
-    """Companion matrix whose eigenvalues are the roots of ``p`` (highest power first)."""
+    """Companion matrix whose eigenvalues are the roots of ``p`` (highest power first).
+
+    Coefficients that are all Python numbers give a DM written straight into the layout
+    of the expression's (:func:`_companion_layout`): the same entries and sparsity, in
+    one conversion instead of a concatenation per row (a loop of numbers is built at
+    every point of a robust search, a batch's reports and the contract tests' grids)."""
     n = len(p) - 1
+    if all(isinstance(c, (int, float)) for c in p):
+        pattern, slots = _companion_layout(n)
+        lead = p[0]
+        return ca.DM(pattern, [value if column is None else -p[column + 1] / lead
+                               for column, value in slots])
     rows = [ca.horzcat(*[-c / p[0] for c in p[1:]])]
     if n > 1:
         rows.append(ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1)))
     return ca.vertcat(*rows)
+
+
+@functools.lru_cache(maxsize=None)
+def _companion_layout(n: int) -> tuple:
+    """(sparsity, slots) of :func:`companion_matrix`'s matrix of degree ``n``: per stored
+    entry (column-major), the column of the first row it holds −p[column + 1]/p[0] of, or
+    None and its constant (the subdiagonal's 1, the last column's 0)."""
+    rows = [ca.horzcat(*[ca.SX.sym(f"c{k}") for k in range(n)])]
+    if n > 1:
+        rows.append(ca.horzcat(ca.DM.eye(n - 1), ca.DM.zeros(n - 1, 1)))
+    matrix = ca.vertcat(*rows)
+    pattern = matrix.sparsity()
+    row, column = pattern.row(), pattern.get_col()
+    entries = matrix.nonzeros()
+    return pattern, tuple((column[k], None) if row[k] == 0 else (None, float(entries[k]))
+                          for k in range(len(row)))
 
 
 def balanced_polynomial(p: list) -> list:
@@ -333,9 +359,9 @@ def _cmul(a, b):
     return a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]
 
 
-def _cdiv(a, b):
+def _cdiv(a, b, select=None):
     size = b[0] ** 2 + b[1] ** 2
-    size = ca.if_else(size == 0, 1, size)
+    size = (select or ca.if_else)(size == 0, 1, size)
     return (a[0] * b[0] + a[1] * b[1]) / size, (a[1] * b[0] - a[0] * b[1]) / size
 
 
@@ -347,7 +373,25 @@ def hessenberg_resolvent(h, rhs, row, shift_re, shift_im):
     Gaussian elimination of the Hessenberg matrix: one subdiagonal entry per column, the
     pivot the larger of rows k and k + 1 in modulus (partial pivoting: backward stable as
     the dense solve), then back substitution; O(n²) complex operations per z.
+
+    On numbers (H, rhs and row DM, z floats or DM rows: a loop of numbers' response at
+    given ω) the same operations in the same order run on numpy floats, an array per
+    entry instead of a DM call per entry and operation; the same IEEE results (a zero's
+    sign aside: CasADi's select adds 0 to the value it picks). Returns DM rows then.
     """
+    numbers = [h, rhs, row, shift_re, shift_im]
+    if all(isinstance(v, (int, float, ca.DM)) for v in numbers):
+        h, rhs, row, shift_re, shift_im = (np.array(v, dtype=float) for v in numbers)
+        re, im = _hessenberg_solve(h, rhs.ravel(), row, shift_re.ravel() if shift_re.ndim
+                                   else shift_re, shift_im.ravel() if shift_im.ndim
+                                   else shift_im, np.where)
+        return ca.DM(np.reshape(re, (1, -1))), ca.DM(np.reshape(im, (1, -1)))
+    return _hessenberg_solve(h, rhs, row, shift_re, shift_im, ca.if_else)
+
+
+def _hessenberg_solve(h, rhs, row, shift_re, shift_im, select):
+    """:func:`hessenberg_resolvent`'s elimination; ``select(condition, a, b)`` is
+    ``ca.if_else`` on CasADi types, ``numpy.where`` on numpy floats."""
     n = h.shape[0]
     # rows of (zI − H | rhs) as complex (re, im) pairs, columns k … n (n: the rhs)
     rows = []
@@ -367,11 +411,11 @@ def hessenberg_resolvent(h, rhs, row, shift_re, shift_im):
         size_top = top[k][0] ** 2 + top[k][1] ** 2
         size_bottom = bottom[k][0] ** 2 + bottom[k][1] ** 2
         swap = size_bottom > size_top
-        pivot_row = [tuple(ca.if_else(swap, b, t) for t, b in zip(te, be))
+        pivot_row = [tuple(select(swap, b, t) for t, b in zip(te, be))
                      for te, be in zip(top[k:], bottom[k:])]
-        other = [tuple(ca.if_else(swap, t, b) for t, b in zip(te, be))
+        other = [tuple(select(swap, t, b) for t, b in zip(te, be))
                  for te, be in zip(top[k:], bottom[k:])]
-        factor = _cdiv(other[0], pivot_row[0])
+        factor = _cdiv(other[0], pivot_row[0], select)
         products = [_cmul(factor, p) for p in pivot_row[1:]]
         reduced = [(0, 0)] + [(o[0] - m[0], o[1] - m[1]) for o, m in zip(other[1:], products)]
         rows[k] = rows[k][:k] + pivot_row
@@ -382,7 +426,7 @@ def hessenberg_resolvent(h, rhs, row, shift_re, shift_im):
         for j in range(k + 1, n):
             product = _cmul(rows[k][j], solution[j])
             re, im = re - product[0], im - product[1]
-        solution[k] = _cdiv((re, im), rows[k][k])
+        solution[k] = _cdiv((re, im), rows[k][k], select)
     re = sum(row[0, j] * solution[j][0] for j in range(n))
     im = sum(row[0, j] * solution[j][1] for j in range(n))
     return re, im

@@ -80,18 +80,21 @@ def discretise_transfer(numerator: list, denominator: list, period, method: str 
 
 def transfer_state_space(numerator: list, denominator: list):
     """(A, B, C, D) of b(z)/a(z) (proper, same length, highest power first) in controllable
-    canonical form, as MX; a static gain gives a 0×0 A."""
+    canonical form, as MX, or as DM when every coefficient is a number (a loop of numbers
+    then assembles its matrices on numbers: :class:`feedtune.loops.sampled_lti.SampledLTILoop`);
+    a static gain gives a 0×0 A."""
+    kind = ca.MX if any(isinstance(c, (ca.MX, ca.SX)) for c in [*numerator, *denominator]) else ca.DM
     lead = denominator[0]
     a = [c / lead for c in denominator]
     b = [c / lead for c in numerator]
     n = len(a) - 1
     d = b[0]
     if n == 0:
-        return ca.MX(0, 0), ca.MX(0, 1), ca.MX(1, 0), ca.MX(d)
+        return kind(0, 0), kind(0, 1), kind(1, 0), kind(d)
     matrix = linalg.companion_matrix(a)
     c = ca.horzcat(*[b[i + 1] - d * a[i + 1] for i in range(n)])
     b_col = ca.vertcat(1, ca.DM.zeros(n - 1, 1))
-    return ca.MX(matrix), ca.MX(b_col), ca.MX(c), ca.MX(d)
+    return kind(matrix), kind(b_col), kind(c), kind(d)
 
 
 def error_controller(numerator: list, denominator: list, period, method: str = "tustin"):
@@ -120,7 +123,7 @@ def cascade_controller(position_gain, velocity_numerator: list, velocity_denomin
     rate = feedforward / period
     weights = weights + ca.horzcat(rate, 0, 0)
     order = a.shape[0]
-    a_ff = ca.vertcat(ca.horzcat(a, -b * rate), ca.MX.zeros(1, order + 1))
+    a_ff = ca.vertcat(ca.horzcat(a, -b * rate), type(a).zeros(1, order + 1))
     b_ff = ca.vertcat(ca.mtimes(b, weights), ca.horzcat(1, 0, 0))
     c_ff = ca.horzcat(c, -d * rate)
     return DiscreteController(a_ff, b_ff, c_ff, ca.mtimes(d, weights), uses_velocity=True)

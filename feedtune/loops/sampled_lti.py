@@ -172,6 +172,17 @@ class SampledLTILoop(_SampledLoopBase):
         return self.plant.order + self.controller.order + self.held_samples
 
     @cached_property
+    def _kind(self):
+        """``ca.DM`` for a loop of numbers (its period and its controller's matrices
+        numbers), ``ca.MX`` otherwise: the type its matrices are assembled in. A loop of
+        numbers (the validator's, a robust search's, a batch's reports, the contract
+        tests' grids) thus computes Φ, Γ and its polynomial once, on numbers, instead of
+        building MX graphs of constants that every reader evaluated again."""
+        c = self.controller
+        symbols = any(isinstance(v, (ca.MX, ca.SX)) for v in (self.period, c.a, c.b, c.c, c.d))
+        return ca.MX if symbols else ca.DM
+
+    @cached_property
     def _measurement(self):
         """(C, C A or 0): the rows that give the controller's sampled position and velocity,
         w = [r, C x, C A x]."""
@@ -185,48 +196,50 @@ class SampledLTILoop(_SampledLoopBase):
         the controller's position input is not the plant's (the loop opened there, see
         :meth:`open_loop_response`) and K leaves it out."""
         n, nc, total = self.plant.order, self.controller.order, self.order
+        kind = self._kind
         if lag == 0:
             c, velocity = self._measurement
-            dc = ca.MX(self.controller.d)
+            dc = kind(self.controller.d)
             kx = dc[0, 2] * velocity + (0 if cut else dc[0, 1] * c)
-            row = ca.horzcat(kx, ca.MX(self.controller.c), ca.MX.zeros(1, self.held_samples))
+            row = ca.horzcat(kx, kind(self.controller.c), kind.zeros(1, self.held_samples))
             return row, dc[0, 0]
         row = ca.DM.zeros(1, total)
         row[0, n + nc + lag - 1] = 1
-        return ca.MX(row), 0
+        return kind(row), 0
 
     def _assemble(self, cut: bool):
         """(Φ, Γ_r, Γ_w): state(k+1) = Φ state(k) + Γ_r r(k) + Γ_w w(k), w the controller's
         position input: the sampled position (Γ_w = 0, folded into Φ) unless ``cut``."""
         n, nc, held = self.plant.order, self.controller.order, self.held_samples
         total = self.order
+        kind = self._kind
         phi_p, gamma0, gamma1 = self.plant_transition
-        dc = ca.MX(self.controller.d)
+        dc = kind(self.controller.d)
         lag = self.delay + self._split[0]
         k0, r0 = self.command(lag, cut)
-        rows = [ca.horzcat(phi_p, ca.MX.zeros(n, total - n)) + ca.mtimes(gamma0, k0)]
+        rows = [ca.horzcat(phi_p, kind.zeros(n, total - n)) + ca.mtimes(gamma0, k0)]
         inputs = [gamma0 * r0]
-        cut_inputs = [gamma0 * dc[0, 1] if cut and lag == 0 else ca.MX.zeros(n, 1)]
+        cut_inputs = [gamma0 * dc[0, 1] if cut and lag == 0 else kind.zeros(n, 1)]
         if self.has_fraction:
             k1, r1 = self.command(lag + 1, cut)
             rows[0] = rows[0] + ca.mtimes(gamma1, k1)
             inputs[0] = inputs[0] + gamma1 * r1
         if nc:
             c, velocity = self._measurement
-            bc = ca.MX(self.controller.b)
+            bc = kind(self.controller.b)
             x_part = ca.mtimes(bc[:, 2], velocity) + (0 if cut else ca.mtimes(bc[:, 1], c))
-            rows.append(ca.horzcat(x_part, ca.MX(self.controller.a), ca.MX.zeros(nc, held)))
+            rows.append(ca.horzcat(x_part, kind(self.controller.a), kind.zeros(nc, held)))
             inputs.append(bc[:, 0])
-            cut_inputs.append(bc[:, 1] if cut else ca.MX.zeros(nc, 1))
+            cut_inputs.append(bc[:, 1] if cut else kind.zeros(nc, 1))
         if held:
             k_now, r_now = self.command(0, cut)
             shift = ca.horzcat(ca.DM.zeros(held - 1, n + nc), ca.DM.eye(held - 1),
                                ca.DM.zeros(held - 1, 1)) if held > 1 else ca.DM.zeros(0, total)
-            rows += [k_now, ca.MX(shift)]
-            inputs += [r_now, ca.MX.zeros(held - 1, 1)]
-            cut_inputs += [dc[0, 1] if cut else ca.MX(0), ca.MX.zeros(held - 1, 1)]
-        return (ca.vertcat(*rows), ca.vertcat(*[ca.MX(i) for i in inputs]),
-                ca.vertcat(*[ca.MX(i) for i in cut_inputs]))
+            rows += [k_now, kind(shift)]
+            inputs += [r_now, kind.zeros(held - 1, 1)]
+            cut_inputs += [dc[0, 1] if cut else kind(0), kind.zeros(held - 1, 1)]
+        return (ca.vertcat(*rows), ca.vertcat(*[kind(i) for i in inputs]),
+                ca.vertcat(*[kind(i) for i in cut_inputs]))
 
     @cached_property
     def _matrices(self):
@@ -242,9 +255,10 @@ class SampledLTILoop(_SampledLoopBase):
         characteristic polynomial is computed from (:attr:`shifted_polynomial`)."""
         n, nc, held = self.plant.order, self.controller.order, self.held_samples
         total = self.order
+        kind = self._kind
         difference, gamma0, gamma1 = self._plant_difference
         lag = self.delay + self._split[0]
-        plant = ca.horzcat(difference, ca.MX.zeros(n, total - n))
+        plant = ca.horzcat(difference, kind.zeros(n, total - n))
         if lag:
             plant = plant + ca.mtimes(gamma0, self.command(lag)[0])
         if self.has_fraction:
@@ -252,10 +266,10 @@ class SampledLTILoop(_SampledLoopBase):
         rows, column = [plant], [gamma0 if lag == 0 else ca.DM.zeros(n, 1)]
         if nc:
             c, velocity = self._measurement
-            bc = ca.MX(self.controller.b)
+            bc = kind(self.controller.b)
             x_part = ca.mtimes(bc[:, 2], velocity) + ca.mtimes(bc[:, 1], c)
-            rows.append(ca.horzcat(x_part, ca.MX(self.controller.a) - ca.DM.eye(nc),
-                                   ca.MX.zeros(nc, held)))
+            rows.append(ca.horzcat(x_part, kind(self.controller.a) - ca.DM.eye(nc),
+                                   kind.zeros(nc, held)))
             column.append(ca.DM.zeros(nc, 1))
         if held:  # h₁(k+1) − h₁(k) = u(k) − h₁(k); h_i(k+1) − h_i(k) = h_{i−1}(k) − h_i(k)
             shift = np.zeros((held, total))
@@ -263,9 +277,9 @@ class SampledLTILoop(_SampledLoopBase):
                 shift[i, n + nc + i] = -1.0
                 if i:
                     shift[i, n + nc + i - 1] = 1.0
-            rows.append(ca.MX(ca.DM(shift)))
+            rows.append(kind(ca.DM(shift)))
             column.append(ca.DM(np.eye(held, 1)))
-        return ca.vertcat(*rows), ca.vertcat(*[ca.MX(c) for c in column]), self.command(0)[0]
+        return ca.vertcat(*rows), ca.vertcat(*[kind(c) for c in column]), self.command(0)[0]
 
     @cached_property
     def shifted_polynomial(self) -> list:
@@ -282,8 +296,8 @@ class SampledLTILoop(_SampledLoopBase):
         b, g, k = self._difference_form
         n = self.order
         eye = ca.DM.eye(n)
-        m = ca.MX(eye)
-        out = [ca.MX(1)]
+        m = self._kind(eye)
+        out = [self._kind(1)]
         for j in range(1, n + 1):
             feedback = ca.mtimes(k, ca.mtimes(m, g))
             bm = ca.mtimes(b, m)
@@ -374,7 +388,7 @@ class SampledLTILoop(_SampledLoopBase):
         brings back, sign of the negative feedback removed). Hold, computation delay and
         dead time included; an inner velocity loop stays closed, as in Bhatia's outer loop
         (Ch. IV, Fig 18); periodic in ω with period 2π/T."""
-        phi, gamma_w = self._open_matrices
+        phi, gamma_w = (ca.MX(m) for m in self._open_matrices)  # the QR below is MX's
         n = self.order
         wt = omega * self.period
         # the QR of linalg.solve, not the pivoted solve of the closed loop's responses:

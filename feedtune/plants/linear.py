@@ -520,6 +520,7 @@ class Linear(Plant):
     def __init__(self, params: LinearParams):
         self.params = params
         self._bands: dict[tuple, tuple[float, float]] = {}  # frequency_band per box
+        self._settle_times: dict[float, float] = {}  # _settle_time per T_min
 
     @property
     def position_unit(self) -> str:
@@ -910,7 +911,15 @@ class Linear(Plant):
         (computation delay + 1)·T_min [s]: the time scale of a step's transient, as
         :meth:`feedtune.plants.software_servo.SoftwareServo.loop`'s 2τ + dead time. A
         discrete model's poles z map to p = ln(z)/T, |Re p| = −ln|z|/T. Roots in pure Python
-        (:func:`feedtune.loops.linalg.roots`): a scale, computed without numpy."""
+        (:func:`feedtune.loops.linalg.roots`): a scale, computed without numpy, once per
+        T_min (a sampled loop is built at every point of a robust search, a batch's reports
+        and the contract tests' grids)."""
+        if period_min not in self._settle_times:
+            self._settle_times[period_min] = self._slowest_transient(period_min)
+        return self._settle_times[period_min]
+
+    def _slowest_transient(self, period_min: float) -> float:
+        """:meth:`_settle_time` [s], computed."""
         model = self.params.model
         _, den = model.polynomials()
         if model.discrete:

@@ -134,6 +134,7 @@ class WardLeonard(Plant):
 
     def __init__(self, params: WardLeonardParams):
         self.params = params
+        self._bands: dict[tuple, tuple[float, float]] = {}  # frequency_band per box
 
     def tunables(self) -> dict[str, Tunable]:
         p = self.params
@@ -227,7 +228,16 @@ class WardLeonard(Plant):
         velocity constant K'_p K'_v G(0)/(1 + K'_v G(0)) (the slow closed-loop pole of a
         low-gain loop), and the largest pole the uncompensated velocity loop can have at
         the top of the K'_v box (Fujiwara's bound on the roots of d_g + K'_v n_g).
+
+        Computed once per box (D(s)'s roots by numpy): a loop is built at every point of
+        a robust search, a batch's reports and the contract tests' grids.
         """
+        key = tuple(sorted(box.items()))
+        if key not in self._bands:
+            self._bands[key] = self._frequency_band(box)
+        return self._bands[key]
+
+    def _frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         p = self.params
         n_g, d_f, d_m = self.velocity_per_volt()
         if not np.all(np.isfinite(np.concatenate([n_g, d_f, d_m]))):

@@ -281,3 +281,44 @@ def test_pivoted_solve_is_numpys_on_symbols_and_numbers():
     inverse = np.linalg.inv(a)
     np.testing.assert_allclose(np.array(grad).ravel(), -inverse[:, 0] * (inverse[0] @ b)[0],
                                rtol=1e-6)
+
+
+def test_a_companion_matrix_of_numbers_is_the_expressions_matrix():
+    """Numbers are written straight into the companion matrix's layout: the same sparsity
+    and the same entries, bit for bit (a signed zero included), as the matrix built on
+    symbols and evaluated at those numbers."""
+    rng = np.random.default_rng(11)
+    for degree in range(1, 10):
+        p = [float(c) for c in rng.normal(size=degree + 1) * 10.0 ** rng.uniform(-6, 6, degree + 1)]
+        p[-1] = 0.0  # −0/p[0] or +0/p[0]: a zero's sign as the division gives it
+        symbols = ca.SX.sym("p", degree + 1)
+        expression = linalg.companion_matrix([symbols[i] for i in range(degree + 1)])
+        evaluated = ca.Function("companion", [symbols], [expression])(p)
+        numbers = linalg.companion_matrix(p)
+        assert isinstance(numbers, ca.DM)
+        assert numbers.shape == evaluated.shape
+        np.testing.assert_array_equal(np.array(numbers), np.array(evaluated))
+        assert [math.copysign(1, x) for x in np.array(numbers).ravel()] == \
+            [math.copysign(1, x) for x in np.array(evaluated).ravel()]
+
+
+def test_a_resolvent_on_numbers_is_the_graphs_value():
+    """hessenberg_resolvent on numbers (numpy floats, a row of frequencies) returns the
+    values its CasADi graph of the same operations gives at those numbers, bit for bit."""
+    rng = np.random.default_rng(5)
+    n = 6
+    h, q = linalg.hessenberg(ca.DM(rng.normal(size=(n, n))))
+    rhs, row = ca.DM(rng.normal(size=(n, 1))), ca.DM(rng.normal(size=(1, n)))
+    wt = np.linspace(1e-3, math.pi, 7)
+    shift_re, shift_im = -2 * np.sin(wt / 2) ** 2, np.sin(wt)
+    re, im = linalg.hessenberg_resolvent(h, rhs, row, ca.DM(shift_re).T, ca.DM(shift_im).T)
+    assert isinstance(re, ca.DM) and re.shape == (1, wt.size)
+    x, y = ca.MX.sym("x", 1, wt.size), ca.MX.sym("y", 1, wt.size)
+    graph = ca.Function("resolvent", [x, y], list(linalg.hessenberg_resolvent(
+        ca.MX(h), ca.MX(rhs), ca.MX(row), x, y)))(shift_re, shift_im)
+    np.testing.assert_array_equal(np.array(re), np.array(graph[0]))
+    np.testing.assert_array_equal(np.array(im), np.array(graph[1]))
+    # and a resolvent: row·(zI − H)⁻¹·rhs at one z
+    z = complex(shift_re[3], shift_im[3]) + 1  # x = z − 1 is the shift
+    exact = np.array(row) @ np.linalg.solve((z - 1) * np.eye(n) - np.array(h), np.array(rhs))
+    assert complex(float(re[3]), float(im[3])) == pytest.approx(complex(exact.item()), rel=1e-12)

@@ -642,3 +642,29 @@ def test_a_loop_of_numbers_sizes_its_substeps_for_its_own_period(name):
     # a unit step's IAE 0.042 m·s: 1e-12 relative is ~1e4 roundings of the 261 samples'
     # sums (measured ≤ 6.6e-15), far below what a wrong cut would change
     assert mine == pytest.approx(box_sized, rel=1e-12)
+
+
+@pytest.mark.parametrize("dead_time, delay", [(0.0, 0), (1.5e-3, 1)])
+def test_a_loop_of_numbers_assembles_its_matrices_on_numbers(dead_time, delay):
+    """A loop of numbers holds Φ, Γ, the open loop's matrices and its polynomial as DM
+    (numbers computed once, not MX graphs of constants each reader evaluates again), equal
+    to the same loop built on symbols and evaluated at those numbers: the same operations,
+    so to the last bit, the signs of zeros aside (CasADi's select adds 0 to what it picks)."""
+    a, b, c = two_mass()
+    plant = ContinuousPlant(a, b, c, dead_time=dead_time)
+    gains = ca.MX.sym("gains", 3)  # K_p, and K_v, T_i of the velocity PI
+
+    def loop(k_p, k_v, t_i):
+        controller = cascade_controller(k_p, [k_v * t_i, k_v], [t_i, 0], PERIOD)
+        return SampledLTILoop(plant, controller, PERIOD, (PERIOD, PERIOD), delay=delay,
+                              horizon=1.0)
+
+    numbers, symbols = loop(K_P, K_V, T_I), loop(gains[0], gains[1], gains[2])
+    read = [lambda lp: lp.state_matrix, lambda lp: lp.input_matrix,
+            lambda lp: lp.open_loop_matrices[0], lambda lp: lp.open_loop_matrices[1],
+            lambda lp: ca.vertcat(*lp.characteristic_polynomial)]
+    for part in read:
+        value = part(numbers)
+        assert isinstance(value, ca.DM)
+        graph = ca.Function("part", [gains], [part(symbols)])([K_P, K_V, T_I])
+        np.testing.assert_array_equal(np.array(value, dtype=float), np.array(graph, dtype=float))
