@@ -35,7 +35,7 @@ sys.path.insert(0, str(TREE))
 sys.path.insert(1, str(Path(__file__).resolve().parent))
 
 import feedtune  # noqa: E402  (from TREE, before batch_throughput adds its own checkout)
-from batch_throughput import _structure, generate  # noqa: E402
+from batch_throughput import generate, one_spec_per_structure  # noqa: E402
 
 import feedtune.batch.job as job  # noqa: E402
 import feedtune.problem as problem  # noqa: E402
@@ -103,10 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--specs", type=int, default=150)
     args = parser.parse_args(argv)
     specs = generate(max(args.specs, 300))
-    warm: dict[tuple, dict] = {}
-    for spec in reversed(specs):
-        warm.setdefault(_structure(spec), spec)
-    for spec in warm.values():
+    for spec in one_spec_per_structure(specs):
         job.solve(json.dumps(spec).encode())
     for label, owner, name, _ in PHASES:
         if owner is not None and hasattr(owner, name):  # a tree has one of each pair

@@ -140,6 +140,15 @@ def generate(n: int) -> list[dict]:
     return specs
 
 
+def one_spec_per_structure(specs: list[dict]) -> list[dict]:
+    """The last spec of each kind of problem (:func:`_structure`): solved once, untimed,
+    before a measurement, so imports, IPOPT's first load and solver builds are not counted."""
+    warm: dict[tuple, dict] = {}
+    for spec in reversed(specs):
+        warm.setdefault(_structure(spec), spec)
+    return list(warm.values())
+
+
 def _structure(spec: dict) -> tuple:
     """The kind of problem: technique, which tunables are free, which constraints."""
     return (spec["plant"].get("technique"),

@@ -24,7 +24,7 @@ import json  # noqa: E402
 import time  # noqa: E402
 
 from baseline import baseline_module  # noqa: E402
-from batch_throughput import _structure, generate  # noqa: E402
+from batch_throughput import generate, one_spec_per_structure  # noqa: E402
 
 
 def main() -> None:
@@ -40,10 +40,7 @@ def main() -> None:
 
     old = baseline_module(args.baseline, "feedtune/loops/frequency.py", "baseline_frequency")
     specs = generate(max(args.specs, 300))
-    warm: dict[tuple, dict] = {}
-    for spec in reversed(specs):
-        warm.setdefault(_structure(spec), spec)
-    for spec in warm.values():
+    for spec in one_spec_per_structure(specs):
         job.solve(json.dumps(spec).encode())
     captured = []
     refine = new._peak_of_numbers

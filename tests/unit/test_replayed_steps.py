@@ -12,9 +12,6 @@ boxes, stable or not.
 
 from __future__ import annotations
 
-import math
-from pathlib import Path
-
 import casadi as ca
 import numpy as np
 import pytest
@@ -26,22 +23,13 @@ from feedtune.objectives.contour.radial_error import RadialError
 from feedtune.objectives.frequency import frequency_domain
 from feedtune.objectives.frequency.gain_margin import GainMargin
 from feedtune.objectives.frequency.phase_margin import PhaseMargin
-from feedtune.problem import build_plant, resolve_tunables
-from feedtune.schema.spec import parse_spec
 from feedtune.tuner.terms import exact_value
-
-REPO = Path(__file__).resolve().parents[2]
-KINDS = {"pulse": "koren-1979-reference-pulse", "sampled": "koren-1979-sampled-data"}
+from example_loops import KINDS, example_loops
 
 
 def _loops(kind, count=4):
     """``count`` loops of numbers at seeded log-uniform points of the example's box."""
-    spec = parse_spec((REPO / "examples" / f"{KINDS[kind]}.json").read_text())
-    plant = build_plant(spec)
-    _, _, box = resolve_tunables(spec, plant)
-    rng = np.random.default_rng(16)
-    return [plant.loop({name: math.exp(rng.uniform(math.log(lo), math.log(hi)))
-                        for name, (lo, hi) in box.items()}, box) for _ in range(count)]
+    return example_loops(kind, count, seed=16)
 
 
 def _rows(loop):

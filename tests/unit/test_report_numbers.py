@@ -10,9 +10,6 @@ bits as they were (the batch's 300 result files are compared field by field in
 
 from __future__ import annotations
 
-import math
-from pathlib import Path
-
 import casadi as ca
 import numpy as np
 import pytest
@@ -20,21 +17,13 @@ import pytest
 import feedtune.loops.frequency as frequency
 from feedtune import problem
 from feedtune.objectives.frequency import frequency_domain
-from feedtune.problem import Reports, build_plant, resolve_tunables
-from feedtune.schema.spec import parse_spec
-
-REPO = Path(__file__).resolve().parents[2]
-KINDS = {"pulse": "koren-1979-reference-pulse", "sampled": "koren-1979-sampled-data"}
+from feedtune.problem import Reports
+from example_loops import KINDS, example_loops
 
 
 def _loops(kind, count=3):
     """``count`` loops of numbers at seeded log-uniform points of the example's box."""
-    spec = parse_spec((REPO / "examples" / f"{KINDS[kind]}.json").read_text())
-    plant = build_plant(spec)
-    _, _, box = resolve_tunables(spec, plant)
-    rng = np.random.default_rng(27)
-    return [plant.loop({name: math.exp(rng.uniform(math.log(lo), math.log(hi)))
-                        for name, (lo, hi) in box.items()}, box) for _ in range(count)]
+    return example_loops(kind, count, seed=27)
 
 
 def test_a_bands_grid_is_computed_once_and_handed_out_as_a_copy(monkeypatch):
