@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import to_array, to_float
-from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL, TIME_LIMIT
+from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build, cached_structure, store_structure
 from feedtune.tuner.evaluation import Seen, smallest_magnitudes
@@ -104,13 +104,12 @@ FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
                        "output_file": "", "file_print_level": 0}
 
 
-
 class _Run(NamedTuple):
     """What one start gave (:meth:`Problem._run_start`): its status, IPOPT's return
     status, objective, iterations and exchange points, whether its end point is feasible,
     that point z [ln tunable], the bound values and stability conditions there,
-    (solver, :class:`~feedtune.tuner.optimum.Solution`) of its last IPOPT round (None
-    without one), and whether an attempt stopped at a time limit (CPU or wall clock)."""
+    and (solver, :class:`~feedtune.tuner.optimum.Solution`) of its last IPOPT round (None
+    without one)."""
 
     status: str
     return_status: str
@@ -122,7 +121,6 @@ class _Run(NamedTuple):
     bounds: list
     conditions: np.ndarray
     solution: tuple | None
-    clocked: bool
 
 
 class Problem:
@@ -335,27 +333,14 @@ class Problem:
         return feasibility(bounds, self.bounds, conditions, matrices, self.discrete)
 
     def solve(self, progress: Callable[[StartOutcome, int], None] | None = None) -> Outcome:
-        """Run every start; ``progress(start_outcome, total)`` is called after each.
-
-        A start from the very point an earlier start ran from (one free tunable without an
-        ``initial``: the Halton sequence's first point after the corner is the box's middle,
-        the first start) is that earlier run: the same inputs to the same Functions and
-        solver give the same iterates (a result is the same whether its solver is new or
-        reused), so its outcome is taken over, not computed again, unless an attempt of that
-        run stopped at a time limit (a clock, not the iterates, ended it)."""
+        """Run every start; ``progress(start_outcome, total)`` is called after each."""
         starts: list[StartOutcome] = []
         best = None  # (key, index, z, return_status, status)
         optima = []  # (index, objective, z) of every start that solved feasibly
         solutions: dict[int, tuple] = {}  # each start's solver and last NLP round
-        ran: dict[bytes, _Run] = {}  # start point → what the start from it gave
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
-            point = np.asarray(z0, dtype=float).tobytes()
-            run = ran.get(point)
-            if run is None:
-                run = self._run_start(z0, started)
-                if not run.clocked:
-                    ran[point] = run
+            run = self._run_start(z0, started)
             if run.solution is not None:
                 solutions[index] = run.solution
             status, return_status, objective = run.status, run.return_status, run.objective
@@ -428,7 +413,7 @@ class Problem:
         Hessian in turn until one ends solved and feasible), ``started`` its clock [s,
         perf_counter]."""
         iterations = exchanged = 0
-        solution, clocked = None, False
+        solution = None
         attempts = (["scalar"] if self.scalar is not None else
                     self.hessians if self.has_nlp else [None])
         resume = None  # where the previous attempt of this start ended, if stable there
@@ -445,7 +430,6 @@ class Problem:
                 status = STATUS.get(return_status, "error")
             else:
                 z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
-            clocked = clocked or status == TIME_LIMIT
             objective, bounds, conditions, matrices = self._evaluate(z_opt)
             feasible, _ = self._feasible(bounds, conditions, matrices)
             if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
@@ -459,7 +443,7 @@ class Problem:
         if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
             objective = None
         return _Run(status, return_status, objective, iterations, exchanged, feasible, z_opt,
-                    bounds, conditions, solution, clocked)
+                    bounds, conditions, solution)
 
     def _solve_from(self, start: np.ndarray, started: float, hessian: str, resume=None) -> tuple:
         """One start: IPOPT (with this Hessian approximation), then exchange rounds while a

@@ -9,11 +9,16 @@ import numpy as np
 
 from feedtune.tuner.types import Variable
 
+#: a Halton point within this fraction of the box's width [ln] of the first start, in every
+#: tunable, is that start (the box's middle computed two ways differs in the last bits)
+SAME_POINT = 1e-9
+
 
 def starting_points(variables: list[Variable], count: int) -> np.ndarray:
     """``count`` starts in ln(tunable): the initial point (the box's geometric middle for a
     tunable without one), then an unscrambled Halton sequence over the box (its first
-    point, the box's corner, skipped). Shape (count, len(variables))."""
+    point, the box's corner, skipped, and so is a point at the first start). Shape
+    (count, len(variables))."""
     if not variables:
         return np.zeros((1, 0))
     lower = np.log([v.lower for v in variables])
@@ -22,7 +27,12 @@ def starting_points(variables: list[Variable], count: int) -> np.ndarray:
                       for v, lo, hi in zip(variables, lower, upper)])
     points = [first]
     if count > 1:
-        points.extend(lower + _halton(len(variables), count) * (upper - lower))
+        # one point more than needed: a Halton point at the first start (in one dimension
+        # the sequence's first point after the corner, 1/2, is the box's middle) is skipped,
+        # as a start repeated is no further evidence of where the optimum lies
+        halton = lower + _halton(len(variables), count + 1) * (upper - lower)
+        same = np.all(np.abs(halton - first) <= SAME_POINT * (upper - lower), axis=1)
+        points.extend(halton[~same])
     return np.array(points[:count])
 
 

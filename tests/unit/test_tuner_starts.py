@@ -29,6 +29,22 @@ def test_further_starts_are_deterministic_and_inside_the_box():
     np.testing.assert_allclose(points[1], lower + [0.5, 1 / 3] * (upper - lower))
 
 
+@pytest.mark.parametrize("lower, initial", [(1.0, None), (0.5, None), (1.0, math.sqrt(4.9))])
+def test_a_start_at_the_first_is_skipped(lower, initial):
+    """One tunable whose first start is the box's middle (no ``initial``, or that one):
+    Halton's first point after the corner, 1/2 of the box, is that start again (to the bit
+    for a lower bound of 1, to the last bits otherwise), so it is skipped and the eight
+    starts are eight points, Halton's 1/4, 3/4, 1/8, … after the middle."""
+    upper = 4.9 if lower == 1.0 else 9.8
+    points = starting_points([Variable("k", lower, upper, initial=initial)], 8)[:, 0]
+    low, high = math.log(lower), math.log(upper)
+    assert len(points) == 8
+    assert min(np.diff(np.sort(points))) > (high - low) / 100
+    assert points[0] == pytest.approx((low + high) / 2, abs=1e-12)
+    np.testing.assert_allclose(points[1:4], low + np.array([0.25, 0.75, 0.125]) * (high - low),
+                               rtol=0, atol=1e-12)
+
+
 def test_no_variables_one_empty_start():
     assert starting_points([], 8).shape == (1, 0)
 
