@@ -133,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     ROWS[0] = args.rows
     LIBRARIES.mkdir(parents=True, exist_ok=True)
+    os.chdir(tempfile.mkdtemp(prefix="feedtune-jit-"))  # where CasADi's jit writes its C files
     ca.nlpsol = nlpsol
     frequency.Mapped._row = row
     nlp.Problem._solve_from = ab("one start", nlp.Problem._solve_from, state=True)

@@ -105,9 +105,12 @@ def main(argv: list[str] | None = None) -> int:
                         default=Path(tempfile.gettempdir()) / "feedtune-compiled-batch")
     parser.add_argument("--out", type=Path, help="write the specs' result files here")
     args = parser.parse_args(argv)
+    args.cache = args.cache.resolve()
     args.cache.mkdir(parents=True, exist_ok=True)
+    args.out = args.out.resolve() if args.out else None
 
     if args.jit:
+        os.chdir(tempfile.mkdtemp(prefix="feedtune-jit-"))  # where CasADi's jit writes its C
         make_solver = cache.make_solver
         jit = {"jit": True, "compiler": "shell", "jit_cleanup": True,
                "jit_options": {"compiler": "cc", "flags": ["-O2"], "verbose": False}}
