@@ -348,7 +348,7 @@ def main(argv: list[str] | None = None) -> int:
             per_call[id(solver), name] = (vm, c)
             print(f"| {id(solver) % 1000} | {name} | {fn.n_instructions()} | "
                   f"{stats.get('n_call_' + name, 0)} | {vm * 1e6:.1f} | {c * 1e6:.1f} | "
-                  f"{compile_cpu if compiled is not None else compile_cpu!r} |")
+                  f"{f'{compile_cpu:.2f}' if compiled is not None else compile_cpu} |")
     # each callback's CPU inside IPOPT (its own timers), scaled by that oracle Function's
     # compiled/VM ratio (the mean over the solvers timed above)
     if per_call:
