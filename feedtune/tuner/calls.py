@@ -15,22 +15,25 @@ it, feedtune.tuner.cache).
 
 from __future__ import annotations
 
-import functools
 import threading
+import weakref
 
 import numpy as np
 
-#: Functions whose numeric callers (and their threads' buffers) are kept per process, least
-#: recently used dropped first: the solver cache's and structure cache's Functions
-#: (feedtune.tuner.cache: 16 solvers, 64 structures, a few Functions each)
-NUMERIC_CALLS = 512
+#: each Function's numeric callers, by ``check``: kept while the Function is (its proxy
+#: object, e.g. a cached solver or a structure's Functions), never beyond
+_calls: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_calls_lock = threading.Lock()
 
 
-@functools.lru_cache(maxsize=NUMERIC_CALLS)
 def numeric(function, check: bool = True) -> "NumericCall":
-    """The :class:`NumericCall` of ``function``, made once per process (the set-up reads
-    every input's and output's sparsity: ≈ 0.1 ms)."""
-    return NumericCall(function, check)
+    """The :class:`NumericCall` of ``function``, made once for it (the set-up reads every
+    input's and output's sparsity: ≈ 0.1 ms) and dropped with it."""
+    with _calls_lock:
+        calls = _calls.setdefault(function, {})
+        if check not in calls:
+            calls[check] = NumericCall(function, check)
+        return calls[check]
 
 
 class NumericCall:
@@ -47,7 +50,7 @@ class NumericCall:
     """
 
     def __init__(self, function, check: bool = True):
-        self.function = function
+        self._function = weakref.ref(function)  # not kept alive by its caller (numeric)
         self.check = check
         self.inputs, self.names = function.name_in(), function.name_out()
         self._local = threading.local()
@@ -63,11 +66,18 @@ class NumericCall:
             self._shapes.append((shape, None if dense else (np.array(sparsity.row()),
                                                             np.array(sparsity.get_col()))))
 
+    @property
+    def function(self):
+        """The Function (None once it is gone)."""
+        return self._function()
+
     def _buffers(self):
         """(evaluate, argument arrays, result arrays, buffer) of this thread."""
         buffers = getattr(self._local, "buffers", None)
         if buffers is None:
             fn = self.function
+            if fn is None:
+                raise RuntimeError("a numeric call of a Function that no longer exists")
             buffer, evaluate = fn.buffer()
             args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
             results = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]

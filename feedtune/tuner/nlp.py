@@ -199,7 +199,9 @@ class Problem:
         scalar = (settings.scalar_search and not settings.ipopt_options
                   and scalar_search_applies(self))
         entry = self._entry(self.hessians[0], with_solver=not scalar)
-        # called with numbers through their evaluation buffers (feedtune.tuner.calls)
+        # called with numbers through their evaluation buffers (feedtune.tuner.calls), which
+        # hold their Functions weakly: kept here while this problem is
+        self._entry_functions = entry.functions
         self.settling = numeric(entry.functions["settling"])
         self.extra_start = numeric(entry.functions["extra_start"])
         self._exchange_levels = numeric(entry.functions["exchange_levels"])

@@ -88,3 +88,17 @@ def test_each_thread_evaluates_in_its_own_buffer():
     for t in threads:
         t.join()
     assert failures == []
+
+
+def test_a_numeric_call_does_not_keep_its_function_alive():
+    """A cached solver dropped from the cache is freed with its numeric call (each keeps
+    an IPOPT solver's memory)."""
+    import gc
+    import weakref
+
+    f = _function()
+    call = weakref.ref(numeric(f))
+    function = weakref.ref(f)
+    del f
+    gc.collect()
+    assert function() is None and call() is None
