@@ -144,19 +144,22 @@ def main(argv: list[str] | None = None) -> int:
     n = args.specs
     print(f"{n} specs: {len(solves)} IPOPT solves, {len(checks)} NLP checks, "
           f"{len(problems)} problems; load average {os.getloadavg()[0]:.2f}")
-    pairs = [("IPOPT solves", solves_with_dms, solves_buffered, solves),
-             ("NLP checks", checks_with_dms, checks_buffered, checks),
+    # each recorded solve or check alone, the two ways in turn (a loaded machine's speed
+    # drifts within a round); problems a round at a time (each builds the next's caches)
+    pairs = [("IPOPT solves", solves_with_dms, solves_buffered, [[s] for s in solves]),
+             ("NLP checks", checks_with_dms, checks_buffered, [[c] for c in checks]),
              ("Problem.__init__ on its structure", lambda p: problems_built(p, True),
               lambda p: problems_built(p, None), problems)]
     totals = {label: [0.0, 0.0] for label, *_ in pairs}
     for _ in range(args.rounds):
         for label, before, now, recorded in pairs:
-            outs = []
-            for i, fn in enumerate((before, now)):
-                started = time.process_time()
-                outs.append(fn(recorded))
-                totals[label][i] += time.process_time() - started
-            old, out = outs
+            items = [recorded] if label == pairs[2][0] else recorded
+            old, out = [], []
+            for item in items:
+                for i, (fn, outs) in enumerate(((before, old), (now, out))):
+                    started = time.process_time()
+                    outs.extend(fn(item))
+                    totals[label][i] += time.process_time() - started
             if label == pairs[2][0]:
                 same = all(all(np.array_equal(getattr(a, k), getattr(b, k)) for k in
                                ("param_values", "lbw", "ubw", "lbg", "ubg", "slot_defaults"))

@@ -5,8 +5,9 @@ result back (CasADi's overloaded argument conversion: ≈ 20 µs an argument, �
 result), which costs more than evaluating the tuner's small Functions. A Function's
 evaluation buffer (``Function.buffer``) reads its arguments from, and writes its results
 into, numpy arrays bound once; the evaluation is the same, so the numbers are the same
-bits. Measured (benchmarks/README.md, branch h-bst4): an IPOPT solve of a batch spec's
-2-variable NLP 2.90 → 2.63 ms, the same iterates, multipliers and statistics.
+bits. Measured (benchmarks/batch_starts.py, branch h-bst4, load 11): a batch spec's six NLP
+checks 1.08 → 0.42 ms of CPU, its three IPOPT solves 17.27 → 17.00 ms (IPOPT's own work
+is the rest), the same iterates, multipliers and statistics.
 
 A buffer is one evaluation's memory: each thread has its own (a Dask worker runs specs in
 threads, and the solver and the Functions of a structure are shared by every problem of

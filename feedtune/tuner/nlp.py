@@ -13,6 +13,8 @@ own module:
 * feedtune.tuner.stability — Hurwitz/Schur rows, the eigenvalue verdict, restoration;
 * feedtune.tuner.starts — the multistart's starting points;
 * feedtune.tuner.cache — the process-wide solver cache;
+* feedtune.tuner.calls — its Functions and IPOPT called with numbers through their
+  evaluation buffers;
 * feedtune.tuner.optimum — whether the optimum is unique;
 * feedtune.tuner.types — what the tuner takes and returns.
 
