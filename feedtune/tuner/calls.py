@@ -104,7 +104,15 @@ class NumericCall:
                 target[:] = self._defaults[i]
             else:
                 target[:] = np.asarray(value, dtype=float).ravel(order="F")
-        evaluate()
+        try:
+            evaluate()
+        except SystemError as exc:
+            # CasADi's interrupt check (an nlpsol's iterations) ran Python's SIGINT handler
+            # and caught its KeyboardInterrupt: the solve ends NonIpopt_Exception_Thrown. A
+            # call with DMs clears the exception and returns; the buffer's call leaves it
+            # set, which Python reports as this SystemError: returned as the DM call does
+            if not isinstance(exc.__cause__, KeyboardInterrupt):
+                raise
         if self.check and buffer.ret() != 0:
             raise RuntimeError(f"evaluation of {self.function.name()} failed")
         out = []

@@ -102,3 +102,52 @@ def test_a_numeric_call_does_not_keep_its_function_alive():
     del f
     gc.collect()
     assert function() is None and call() is None
+
+
+def _interrupted(solve) -> str:
+    """The return status of ``solve()`` when a KeyboardInterrupt is raised 0.2 s into it,
+    as Ctrl-C raises one (by SIGALRM here: pytest's SIGINT is left alone)."""
+    import signal
+
+    solving = [True]
+
+    def interrupt(signum, frame):
+        if solving[0]:  # never outside the solve: a late alarm does nothing
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.2)
+        status = solve()
+    finally:
+        solving[0] = False
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    return status
+
+
+def test_an_interrupted_solve_ends_as_a_dm_calls_does():
+    """CasADi's interrupt check inside IPOPT runs the signal handler and catches its
+    KeyboardInterrupt: the solve returns NonIpopt_Exception_Thrown. The DM call clears the
+    exception; the buffer's call would leave it set (a SystemError): both return alike."""
+    n = 2000
+    x = ca.MX.sym("x", n)
+    solver = ca.nlpsol("slow", "ipopt", {"x": x, "f": ca.sumsqr(x[1:] - x[:-1] ** 2)
+                                         + ca.sumsqr(1 - x)},
+                       {"ipopt": {"print_level": 0, "sb": "yes", "tol": 1e-300,
+                                  "acceptable_iter": 0, "max_iter": 100000,
+                                  "max_wall_time": 20.0,
+                                  "hessian_approximation": "limited-memory"},
+                        "print_time": False, "error_on_fail": False})
+    x0 = np.full(n, -1.2)
+
+    def with_dms():
+        solver(x0=x0)
+        return solver.stats()["return_status"]
+
+    def buffered():
+        call = NumericCall(solver, check=False)
+        call.named(x0=x0)
+        return call.stats()["return_status"]
+
+    assert _interrupted(with_dms) == _interrupted(buffered) == "NonIpopt_Exception_Thrown"
