@@ -39,7 +39,7 @@ def numeric(function, check: bool = True) -> "NumericCall":
 
 class NumericCall:
     """``function`` evaluated at numbers: :meth:`__call__` takes each input's values (any
-    array-like of its number of entries, column-major for a matrix; None: zeros) and
+    array-like of its number of entries, column-major for a matrix) and
     returns every output as :meth:`casadi.DM.full` would, a dense 2-D array with zeros
     where the output's sparsity has none. An input left out (or None) takes the
     Function's default (``default_in``: e.g. an nlpsol's multipliers start at 0), as in a
@@ -53,7 +53,8 @@ class NumericCall:
     def __init__(self, function, check: bool = True):
         self._function = weakref.ref(function)  # not kept alive by its caller (numeric)
         self.check = check
-        self.inputs, self.names = function.name_in(), function.name_out()
+        self.name, self.inputs, self.names = (function.name(), function.name_in(),
+                                              function.name_out())
         self._local = threading.local()
         for i in range(function.n_in()):
             if not function.sparsity_in(i).is_dense():
@@ -78,7 +79,7 @@ class NumericCall:
         if buffers is None:
             fn = self.function
             if fn is None:
-                raise RuntimeError("a numeric call of a Function that no longer exists")
+                raise RuntimeError(f"{self.name}: the Function no longer exists")
             buffer, evaluate = fn.buffer()
             args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
             results = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
@@ -107,14 +108,14 @@ class NumericCall:
         try:
             evaluate()
         except SystemError as exc:
-            # CasADi's interrupt check (an nlpsol's iterations) ran Python's SIGINT handler
+            # CasADi's interrupt check (an nlpsol's iterations) ran a Python signal handler
             # and caught its KeyboardInterrupt: the solve ends NonIpopt_Exception_Thrown. A
             # call with DMs clears the exception and returns; the buffer's call leaves it
             # set, which Python reports as this SystemError: returned as the DM call does
             if not isinstance(exc.__cause__, KeyboardInterrupt):
                 raise
         if self.check and buffer.ret() != 0:
-            raise RuntimeError(f"evaluation of {self.function.name()} failed")
+            raise RuntimeError(f"evaluation of {self.name} failed")
         out = []
         for values, (shape, where) in zip(results, self._shapes):
             if where is None:
@@ -130,7 +131,7 @@ class NumericCall:
         outputs by name."""
         unknown = set(inputs) - set(self.inputs)
         if unknown:
-            raise ValueError(f"{self.function.name()} has no input {sorted(unknown)}")
+            raise ValueError(f"{self.name} has no input {sorted(unknown)}")
         return dict(zip(self.names, self.outputs(*[inputs.get(name) for name in self.inputs])))
 
     def stats(self) -> dict:
