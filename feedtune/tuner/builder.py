@@ -7,6 +7,13 @@ weights, bounds inside the graph and every scale found by probing the starts, so
 built solver serves every spec of the same structure (feedtune.tuner.cache). Exchange
 points (frequencies added while solving, feedtune.tuner.supremum) are parameters too,
 held apart as ``slots``.
+
+A problem of a structure built before (feedtune.tuner.structure) needs only its own
+numbers (parameter values, row and variable bounds, scales): its builder is not
+``symbolic``, and the rows, starts and objective the pieces hand it as :class:`Lazy` are
+not built (each CasADi operation from Python costs ≈ 50 µs of argument conversion; a batch
+spec's objective, bound and stability rows ≈ 1 ms on a structure hit). The numbers are
+computed by the same code either way.
 """
 
 from __future__ import annotations
@@ -18,12 +25,32 @@ import numpy as np
 from feedtune.tuner.types import Variable
 
 
+class Lazy:
+    """An NLP expression built only by a ``symbolic`` :class:`NlpBuilder`, from ``make``
+    (a function of nothing), once; ``size`` its number of entries (rows, for a
+    constraint)."""
+
+    def __init__(self, make, size: int = 1):
+        self._make, self.size, self._built = make, size, None
+
+    def build(self):
+        """The expression (made on the first call, the same object after)."""
+        if self._built is None:
+            self._built = self._make()
+        return self._built
+
+
 class NlpBuilder:
     """Collects the NLP piece by piece; each ``add_*`` returns what the caller needs later
-    (a symbol, or a row's index)."""
+    (a symbol, or a row's index).
 
-    def __init__(self, variables: list[Variable], z: ca.MX | None = None):
+    ``symbolic`` false: :class:`Lazy` expressions are left unbuilt (:meth:`expression`
+    gives None for them), for a problem that reuses a built structure's Functions."""
+
+    def __init__(self, variables: list[Variable], z: ca.MX | None = None,
+                 symbolic: bool = True):
         self.variables = variables
+        self.symbolic = symbolic
         self.z = ca.MX.sym("log_tunables", len(variables)) if z is None else z
         self._params: list[ca.MX] = []
         self._param_values: list[float] = []
@@ -50,6 +77,12 @@ class NlpBuilder:
         self._param_values.append(float(value))
         return symbol
 
+    def expression(self, expr):
+        """``expr`` itself, or a :class:`Lazy` one built (None when not :attr:`symbolic`)."""
+        if isinstance(expr, Lazy):
+            return expr.build() if self.symbolic else None
+        return expr
+
     def variable(self, name: str, lower: float, upper: float, start, scan=None) -> ca.MX:
         """A new auxiliary NLP variable in [lower, upper], started at ``start`` (an
         expression of z); its symbol. With a ``scan`` (feedtune.tuner.supremum.make_scan),
@@ -61,6 +94,7 @@ class NlpBuilder:
             self.scanned.append(value)
             self.start_scans.append(scan)
             start = start(value)
+        start = self.expression(start)  # built before this variable exists, as when eager
         symbol = ca.MX.sym(name)
         self._extra.append(symbol)
         self._extra_lower.append(lower)
@@ -73,15 +107,17 @@ class NlpBuilder:
         return self.constrain_all(expr, lower, upper)[0]
 
     def constrain_all(self, expr, lower: float, upper: float) -> range:
-        """One row ``lower ≤ e ≤ upper`` per entry e of the vector ``expr``; their indices.
+        """One row ``lower ≤ e ≤ upper`` per entry e of the vector ``expr`` (or
+        :class:`Lazy`); their indices.
 
         The vector is kept whole (:attr:`g`): split into one MX node per entry, a grid of
         rows was 560 of the user drive's 1 444 MX nodes and, differentiated in 9
         directions, most of its unexpanded Jacobian."""
         start = len(self._lbg)
-        self._blocks.append(expr)
-        self._lbg.extend([lower] * expr.numel())
-        self._ubg.extend([upper] * expr.numel())
+        size = expr.size if isinstance(expr, Lazy) else expr.numel()
+        self._blocks.append(self.expression(expr))
+        self._lbg.extend([lower] * size)
+        self._ubg.extend([upper] * size)
         return range(start, len(self._lbg))
 
     @property

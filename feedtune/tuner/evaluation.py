@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from feedtune.expr import Magnitude
+from feedtune.tuner.calls import numeric
 from feedtune.tuner.scenarios import objective_value
 from feedtune.tuner.terms import exact_value
 from feedtune.tuner.types import finite, number
@@ -82,7 +83,7 @@ class Evaluator:
         return other
 
     def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
-        out = self.function(z=z, p=p[:self.n_params])
+        out = numeric(self.function).named(z=z, p=p[:self.n_params])
 
         def values(row, magnitudes, scans, read=finite):
             row = np.asarray(row, dtype=float).ravel()

@@ -13,6 +13,8 @@ own module:
 * feedtune.tuner.stability — Hurwitz/Schur rows, the eigenvalue verdict, restoration;
 * feedtune.tuner.starts — the multistart's starting points;
 * feedtune.tuner.cache — the process-wide solver cache;
+* feedtune.tuner.calls — its Functions and IPOPT called with numbers through their
+  evaluation buffers;
 * feedtune.tuner.optimum — whether the optimum is unique;
 * feedtune.tuner.types — what the tuner takes and returns.
 
@@ -35,6 +37,7 @@ from feedtune.expr import to_array, to_float
 from feedtune.schema.status import ERROR, INFEASIBLE, OPTIMAL
 from feedtune.tuner.builder import NlpBuilder, scale
 from feedtune.tuner.cache import cached_build, cached_structure, store_structure
+from feedtune.tuner.calls import numeric
 from feedtune.tuner.evaluation import Seen, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scenarios import objective_value, worst_group
@@ -198,10 +201,13 @@ class Problem:
         scalar = (settings.scalar_search and not settings.ipopt_options
                   and scalar_search_applies(self))
         entry = self._entry(self.hessians[0], with_solver=not scalar)
-        self.settling = entry.functions["settling"]
-        self.extra_start = entry.functions["extra_start"]
-        self._exchange_levels = entry.functions["exchange_levels"]
-        self.stability_check = entry.functions["stability_check"]
+        # called with numbers through their evaluation buffers (feedtune.tuner.calls), which
+        # hold their Functions weakly: kept here while this problem is
+        self._entry_functions = entry.functions
+        self.settling = numeric(entry.functions["settling"])
+        self.extra_start = numeric(entry.functions["extra_start"])
+        self._exchange_levels = numeric(entry.functions["exchange_levels"])
+        self.stability_check = numeric(entry.functions["stability_check"])
         self.solver_reused = entry.reused
         self.scalar = ScalarSearch.for_problem(self) if scalar else None
         if self.scalar is not None and not self.scalar.solvable:
@@ -369,7 +375,7 @@ class Problem:
         objective, bounds, conditions, matrices, reports = self._evaluate_numeric(values)
         feasible, stability = self._feasible(bounds, conditions, matrices)
         model_gap = self._model_gap(self._evaluate(z_opt), objective, bounds)
-        settling = np.asarray(self.settling(z_opt, self.param_values), dtype=float).ravel()
+        settling = self.settling(z_opt, self.param_values).ravel()
         horizon_bound = bool(np.any(settling < SETTLING_ACTIVE))
         evaluation_time = time.perf_counter() - started
         success = status in SOLVED and feasible and objective is not None
@@ -482,17 +488,19 @@ class Problem:
         while True:
             p = np.concatenate([[p_scale], slots, self.param_values])
             solver = self._solver(hessian, warm=duals is not None)
-            result = solver(x0=x0, p=p, lbx=self.lbw, ubx=self.ubw, lbg=lbg, ubg=ubg,
-                            **({} if duals is None else {"lam_g0": duals[0], "lam_x0": duals[1]}))
-            stats = solver.stats()
+            # through the solver's evaluation buffer (feedtune.tuner.calls): the same solve
+            call = numeric(solver, check=False)  # a failed solve is its status: error_on_fail
+            result = call.named(x0=x0, p=p, lbx=self.lbw, ubx=self.ubw, lbg=lbg, ubg=ubg,
+                                **({} if duals is None else {"lam_g0": duals[0],
+                                                             "lam_x0": duals[1]}))
+            stats = call.stats()
             self._last_solver = solver
             # IPOPT leaves iter_count unset (garbage) when it stops before iterating
             iterations += min(max(int(stats.get("iter_count", 0)), 0), self.settings.max_iter)
             return_status = stats.get("return_status", "unknown")
-            x0 = np.asarray(result["x"], dtype=float).ravel()
-            solution = Solution(x0, p, np.asarray(result["lam_g"], dtype=float).ravel(),
-                                np.asarray(result["lam_x"], dtype=float).ravel(), lbg.copy(),
-                                ubg.copy())
+            x0 = result["x"].ravel()
+            solution = Solution(x0, p, result["lam_g"].ravel(), result["lam_x"].ravel(),
+                                lbg.copy(), ubg.copy())
             # only a solved round's multipliers are worth going on from: at an iteration
             # limit they are an unconverged guess, and a small barrier parameter on top of it
             # leads IPOPT astray (measured on a Rosenbrock toy, tests/unit/test_tuner_terms.py)
@@ -505,8 +513,7 @@ class Problem:
             if not self.exchange_groups:  # no peak or crossing to refine: nothing to add
                 break
             z = x0[:self.n_z]
-            levels = np.asarray(self._exchange_levels(z, *x0[self.n_z:], self.param_values),
-                                dtype=float).ravel()
+            levels = self._exchange_levels(z, *x0[self.n_z:], self.param_values).ravel()
             violations = [group.violations(z, self.param_values, level)
                           for group, level in zip(self.exchange_groups, levels)]
             added = add_exchange_points(self.exchange_groups, violations, slots, lbg, ubg, used)
@@ -523,8 +530,8 @@ class Problem:
     def _stable(self, z: np.ndarray) -> bool:
         """Every stability condition and every matrix's poles hold at the log tunables z."""
         conditions, *matrices = self.stability_check(z, self.param_values)
-        return bool(np.all(np.asarray(conditions, dtype=float) > 0) and all(
-            poles_stable(np.asarray(m, dtype=float), self.discrete)["stable"] for m in matrices))
+        return bool(np.all(conditions > 0) and all(
+            poles_stable(m, self.discrete)["stable"] for m in matrices))
 
     def _stable_start(self, z0: np.ndarray) -> np.ndarray | None:
         """``z0`` if its loop is stable, else a stable point near it (see
@@ -538,16 +545,14 @@ class Problem:
             if seen is not None:
                 return seen.stability, list(seen.matrices.values())
             conditions, *matrices = self.stability_check(z, self.param_values)
-            return (np.asarray(conditions, dtype=float).ravel(),
-                    [np.asarray(m, dtype=float) for m in matrices])
+            return conditions.ravel(), matrices
 
         return restore(z0, evaluate, self.lbw[:self.n_z], self.ubw[:self.n_z], self.discrete)
 
     def _x0(self, z0: np.ndarray) -> np.ndarray:
         """Start of every NLP variable: z0, and the extra variables where z0 puts them."""
-        extra = np.asarray(self.extra_start(z0, self.param_values,
-                                            *self._scanned(z0, self.param_values)),
-                           dtype=float).ravel()
+        extra = self.extra_start(z0, self.param_values,
+                                 *self._scanned(z0, self.param_values)).ravel()
         extra = np.clip(np.nan_to_num(extra, nan=0.0, posinf=1e6, neginf=-1e6),
                         self.lbw[self.n_z:], self.ubw[self.n_z:])
         return np.concatenate([z0, extra])

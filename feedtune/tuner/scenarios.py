@@ -9,9 +9,11 @@ made smooth by an epigraph: a variable t with t ≥ F_g for every group, minimis
 
 from __future__ import annotations
 
+import functools
+
 import casadi as ca
 
-from feedtune.tuner.builder import NlpBuilder
+from feedtune.tuner.builder import Lazy, NlpBuilder
 
 
 def objective_value(weights, values, groups) -> float | None:
@@ -29,18 +31,30 @@ def worst_group(builder: NlpBuilder, shares: list, groups: list[int], scale: flo
     """The NLP's objective from each term's share (its :func:`~feedtune.tuner.terms.add_term`
     expression) and group: their sum for one group; else an epigraph variable t with
     rows (t − F_g)/s ≥ 0, s a parameter (``scale``, the objective's size at the starts),
-    started at the largest F_g where each auxiliary variable starts."""
+    started at the largest F_g where each auxiliary variable starts. The shares, rows and
+    start are built by a symbolic builder only (None from another: see
+    feedtune.tuner.builder.Lazy)."""
     order = list(dict.fromkeys(groups))
-    sums = {g: ca.MX(0) for g in order}
-    for share, group in zip(shares, groups):
-        sums[group] += share
+
+    @functools.cache
+    def group_sums() -> dict:  # built once, by a symbolic builder only
+        sums = {g: ca.MX(0) for g in order}
+        for share, group in zip(shares, groups):
+            sums[group] += share
+        return sums
+
     if len(order) <= 1:
-        return sums[order[0]] if order else ca.MX(0)
+        return builder.expression(Lazy(lambda: group_sums()[order[0]] if order else ca.MX(0)))
     s = builder.parameter("objective_group_scale", scale)
-    extra = builder.extra
-    starts = [ca.substitute(sums[g], ca.vertcat(*extra), ca.vertcat(*builder.extra_start))
-              if extra else sums[g] for g in order]
-    t = builder.variable("worst_group", -ca.inf, ca.inf, ca.mmax(ca.vertcat(*starts)) / s)
+    extra, extra_start = builder.extra, list(builder.extra_start)
+
+    def start():
+        sums = group_sums()
+        starts = [ca.substitute(sums[g], ca.vertcat(*extra), ca.vertcat(*extra_start))
+                  if extra else sums[g] for g in order]
+        return ca.mmax(ca.vertcat(*starts)) / s
+
+    t = builder.variable("worst_group", -ca.inf, ca.inf, Lazy(start))
     for g in order:
-        builder.constrain((s * t - sums[g]) / s, 0, ca.inf)
-    return s * t
+        builder.constrain(Lazy(lambda g=g: (s * t - group_sums()[g]) / s), 0, ca.inf)
+    return builder.expression(Lazy(lambda: s * t))

@@ -17,7 +17,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-from feedtune.tuner.builder import NlpBuilder, scale
+from feedtune.tuner.builder import Lazy, NlpBuilder, scale
 from feedtune.tuner.types import Bound, within
 
 #: scaled Hurwitz conditions must exceed this [1]
@@ -80,14 +80,20 @@ def add_stability_rows(builder: NlpBuilder, stability: list, settling: list,
     point, read −1e-8); where peaks and crossings over frequency are bounded, the NLP's
     objective keeps its iterates stable instead (:func:`nan_where_unstable`). Capping the
     scale at 1 was tried: it broke the one-gain hydraulic bandwidth tuning of
-    tests/unit/test_tuner_frequency.py (IPOPT: infeasible) and is not needed with that."""
-    stability_rows = [ca.asinh(c / builder.parameter(f"stability_scale{i}", scale(ref)))
+    tests/unit/test_tuner_frequency.py (IPOPT: infeasible) and is not needed with that.
+
+    The rows are :class:`~feedtune.tuner.builder.Lazy` (each scale's parameter made here,
+    in this order); the scaled settling conditions are None from a builder that is not
+    symbolic."""
+    stability_rows = [Lazy(lambda c=c, s=builder.parameter(f"stability_scale{i}", scale(ref)):
+                           ca.asinh(c / s))
                       for i, (c, ref) in enumerate(zip(stability, stability_ref))]
-    scaled_settling = [c / builder.parameter(f"settling_scale{i}", scale(ref))
+    scaled_settling = [Lazy(lambda c=c, s=builder.parameter(f"settling_scale{i}", scale(ref)):
+                            c / s)
                        for i, (c, ref) in enumerate(zip(settling, settling_ref))]
     for condition in stability_rows + scaled_settling:
         builder.constrain(condition, STABILITY_MARGIN, ca.inf)
-    return scaled_settling
+    return [builder.expression(c) for c in scaled_settling]
 
 
 def nan_where_unstable(f, conditions: list):

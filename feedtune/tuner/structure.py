@@ -61,8 +61,9 @@ class Structure:
 
     def builder(self, variables: list[Variable], values: Mapping[str, float]) -> NlpBuilder:
         """A builder on this structure's symbols whose leading parameters hold ``values``
-        (by parameter name) for one problem."""
-        builder = NlpBuilder(variables, self.z)
+        (by parameter name) for one problem; symbolic until the structure's Functions are
+        built (:attr:`build`), after which a problem needs only its numbers."""
+        builder = NlpBuilder(variables, self.z, symbolic=self.build is None)
         for name, symbol in self.leading:
             builder.parameter(name, values[name], symbol)
         return builder

@@ -17,7 +17,7 @@ from __future__ import annotations
 import casadi as ca
 
 from feedtune.expr import Crossing, Magnitude, PoleRegion, Supremum, Unbounded
-from feedtune.tuner.builder import NlpBuilder, scale
+from feedtune.tuner.builder import Lazy, NlpBuilder, scale
 from feedtune.tuner.poles import region_bound, region_term
 from feedtune.tuner.supremum import ExchangeGroup, crossing_variable, supremum_below
 from feedtune.tuner.types import Bound
@@ -50,14 +50,17 @@ def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
     ``sign`` is the term's signed weight: its sign shapes the NLP (an epigraph only bounds
     what is minimised), its size is the parameter. ``reference`` is the term's magnitude
     at the starts (see feedtune.tuner.builder.Scales); ``scan`` the numeric scan of a
-    Supremum or Crossing value (feedtune.tuner.supremum.make_scan).
+    Supremum or Crossing value (feedtune.tuner.supremum.make_scan). The share is None
+    from a builder that is not symbolic (a magnitude's or a plain value's rows and share
+    are :class:`~feedtune.tuner.builder.Lazy`).
     """
     magnitude = isinstance(value, Magnitude)  # exact_value only where read: on a loop of
     # symbols a Supremum's or Crossing's exact value is a large graph the NLP does not use
     if isinstance(value, Crossing):
         return weight * crossing_variable(builder, value, scan, index, sign > 0, groups)
     if isinstance(value, Unbounded):  # maximised (or minimised) where it is finite; a tuned
-        return weight * value.finite  # point where it is +∞ has no finite objective
+        # point where it is +∞ has no finite objective
+        return builder.expression(Lazy(lambda: weight * value.finite))
     if isinstance(value, PoleRegion):
         if sign > 0:  # "some pole is slow" is a union of regions: no smooth rows
             raise ValueError("a pole region (decay rate, damping) can only be maximised")
@@ -69,14 +72,15 @@ def add_term(builder: NlpBuilder, index: int, value, scan, weight, sign: float,
         return weight * s * t
     expr = exact_value(value)[0]
     if magnitude and sign < 0:  # maximising |e|: no epigraph bounds it from above
-        return weight * ca.fabs(expr)
+        return builder.expression(Lazy(lambda: weight * ca.fabs(expr)))
     if magnitude:  # epigraph: −s·t ≤ e ≤ s·t, minimise s·t
         s = builder.parameter(f"term_scale{index}", scale(reference))
-        t = builder.variable(f"slack{index}", 0, ca.inf, ca.fabs(expr) / s * 1.01 + 1e-6)
-        builder.constrain((expr - s * t) / s, -ca.inf, 0)
-        builder.constrain((expr + s * t) / s, 0, ca.inf)
-        return weight * s * t
-    return weight * expr
+        t = builder.variable(f"slack{index}", 0, ca.inf,
+                             Lazy(lambda: ca.fabs(expr) / s * 1.01 + 1e-6))
+        builder.constrain(Lazy(lambda: (expr - s * t) / s), -ca.inf, 0)
+        builder.constrain(Lazy(lambda: (expr + s * t) / s), 0, ca.inf)
+        return builder.expression(Lazy(lambda: weight * s * t))
+    return builder.expression(Lazy(lambda: weight * expr))
 
 
 def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
@@ -102,11 +106,11 @@ def add_bound(builder: NlpBuilder, index: int, value, scan, bound: Bound,
         if bound.lower is not None:
             builder.constrain(value.exact / s, lower, ca.inf)
     elif isinstance(value, Unbounded):
-        builder.constrain(unbounded_row(value, s, lower, upper), lower, upper)
+        builder.constrain(Lazy(lambda: unbounded_row(value, s, lower, upper)), lower, upper)
     elif magnitude and bound.lower is not None and bound.lower > 0:
-        builder.constrain(value.expr**2 / s**2, lower**2,
+        builder.constrain(Lazy(lambda: value.expr**2 / s**2), lower**2,
                           upper**2 if bound.upper is not None else ca.inf)
     elif magnitude:
-        builder.constrain(value.expr / s, -upper, upper)
+        builder.constrain(Lazy(lambda: value.expr / s), -upper, upper)
     else:
-        builder.constrain(exact_value(value)[0] / s, lower, upper)
+        builder.constrain(Lazy(lambda: exact_value(value)[0] / s), lower, upper)
