@@ -32,12 +32,7 @@ sys.path.insert(0, str(REPO))
 from feedtune.validate import continuous, integrals  # noqa: E402
 from feedtune.validate.continuous import grid_times  # noqa: E402
 from feedtune.validate.linear import LinearModel  # noqa: E402
-
-#: tests/cli/test_pid_notch_example.py's LONG_LIVED design of examples/user-defined-pid-notch.json
-LONG_LIVED = {"position_controller.kp": 1.13090766e5, "position_controller.ti": 0.93769363,
-              "position_controller.td": 6.41815256e-3, "position_controller.n": 10.0,
-              "notch.frequency": 1677.00924, "notch.width": 0.155870208,
-              "notch.depth": 0.213148571}
+from validator_integrals import LONG_LIVED  # noqa: E402  (the long-lived design)
 
 
 def parts(cont, integ, model: LinearModel, times) -> tuple[dict[str, float], list]:
