@@ -5,6 +5,27 @@ from __future__ import annotations
 import numpy as np
 
 
+#: pieces per chunk of :func:`_ise_pieces` (a chunk's temporaries stay in the CPU's cache)
+CHUNK = 1 << 15
+
+
+def _ise_pieces(t: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """(e0² + e1² + e0·e1)·Δt of every piece [s·e²], the same operations in the same order
+    as on the whole arrays, CHUNK pieces at a time into one array: a 31-million-point grid
+    writes one array instead of seven temporaries of 250 MB each, and np.sum of it adds
+    the same array as before."""
+    n = max(t.size - 1, 0)
+    pieces = np.empty(n)
+    for a in range(0, n, CHUNK):
+        b = min(a + CHUNK, n)
+        e0, e1, x = e[a:b], e[a + 1:b + 1], pieces[a:b]
+        np.multiply(e0, e0, out=x)
+        x += e1 * e1
+        x += e0 * e1
+        x *= t[a + 1:b + 1] - t[a:b]
+    return pieces
+
+
 def error_integrals(t: np.ndarray, e: np.ndarray,
                     names: tuple[str, ...] = ("iae", "ise", "itae")) -> dict[str, float]:
     """∫|e| dt, ∫e² dt, ∫t|e| dt over the grid ``t`` [s] (any spacing), e linear between
@@ -21,13 +42,13 @@ def error_integrals(t: np.ndarray, e: np.ndarray,
     integral of a 31-million-point response (tests/cli/test_pid_notch_example.py's long
     one) makes 4 array passes instead of about 20.
     """
-    dt = np.diff(t)
-    e0, e1 = e[:-1], e[1:]
     out = {}
     if "ise" in names:
-        out["ise"] = float(np.sum((e0 * e0 + e1 * e1 + e0 * e1) * dt)) / 3
+        out["ise"] = float(np.sum(_ise_pieces(t, e))) / 3
     if "iae" not in names and "itae" not in names:
         return out
+    dt = np.diff(t)
+    e0, e1 = e[:-1], e[1:]
     t0, t1 = t[:-1], t[1:]
     a = np.abs(e)
     a0, a1 = a[:-1], a[1:]

@@ -35,7 +35,7 @@ from scipy.optimize import brentq
 
 from feedtune.validate.cascade import compensator
 from feedtune.validate.continuous import (PAIR_MEASUREMENTS, SENSITIVITY, Block, ContinuousModel,
-                                         _propagate, siso)
+                                         _propagate, grid_times, siso)
 from feedtune.validate.entries import poles_entry
 from feedtune.validate.measurements import Phase
 from feedtune.validate.model import NotCovered
@@ -378,7 +378,7 @@ class LinearModel(ContinuousModel):
         cached = self.__dict__.get("_transient_values")
         if cached is None:
             steps = self._grid_steps()
-            t = np.concatenate([[0.0], np.cumsum(steps)])
+            t = grid_times(steps)
             starts = np.column_stack([self._steady(kind)[2] for kind in ("step", "ramp")])
             values = _propagate(self.a, starts, steps, self.c)
             cached = self.__dict__["_transient_values"] = (

@@ -68,3 +68,16 @@ def test_the_integrals_asked_for_alone_are_the_same_floats(names):
     e = np.exp(-t / 0.1) * np.cos(2 * np.pi * t / 0.05)  # [m], many sign changes
     every = error_integrals(t, e)
     assert error_integrals(t, e, names) == {name: every[name] for name in names}
+
+
+@pytest.mark.parametrize("size", [1, 2, 1000, 3 * (1 << 15) + 17])
+def test_the_ise_in_chunks_is_the_whole_arrays_formula_to_the_bit(size):
+    """The ISE's pieces computed a chunk at a time (``integrals.CHUNK``, so a 31-million-point
+    grid needs no array-sized temporaries) are the whole arrays' expression, bit for bit,
+    across chunk boundaries too (sizes below, at and beyond a few chunks)."""
+    rng = np.random.default_rng(size)
+    t = np.cumsum(rng.uniform(1e-4, 1e-3, size))  # [s]
+    e = rng.standard_normal(size)  # [m]
+    e0, e1 = e[:-1], e[1:]
+    whole = float(np.sum((e0 * e0 + e1 * e1 + e0 * e1) * np.diff(t))) / 3
+    assert error_integrals(t, e, ("ise",))["ise"] == whole

@@ -168,3 +168,47 @@ def test_the_outputs_alone_are_the_states_output_up_to_rounding(length):
     old = np.einsum("kij,i->kj", continuous._propagate(m, z0, steps), c)
     assert new.shape == old.shape == (steps.size + 1, 2)
     assert np.max(np.abs(new - old)) <= 1e-13 * np.max(np.abs(old))
+
+
+def _outputs_block_by_block(m, z0, steps, c):
+    """``_propagate``'s output rows before the stacked product: each block of a long run
+    (c P_j) z by its own matrix product, z advanced by P_RUN_BLOCK after it."""
+    states = np.empty((steps.size + 1,) + z0.shape[1:])
+    states[0] = c @ z0
+    z, i, block = z0, 0, continuous.RUN_BLOCK
+    while i < steps.size:
+        h = steps[i]
+        end = i + int(np.argmax(steps[i:] != h)) if np.any(steps[i:] != h) else steps.size
+        step = expm(m * h)
+        if end - i < 2 * block:
+            for k in range(i, end):
+                z = step @ z
+                states[k + 1] = c @ z
+        else:
+            powers = [step]
+            for _ in range(block - 1):
+                powers.append(step @ powers[-1])
+            powers = np.array(powers)
+            seen = c @ powers
+            while i < end:
+                k = min(block, end - i)
+                states[i + 1:i + 1 + k] = seen[:k] @ z
+                z = powers[k - 1] @ z
+                i += k
+        i = end
+    return states
+
+
+@pytest.mark.parametrize("columns", [None, 2])
+def test_a_long_runs_outputs_in_one_stacked_product_are_each_blocks_to_the_bit(columns):
+    """The output rows of whole blocks computed as one stacked product are the rows each
+    block's own product gave, bit for bit (a vector state and a matrix of states)."""
+    rng = np.random.default_rng(16)
+    m = rng.normal(size=(6, 6)) - 3 * np.eye(6)
+    z0 = rng.normal(size=(6,) if columns is None else (6, columns))
+    c = rng.normal(size=6)
+    block = continuous.RUN_BLOCK
+    steps = np.concatenate([np.full(5, 1e-3), np.full(7 * block + 11, 2e-3),
+                            np.full(2 * block, 3e-3)])
+    new = continuous._propagate(m, z0, steps, c)
+    assert new.tobytes() == _outputs_block_by_block(m, z0, steps, c).tobytes()
