@@ -17,7 +17,7 @@ import json
 import math
 import typing
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import casadi as ca
 import numpy as np
@@ -178,13 +178,17 @@ class PlantConfig:
     key: str
     overrides: tuple
 
-    @property
+    @cached_property
     def plant(self):
+        """The configuration's plant, built once (its Params validated by pydantic): the
+        contracts read it for every case and every point (``log_point``, ``tunables``),
+        and build loops from it, as the tuner builds every loop of a spec from one plant."""
         cls = PLANTS[self.key]
         return cls(cls.Params(type=self.key, **{**PLANT_EXAMPLES[self.key], **_thawed(self.overrides)}))
 
-    @property
+    @cached_property
     def tunables(self):
+        """The plant's tunables (read only)."""
         return self.plant.tunables()
 
     @property
