@@ -429,7 +429,14 @@ def option_variants(metric_cls) -> list:
 
 
 def metric_cases() -> list[tuple[PlantConfig, str, object]]:
-    """(config, metric name, options) for every combination the metric says it supports."""
+    """(config, metric name, options) for every combination the metric says it supports
+    (a new list of the cases found once per test process: the metric and validator
+    contracts both enrol them at collection)."""
+    return list(_metric_cases())
+
+
+@lru_cache(maxsize=None)
+def _metric_cases() -> tuple:
     cases = []
     for config in CONFIGS:
         try:
@@ -445,7 +452,7 @@ def metric_cases() -> list[tuple[PlantConfig, str, object]]:
             for options in variants:
                 if cls().supports(loop, options):
                     cases.append((config, name, options))
-    return cases
+    return tuple(cases)
 
 
 def exact_nominal(config: PlantConfig) -> dict[str, float]:
@@ -454,7 +461,13 @@ def exact_nominal(config: PlantConfig) -> dict[str, float]:
 
 
 def exact_metric_cases() -> list[tuple[PlantConfig, str, object]]:
-    """(config, metric name, options) for every metric that supports an exact-only loop."""
+    """(config, metric name, options) for every metric that supports an exact-only loop
+    (a new list of the cases found once per test process, as :func:`metric_cases`)."""
+    return list(_exact_metric_cases())
+
+
+@lru_cache(maxsize=None)
+def _exact_metric_cases() -> tuple:
     cases = []
     for config in EXACT_CONFIGS:
         loop = config.plant.loop(exact_nominal(config), config.default_box)
@@ -466,7 +479,7 @@ def exact_metric_cases() -> list[tuple[PlantConfig, str, object]]:
             for options in variants:
                 if cls().supports(loop, options):
                     cases.append((config, name, options))
-    return cases
+    return tuple(cases)
 
 
 @lru_cache(maxsize=None)
