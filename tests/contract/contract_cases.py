@@ -12,19 +12,35 @@ OPTION_SAMPLES (again a test says so).
 
 from __future__ import annotations
 
+import ast
 import itertools
 import json
 import math
 import typing
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
+import feedtune
 from feedtune.expr import Magnitude
 from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
+
+#: the package's source directory (the modules the AST contracts read)
+PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
+
+
+@lru_cache(maxsize=None)
+def package_trees() -> tuple:
+    """(path, syntax tree) of every module of ``feedtune/``, sorted by path, parsed once
+    per test process for the contracts that walk them (test_loop_protocol.py's two,
+    test_status_vocabulary.py's): ≈ 1 s of CPU a parse of the package. Read them only."""
+    return tuple((path, ast.parse(path.read_text(encoding="utf-8"), filename=str(path)))
+                 for path in sorted(PACKAGE_ROOT.rglob("*.py")))
+
 
 #: physical parameters per plant; software_servo: Koren 1979 design example (τ = 20 ms,
 #: BLU = 5 µm, V_m = 40 mm/s); hydraulic_rotary: Bhatia 1971 Ch. IV in SI units, as in
@@ -178,13 +194,17 @@ class PlantConfig:
     key: str
     overrides: tuple
 
-    @property
+    @cached_property
     def plant(self):
+        """The configuration's plant, built once (its Params validated by pydantic): the
+        contracts read it for every case and every point (``log_point``, ``tunables``),
+        and build loops from it, as the tuner builds every loop of a spec from one plant."""
         cls = PLANTS[self.key]
         return cls(cls.Params(type=self.key, **{**PLANT_EXAMPLES[self.key], **_thawed(self.overrides)}))
 
-    @property
+    @cached_property
     def tunables(self):
+        """The plant's tunables (read only)."""
         return self.plant.tunables()
 
     @property
@@ -409,7 +429,14 @@ def option_variants(metric_cls) -> list:
 
 
 def metric_cases() -> list[tuple[PlantConfig, str, object]]:
-    """(config, metric name, options) for every combination the metric says it supports."""
+    """(config, metric name, options) for every combination the metric says it supports
+    (a new list of the cases found once per test process: the metric and validator
+    contracts both enrol them at collection)."""
+    return list(_metric_cases())
+
+
+@lru_cache(maxsize=None)
+def _metric_cases() -> tuple:
     cases = []
     for config in CONFIGS:
         try:
@@ -425,7 +452,7 @@ def metric_cases() -> list[tuple[PlantConfig, str, object]]:
             for options in variants:
                 if cls().supports(loop, options):
                     cases.append((config, name, options))
-    return cases
+    return tuple(cases)
 
 
 def exact_nominal(config: PlantConfig) -> dict[str, float]:
@@ -434,7 +461,13 @@ def exact_nominal(config: PlantConfig) -> dict[str, float]:
 
 
 def exact_metric_cases() -> list[tuple[PlantConfig, str, object]]:
-    """(config, metric name, options) for every metric that supports an exact-only loop."""
+    """(config, metric name, options) for every metric that supports an exact-only loop
+    (a new list of the cases found once per test process, as :func:`metric_cases`)."""
+    return list(_exact_metric_cases())
+
+
+@lru_cache(maxsize=None)
+def _exact_metric_cases() -> tuple:
     cases = []
     for config in EXACT_CONFIGS:
         loop = config.plant.loop(exact_nominal(config), config.default_box)
@@ -446,7 +479,7 @@ def exact_metric_cases() -> list[tuple[PlantConfig, str, object]]:
             for options in variants:
                 if cls().supports(loop, options):
                     cases.append((config, name, options))
-    return cases
+    return tuple(cases)
 
 
 @lru_cache(maxsize=None)

@@ -18,16 +18,13 @@ import ast
 import dataclasses
 import inspect
 import typing
-from pathlib import Path
 
 import pytest
 
-import feedtune
-from contract_cases import ALL_CONFIGS, CONFIGS, nominal
+from contract_cases import ALL_CONFIGS, CONFIGS, PACKAGE_ROOT, nominal, package_trees
 from feedtune.loops.protocols import PROTOCOLS, Capability, DeclaredCapabilities, Loop, Plant
 from feedtune.plants import PLANTS
 
-PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 
 def protocol_members(protocol: type) -> set[str]:
     """Names a protocol requires: its annotations and methods, its bases' included."""
@@ -122,15 +119,10 @@ def test_every_capability_has_a_protocol():
         assert inspect.getdoc(protocol), capability
 
 
-def _package_trees():
-    for path in sorted(PACKAGE_ROOT.rglob("*.py")):
-        yield path, ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-
-
 def test_capabilities_named_in_the_code_exist():
     """A misspelt ``Capability.FREQUENCY_RESPONSES`` fails here, not when a metric runs."""
     unknown = []
-    for path, tree in _package_trees():
+    for path, tree in package_trees():
         for node in ast.walk(tree):
             if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
                     and node.value.id == "Capability" and node.attr not in Capability.__members__
@@ -159,7 +151,7 @@ def _probe_target(call: ast.Call) -> str | None:
 def test_no_capability_probes():
     """Loops and plants are read through their declared members, never probed by name."""
     probes = []
-    for path, tree in _package_trees():
+    for path, tree in package_trees():
         for node in ast.walk(tree):
             if isinstance(node, ast.Call) and (target := _probe_target(node)):
                 probes.append(f"{path.relative_to(PACKAGE_ROOT)}:{node.lineno} "

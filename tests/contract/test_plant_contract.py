@@ -207,8 +207,9 @@ def test_symbolic_and_numeric_loops_agree(config, request):
     _known_defect(request, config)
     box = config.default_box
     z, sym_loop = symbolic_loop(config, box)
-    names = list(_loop_numbers(sym_loop))
-    f = ca.Function("loop_numbers", [z], [ca.MX(v) for v in _loop_numbers(sym_loop).values()])
+    symbolic_numbers = _loop_numbers(sym_loop)  # read once: names and expressions
+    names = list(symbolic_numbers)
+    f = ca.Function("loop_numbers", [z], [ca.MX(v) for v in symbolic_numbers.values()])
     points = [nominal(config)] + grid(config)[:: max(1, len(grid(config)) // 5)]
     for point in points:
         num_loop = config.plant.loop(point, box)

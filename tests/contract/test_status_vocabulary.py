@@ -12,12 +12,9 @@ import ast
 from pathlib import Path
 from typing import get_args
 
-import feedtune
+from contract_cases import PACKAGE_ROOT, package_trees
 from feedtune.schema import status
 from feedtune.schema.result import TuneResult
-
-PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
-
 
 def _literal(node) -> bool:
     """A string written in place: a constant, or an f-string that starts with one."""
@@ -55,10 +52,9 @@ def _status_literals(tree: ast.AST) -> list[int]:
 
 def test_no_status_literal_outside_the_vocabulary():
     found = []
-    for path in sorted(PACKAGE_ROOT.rglob("*.py")):
+    for path, tree in package_trees():
         if path == Path(status.__file__).resolve():
             continue
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         found += [f"{path.relative_to(PACKAGE_ROOT)}:{line}" for line in _status_literals(tree)]
     assert not found, f"status strings written outside feedtune/schema/status.py: {found}"
 
