@@ -133,8 +133,11 @@ def controller_transfer(loop: str, plant: dict, tuned: dict) -> tuple[np.ndarray
             num = np.polyadd(_polymul(num, [tf, 1.0]), kp * ti * td * np.array([1.0, 0.0, 0.0]))
             den = _polymul(den, [tf, 1.0])
     comp = compensator(plant.get(f"{loop}_compensator", "none"), f"{loop}_compensator", tuned)
-    from scipy.signal import ss2tf  # 0.5 s of imports: only here
-    c_num, c_den = ss2tf(comp.a, comp.b, comp.c, comp.d) if comp.order else (comp.d[0], [1.0])
+    if comp.order:
+        from scipy.signal import ss2tf  # 0.5 s of imports: only for a compensator's states
+        c_num, c_den = ss2tf(comp.a, comp.b, comp.c, comp.d)
+    else:
+        c_num, c_den = comp.d[0], [1.0]
     num, den = _polymul(num, np.ravel(c_num)), _polymul(den, c_den)
     if plant.get("notch", "none") == f"{loop}_loop":
         w, zeta, depth = (tuned[f"notch.{k}"] for k in ("frequency", "width", "depth"))
