@@ -21,6 +21,12 @@ imports (cvxpy's import, ≈ 1 s, is paid once per process and printed apart); t
 average is printed. BLAS runs on one thread, as the ``feedtune`` command and the Python API
 run it (on two threads of a loaded machine a 1 500 × 3 complex product took 416 µs of CPU
 against 6.5 µs). Run from the repository: ``python benchmarks/datadriven_speed.py``.
+
+``--baseline REV``: instead, this checkout's ``design`` against ``REV``'s
+``feedtune/measured/datadriven.py`` loaded beside it in this process, in turn, ``--rounds``
+times, on the example and on the weighted-sensitivity designs of
+tests/unit/test_datadriven_weighted.py (the three loads modelled, 500 points): CPU of each,
+the ratio, and whether the two designs agree in every field but their clocks.
 """
 
 from __future__ import annotations
@@ -133,5 +139,74 @@ def main() -> None:
               f"{cpu / convex_cpu:10.2f}  {', '.join(f'{v:.6g}' for v in rho)}   ({note})")
 
 
+def side_by_side(revision: str, rounds: int) -> None:
+    """This checkout's ``design`` against ``revision``'s, in turn (module docstring)."""
+    import dataclasses
+
+    sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+    sys.path.insert(0, os.path.join(ROOT, "tests", "unit"))
+    from baseline import baseline_module
+
+    import feedtune.measured.datadriven as new
+    import test_datadriven_weighted as weighted
+
+    old = baseline_module(revision, "feedtune/measured/datadriven.py", "baseline_datadriven")
+    spec = json.load(open(SPEC_PATH))
+    plant = FrequencyResponseData(FrequencyResponseDataParams.model_validate(spec["plant"]))
+    sets, basis = plant.sets(), plant.basis()
+    box = {n: (spec["tunables"][f"controller.{n}"]["min"], spec["tunables"][f"controller.{n}"]["max"])
+           for n in basis.names}
+    initial = {n: spec["tunables"][f"controller.{n}"]["initial"] for n in basis.names}
+    loads = [new.FrequencySet(name, weighted.OMEGA, weighted.hydraulic(weighted.OMEGA, inertia))
+             for name, inertia in (("half", 0.5), ("design", 1.0), ("double", 2.0))]
+    w20, w10 = (new.SensitivityWeight(b, 2.0, 1e-3) for b in (20.0, 10.0))
+    # the weighted test's start for the bounded design: a controller that meets |W S| ≤ 1
+    start = new.design(loads, weighted.PID, weighted.BOX, weighted.INITIAL, m_peak=1.3,
+                       objective="weighted_sensitivity", weight=w10, integrators=1).values
+    cases = {
+        "example: bandwidth, M_peak, M_s": lambda m: m.design(
+            sets, basis, box, initial, m_peak=M_PEAK, sensitivity_peak=M_S, integrators=1),
+        "three loads: min |W S|, M_peak": lambda m: m.design(
+            loads, weighted.PID, weighted.BOX, weighted.INITIAL, objective="weighted_sensitivity",
+            weight=w20, m_peak=1.3, integrators=1),
+        "three loads: bandwidth, |W S| <= 1": lambda m: m.design(
+            loads, weighted.PID, weighted.BOX, start,
+            weighted_sensitivity=1.0, weight=w10, m_peak=1.3, integrators=1),
+    }
+    __import__("cvxpy")
+    print(f"new against {revision}'s datadriven.py, {rounds} rounds in turn; load average "
+          f"{os.getloadavg()[0]:.2f}")
+
+    def fields(found):
+        out = dataclasses.asdict(found)
+        del out["solve_time"], out["build_time"]
+        return repr(out)
+
+    total = {"new": 0.0, "old": 0.0}
+    for label, run in cases.items():
+        cpu, results = {"new": [], "old": []}, {}
+        for _ in range(rounds):
+            for side, module in (("new", new), ("old", old)):
+                found, _, seconds = timed(lambda: run(module))
+                cpu[side].append(seconds)
+                results.setdefault(side, fields(found))
+                assert results[side] == fields(found), "a design differs between rounds"
+        total["new"] += sum(cpu["new"])
+        total["old"] += sum(cpu["old"])
+        print(f"  {label:36s} new {min(cpu['new']):.3f} s  old {min(cpu['old']):.3f} s (least "
+              f"of {rounds})  new/old {sum(cpu['new']) / sum(cpu['old']):.3f}  every field "
+              f"{'equal' if results['new'] == results['old'] else 'DIFFERENT'}")
+    print(f"  all: new/old {total['new'] / total['old']:.3f} of CPU")
+
+
 if __name__ == "__main__":
-    main()
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", help="git revision of the old datadriven.py")
+    parser.add_argument("--rounds", type=int, default=3)
+    arguments = parser.parse_args()
+    if arguments.baseline:
+        side_by_side(arguments.baseline, arguments.rounds)
+    else:
+        main()

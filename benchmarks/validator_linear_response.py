@@ -2,10 +2,11 @@
 and its time responses, new against a git revision's modules, side by side in one process
 (issue 15).
 
-* Frequency: M_peak and phase margin of the user-defined drive over a grid of dead times
-  and inertias, as ``tests/reference/test_robust_plants.py`` re-measures a robust design
-  on 41 × 41 plants (≈ 1 700 models). Each model is measured by the new module and the
-  baseline's in turn; the largest relative difference of each value is printed.
+* Frequency: the model's construction, M_peak and phase margin of the user-defined drive
+  over a grid of dead times and inertias, as ``tests/reference/test_robust_plants.py``
+  re-measures a robust design on 41 × 41 plants (≈ 1 700 models). Each plant is built and
+  measured by the new module and by the baseline's in turn; the largest relative
+  difference of each value and how many are the same bits are printed.
 * Time: the ISE after a step and a ramp of the long-lived PID + notch design of
   ``tests/cli/test_pid_notch_example.py`` (a mode at 1717 rad/s decaying at 0.13 1/s: 31
   million time steps), new against the baseline's ``linear.py`` and ``continuous.py``
@@ -57,12 +58,17 @@ def frequency(old, points: int) -> None:
             for theta in np.linspace(1e-4, 4e-4, points) for a in np.linspace(4.2, 7.8, points)]
     models = [model_for(with_numbers(spec["plant"], p), tuned) for p in grid]
     assert all(isinstance(m, LinearModel) for m in models)
-    cpu = {(label, what): 0.0 for label in ("new", "old") for what in ("m_peak", "phase_margin")}
+    whats = ("build", "m_peak", "phase_margin")
+    cpu = {(label, what): 0.0 for label in ("new", "old") for what in whats}
     worst = {"m_peak": 0.0, "phase_margin": 0.0}
-    for model in models:
+    same = {"m_peak": 0, "phase_margin": 0}
+    for point in grid:
         values = {}
+        plant = with_numbers(spec["plant"], point)
         for label in ("old", "new"):
-            m = model if label == "new" else _as(model, old.LinearModel)
+            start = time.process_time()
+            m = (LinearModel if label == "new" else old.LinearModel)(plant, tuned)
+            cpu[label, "build"] += time.process_time() - start
             for what in ("m_peak", "phase_margin"):
                 start = time.process_time()
                 values[label, what] = getattr(m, what)()
@@ -70,11 +76,15 @@ def frequency(old, points: int) -> None:
         for what in worst:
             new, base = values["new", what], values["old", what]
             worst[what] = max(worst[what], abs(new - base) / abs(base))
+            same[what] += new == base
     print(f"{len(models)} models of the user-defined drive (CPU s, new against old):")
-    for what in ("m_peak", "phase_margin"):
+    for what in whats:
         new, base = cpu["new", what], cpu["old", what]
-        print(f"  {what:13s} new {new:6.2f}  old {base:6.2f}  new/old {new / base:.3f}  "
-              f"largest relative difference {worst[what]:.1e}")
+        print(f"  {what:13s} new {new:6.2f}  old {base:6.2f}  new/old {new / base:.3f}"
+              + (f"  largest relative difference {worst[what]:.1e}, {same[what]} of "
+                 f"{len(grid)} the same bits" if what in worst else ""))
+    new, base = (sum(cpu[label, what] for what in whats) for label in ("new", "old"))
+    print(f"  {'all':13s} new {new:6.2f}  old {base:6.2f}  new/old {new / base:.3f}")
 
 
 def time_domain(old, revision: str) -> None:

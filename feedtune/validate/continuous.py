@@ -45,10 +45,18 @@ class Block:
         return self.a.shape[0]
 
 
+def leading_zeros_trimmed(coefficients) -> np.ndarray:
+    """``numpy.trim_zeros(c, "f")`` of a 1-d float array: the same values, without its
+    n-dimensional search (≈ 15 µs a call, which a validator model's construction paid
+    twelve times)."""
+    c = np.atleast_1d(np.asarray(coefficients, dtype=float))
+    nonzero = np.flatnonzero(c)
+    return c[nonzero[0]:] if nonzero.size else c[:0]
+
+
 def siso(numerator: list, denominator: list) -> Block:
     """A proper n(s)/d(s) (highest power first) in controllable canonical form."""
-    num = np.trim_zeros(np.atleast_1d(np.asarray(numerator, dtype=float)), "f")
-    den = np.trim_zeros(np.atleast_1d(np.asarray(denominator, dtype=float)), "f")
+    num, den = leading_zeros_trimmed(numerator), leading_zeros_trimmed(denominator)
     num, den = num / den[0], den / den[0]
     n = len(den) - 1
     if len(num) > n + 1:
