@@ -1,12 +1,15 @@
 """CasADi and numpy, imported when first used: a command that only checks a spec
 (``feedtune validate``) builds no expression and computes no array, so it never pays for
-their import (issue 15).
+their import (issue 15); nor, by :func:`load`, the plants and metrics that a spec does not
+name.
 
 Modules on that path write ``from feedtune.lazy import ca`` (or ``np``) and use the name
 as the module.
 """
 
 from __future__ import annotations
+
+import importlib
 
 
 class _Lazy:
@@ -59,3 +62,12 @@ class Deferred:
             built = self._build()
             self.__dict__["_built"] = built
         return getattr(built, name)
+
+
+def load(path: str):
+    """The object at ``path``, ``"package.module:name"`` (the entry-point notation), its
+    module imported now: a registry line of :mod:`feedtune.plants` or
+    :mod:`feedtune.objectives`, whose module a spec imports by naming its key (never a path
+    a spec wrote)."""
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module), name)
