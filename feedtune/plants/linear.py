@@ -64,12 +64,11 @@ from feedtune.loops.sampled_controllers import cascade_controller, error_control
 from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.loops.sampled_plants import (WHOLE_SAMPLE_TOL, ContinuousPlant, DiscretePlant,
                                            SampledModelError, split_dead_time)
-from feedtune.plants.base import Plant, Tunable
+from feedtune.plants.base import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS, Plant, Tunable
 from feedtune.plants.cascade import close_loops, compensator_corners
 from feedtune.plants.compensator import CompensatorKind
 from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
 from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
-from feedtune.plants.software_servo import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS
 from feedtune.schema.model import SpecModel
 from feedtune.schema.uncertainty import with_numbers
 

@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import re
+import sys
 import threading
 from collections.abc import Mapping
 from typing import Annotated, Any, Callable, Literal, Union, get_origin
@@ -27,7 +28,6 @@ from feedtune.loops.loop import HorizonError
 from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
 from feedtune.objectives import METRIC_PATHS, metric_class
-from feedtune.objectives.time.step_error import StepErrorMetric, has_exact_step
 from feedtune.plants import DATA_PLANTS, PLANT_PATHS, plant_class, plant_for
 from feedtune.schema.model import SpecModel
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
@@ -896,8 +896,7 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
                                       f"{metric.infinite_when}): as an objective term it has "
                                       "no finite optimum; hold it with a constraint ('min') "
                                       "instead, which +∞ meets"))
-            elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
-                  and has_exact_step(loop, term)):
+            elif term is not None and box_complete and _sums_exact_steps(metric, loop, term):
                 if not loop.offers(Capability.SAMPLE_HORIZON):
                     continue  # a continuous loop's integrals are closed-form lobe sums
                 try:
@@ -906,6 +905,20 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
                     errors.append((where, f"{name} sums the step response sample by sample: "
                                           f"{exc}"))
     return errors
+
+
+#: the module of the metrics that sum a step response sample by sample
+_STEP_ERROR = "feedtune.objectives.time.step_error"
+
+
+def _sums_exact_steps(metric, loop, options) -> bool:
+    """Whether ``metric`` is a :class:`~feedtune.objectives.time.step_error.StepErrorMetric`
+    whose step responses on ``loop`` are exact (``has_exact_step``). That module is imported
+    by every such metric's module, so a spec that names none never loads it (nor the step
+    responses it imports)."""
+    module = sys.modules.get(_STEP_ERROR)
+    return (module is not None and isinstance(metric, module.StepErrorMetric)
+            and module.has_exact_step(loop, options))
 
 
 def _infinite_over_box(plant, box: dict, loop, metric, options) -> bool:
