@@ -69,7 +69,7 @@ from feedtune.plants.cascade import close_loops, compensator_corners
 from feedtune.plants.compensator import CompensatorKind
 from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
 from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
-from feedtune.schema.model import SpecModel
+from feedtune.schema.model import SpecModel, empty_list
 from feedtune.schema.uncertainty import with_numbers
 
 #: default box of the sampling period T [s]: 10 µs (a fast drive's current loop) to 0.5 s
@@ -211,7 +211,7 @@ class ZerosPolesGain(_ModelBase):
                                    "model]: a number (a real pole) or [re, im] (the pair "
                                    "re ± j·im, im > 0)")
     zeros: list[Root] = Field(
-        default_factory=list, max_length=30,
+        default_factory=empty_list, max_length=30,
         description="Zeros [rad/s; z-plane [1] for a discrete model], as the poles; no more "
                     "than there are poles (fewer for a discrete model)")
     gain: float = Field(description="Gain k [output unit per input unit · (rad/s)^(poles − "

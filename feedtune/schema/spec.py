@@ -29,7 +29,7 @@ from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
 from feedtune.objectives import METRIC_PATHS, metric_class
 from feedtune.plants import DATA_PLANTS, PLANT_PATHS, plant_class, plant_for
-from feedtune.schema.model import SpecModel
+from feedtune.schema.model import SpecModel, empty_list
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
                                          number_path, plant_pointer, scenario_count,
                                          with_numbers)
@@ -399,7 +399,7 @@ class Spec(SpecModel):
         description="Weighted sum of metric terms to minimise (terms with goal maximize count "
                     f"negatively) [at most {MAX_OBJECTIVE_TERMS} terms]")
     constraints: list[ConstraintSpec] = Field(
-        default_factory=list, max_length=MAX_CONSTRAINTS,
+        default_factory=empty_list, max_length=MAX_CONSTRAINTS,
         description=f"Metric bounds that must hold [at most {MAX_CONSTRAINTS} constraints]")
     solver: SolverSpec = Field(default_factory=SolverSpec)
     robust: RobustSpec | None = Field(
