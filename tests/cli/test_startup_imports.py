@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ast
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -123,3 +124,36 @@ def test_validate_imports_only_the_plant_and_metrics_a_spec_names():
         assert status == 0
         assert set(heavy) <= _with_registered_imports(named, registered), path.stem
     assert len(set(heavy)) < len(registered) / 2  # the examples name a few of them
+
+
+#: ``feedtune validate ARGV[1]`` in this interpreter, counting the reads of every installed
+#: distribution's entry points (how pydantic looks for plugins); the count on stderr
+_ENTRY_POINT_READS = """
+import importlib.metadata, json, sys
+reads = []
+read = importlib.metadata.entry_points
+importlib.metadata.entry_points = lambda *args, **kwargs: reads.append(kwargs) or read(*args, **kwargs)
+from feedtune.__main__ import run
+status = run(["validate", sys.argv[1]])
+print("\\nreads: " + json.dumps({"status": status, "reads": len(reads)}), file=sys.stderr)
+"""
+
+
+def test_validate_does_not_look_for_pydantic_plugins():
+    """The command sets pydantic's PYDANTIC_DISABLE_PLUGINS (issue 15's start-up), so no
+    entry point is read; a user's own setting is kept
+    (``feedtune.__main__.skip_pydantic_plugins``)."""
+    from feedtune.__main__ import skip_pydantic_plugins
+
+    env = {name: value for name, value in os.environ.items() if name != "PYDANTIC_DISABLE_PLUGINS"}
+    proc = subprocess.run([sys.executable, "-c", _ENTRY_POINT_READS,
+                           str(REPO / "examples" / "koren-1979-sampled-data.json")],
+                          capture_output=True, text=True, cwd=REPO, timeout=120, check=True, env=env)
+    [line] = [line for line in proc.stderr.splitlines() if line.startswith("reads: ")]
+    assert json.loads(line.removeprefix("reads: ")) == {"status": 0, "reads": 0}
+    environ = {}
+    skip_pydantic_plugins(environ)
+    assert environ == {"PYDANTIC_DISABLE_PLUGINS": "__all__"}
+    environ = {"PYDANTIC_DISABLE_PLUGINS": "logfire"}  # the user's: one plugin off
+    skip_pydantic_plugins(environ)
+    assert environ == {"PYDANTIC_DISABLE_PLUGINS": "logfire"}
