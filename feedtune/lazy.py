@@ -10,6 +10,8 @@ as the module.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any
 
 
 class _Lazy:
@@ -71,3 +73,28 @@ def load(path: str):
     a spec wrote)."""
     module, _, name = path.partition(":")
     return getattr(importlib.import_module(module), name)
+
+
+class Loaded(Mapping):
+    """A read-only mapping over the names of ``paths`` (name → ``"module:attribute"``), each
+    value ``then(load(path))`` computed when read: ``in``, ``len`` and iterating import
+    nothing.
+
+    Examples: click's commands of ``feedtune`` by name (:mod:`feedtune.cli`), a plant type's
+    Params model (:data:`feedtune.schema.spec.PLANT_MODELS`).
+    """
+
+    def __init__(self, paths: dict[str, str], then: Callable[[Any], Any] = lambda value: value):
+        self._paths, self._then = paths, then
+
+    def __getitem__(self, name: str):
+        return self._then(load(self._paths[name]))
+
+    def __contains__(self, name) -> bool:  # Mapping's would import the value
+        return name in self._paths
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._paths)
+
+    def __len__(self) -> int:
+        return len(self._paths)

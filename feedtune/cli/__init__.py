@@ -17,15 +17,15 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from collections.abc import Mapping
 
 import click
 
 from feedtune import __version__, interrupts
 from feedtune.cli.common import EPILOG
-from feedtune.lazy import load
+from feedtune.lazy import Loaded
 
-#: command name → its function, as "module:function"
+#: command name → its function, as "module:function" (the module imported when the command
+#: is looked up)
 COMMAND_PATHS = {
     "batch": "feedtune.cli.batch:batch",
     "chart": "feedtune.cli.chart:chart",
@@ -42,25 +42,8 @@ COMMAND_PATHS = {
 }
 
 
-class _Commands(Mapping):
-    """The group's commands by name (click's ``Group.commands``), each command's module
-    imported when the command is looked up."""
-
-    def __getitem__(self, name: str) -> click.Command:
-        return load(COMMAND_PATHS[name])
-
-    def __contains__(self, name) -> bool:  # Mapping's would import the command
-        return name in COMMAND_PATHS
-
-    def __iter__(self):
-        return iter(COMMAND_PATHS)
-
-    def __len__(self) -> int:
-        return len(COMMAND_PATHS)
-
-
 @click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG,
-             commands=_Commands())
+             commands=Loaded(COMMAND_PATHS))
 @click.version_option(__version__, "-V", "--version", prog_name="feedtune")
 def main() -> None:
     """Tune CNC feed drives (gains [1/s], sampling periods [s], compensators) by

@@ -15,7 +15,6 @@ import math
 import re
 import sys
 import threading
-from collections.abc import Mapping
 from typing import Annotated, Any, Callable, Literal, Union, get_origin
 
 from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
@@ -27,8 +26,9 @@ from feedtune.expr import Unbounded, to_float
 from feedtune.loops.loop import HorizonError
 from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
+from feedtune.lazy import Loaded
 from feedtune.objectives import METRIC_PATHS, metric_class
-from feedtune.plants import DATA_PLANTS, PLANT_PATHS, plant_class, plant_for
+from feedtune.plants import DATA_PLANTS, PLANT_PATHS, plant_for
 from feedtune.schema.model import SpecModel, empty_list
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
                                          number_path, plant_pointer, scenario_count,
@@ -324,24 +324,8 @@ def _is_strict(handler) -> bool:
     return False
 
 
-class _PlantModels(Mapping):
-    """Plant type → its Params model, the plant's module imported when a type is read."""
-
-    def __getitem__(self, plant_type: str) -> type:
-        return plant_class(plant_type).Params
-
-    def __contains__(self, plant_type) -> bool:  # Mapping's would import the plant
-        return plant_type in PLANT_PATHS
-
-    def __iter__(self):
-        return iter(PLANT_PATHS)
-
-    def __len__(self) -> int:
-        return len(PLANT_PATHS)
-
-
 #: plant type → its Params model (where an uncertain form may stand for a number)
-PLANT_MODELS = _PlantModels()
+PLANT_MODELS = Loaded(PLANT_PATHS, lambda plant: plant.Params)
 #: a spec's ``plant``: the union of the plants' Params models, each built on first use
 PLANT_SPECS = LazyUnion(PLANT_PATHS, "type", PLANT_MODELS.__getitem__)
 PlantSpec = Annotated[Any, PLANT_SPECS]
