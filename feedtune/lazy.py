@@ -1,7 +1,7 @@
 """CasADi and numpy, imported when first used: a command that only checks a spec
 (``feedtune validate``) builds no expression and computes no array, so it never pays for
 their import (issue 15); nor, by :func:`load`, the plants and metrics that a spec does not
-name.
+name and the commands that do not run.
 
 Modules on that path write ``from feedtune.lazy import ca`` (or ``np``) and use the name
 as the module.
@@ -68,9 +68,9 @@ class Deferred:
 
 def load(path: str):
     """The object at ``path``, ``"package.module:name"`` (the entry-point notation), its
-    module imported now: a registry line of :mod:`feedtune.plants` or
-    :mod:`feedtune.objectives`, whose module a spec imports by naming its key (never a path
-    a spec wrote)."""
+    module imported now: a registry line of :mod:`feedtune.plants`,
+    :mod:`feedtune.objectives` or the command line's commands, whose module a spec or a
+    command line imports by naming its key (never a path a spec wrote)."""
     module, _, name = path.partition(":")
     return getattr(importlib.import_module(module), name)
 
