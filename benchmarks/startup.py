@@ -15,14 +15,21 @@ each command also runs from DIR (its ``feedtune`` package: ``python -m`` puts th
 directory first on the path) interleaved with this tree's, on the same example files, and
 the baseline's medians and this tree's CPU over the baseline's are printed too.
 
-Run: ``.venv/bin/python benchmarks/startup.py [--repeat N] [--baseline DIR]``
+With ``--instructions`` each command but ``tune`` also runs once under valgrind's callgrind
+(``PYTHONHASHSEED=0``), in this tree and the baseline's, and the instructions it executed
+are printed: a count that the machine's load does not change (CPU times on 2 shared cores
+vary by ±15 % between runs), ≈ 10 s of CPU a run.
+
+Run: ``.venv/bin/python benchmarks/startup.py [--repeat N] [--baseline DIR] [--instructions]``
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -55,6 +62,14 @@ def wall(command: list[str], cwd: Path = REPO) -> tuple[float, float]:
     return elapsed, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def instructions(command: list[str], cwd: Path = REPO) -> int:
+    """Instructions one run of ``command`` in ``cwd`` executes (valgrind's callgrind)."""
+    proc = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
+                           *command], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True, check=True, cwd=cwd, env={**ENV, "PYTHONHASHSEED": "0"})
+    return int(re.search(r"refs:\s+([\d,]+)", proc.stderr).group(1).replace(",", ""))
+
+
 def heaviest_imports(module: str, count: int = 3) -> list[tuple[float, str]]:
     """(cumulative seconds, name) of the ``count`` slowest imports below ``module``."""
     proc = subprocess.run([sys.executable, "-X", "importtime", "-c", f"import {module}"],
@@ -73,7 +88,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7, help="runs per case [count]")
     parser.add_argument("--baseline", type=Path, help="another feedtune tree to compare with")
+    parser.add_argument("--instructions", action="store_true",
+                        help="also count each command's instructions (valgrind)")
     args = parser.parse_args()
+    if args.instructions and shutil.which("valgrind") is None:
+        parser.error("--instructions needs valgrind")
     baseline_command = [sys.executable, "-c", "pass"]
     print(f"load average {os.getloadavg()[0]:.1f}")
     print(f"{'case':<24} {'median [s]':>10} {'baseline [s]':>12} {'ratio':>6} {'CPU [s]':>8} "
@@ -98,6 +117,19 @@ def main() -> None:
             tree_wall, tree_cpu = (statistics.median(x[i] for x in tree) for i in (0, 1))
             line += f" {tree_wall:>9.3f} {tree_cpu:>8.3f} {cpu / tree_cpu:>8.2f}"
         print(line)
+    if args.instructions:
+        print(f"\n{'case':<24} {'instructions':>14}"
+              + (f" {'tree':>14} {'ratio':>6}" if args.baseline else ""))
+        for name, (arguments, target) in CASES.items():
+            if target is None:
+                continue  # a tuning: minutes under valgrind
+            command = [sys.executable, "-m", "feedtune", *arguments]
+            count = instructions(command)
+            line = f"{name:<24} {count:>14,}"
+            if args.baseline:
+                tree = instructions(command, args.baseline)
+                line += f" {tree:>14,} {count / tree:>6.3f}"
+            print(line)
     print("\nslowest imports under feedtune.schema.spec (cumulative, one run):")
     for seconds, module in heaviest_imports("feedtune.schema.spec"):
         print(f"  {seconds:6.3f} s  {module.strip()}")

@@ -31,6 +31,17 @@ def pin_blas_threads(environ=os.environ) -> None:
         environ.setdefault(name, "1")
 
 
+def skip_pydantic_plugins(environ=os.environ) -> None:
+    """No pydantic plugins (pydantic's ``PYDANTIC_DISABLE_PLUGINS``) unless the user chose.
+
+    pydantic looks for plugins when it builds its first validator by reading the
+    entry points of every installed distribution, ≈ 2 % of ``feedtune validate``'s start-up
+    (issue 15; benchmarks/README.md), and a plugin would run on every spec this command
+    checks. A Python caller of :mod:`feedtune` keeps its own setting.
+    """
+    environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
+
+
 def main() -> None:
     """The ``feedtune`` command: :func:`run`, then exit without the interpreter's teardown."""
     exit_without_teardown(run())
@@ -42,6 +53,7 @@ def run(args: list[str] | None = None):
     exit status 130."""
     interrupts.hold()  # released by the command about to run (feedtune.cli.main)
     pin_blas_threads()
+    skip_pydantic_plugins()
     from feedtune.cli import main as command_line
 
     try:

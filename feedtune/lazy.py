@@ -1,12 +1,17 @@
 """CasADi and numpy, imported when first used: a command that only checks a spec
 (``feedtune validate``) builds no expression and computes no array, so it never pays for
-their import (issue 15).
+their import (issue 15); nor, by :func:`load`, the plants and metrics that a spec does not
+name and the commands that do not run.
 
 Modules on that path write ``from feedtune.lazy import ca`` (or ``np``) and use the name
 as the module.
 """
 
 from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any
 
 
 class _Lazy:
@@ -59,3 +64,37 @@ class Deferred:
             built = self._build()
             self.__dict__["_built"] = built
         return getattr(built, name)
+
+
+def load(path: str):
+    """The object at ``path``, ``"package.module:name"`` (the entry-point notation), its
+    module imported now: a registry line of :mod:`feedtune.plants`,
+    :mod:`feedtune.objectives` or the command line's commands, whose module a spec or a
+    command line imports by naming its key (never a path a spec wrote)."""
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+class Loaded(Mapping):
+    """A read-only mapping over the names of ``paths`` (name → ``"module:attribute"``), each
+    value ``then(load(path))`` computed when read: ``in``, ``len`` and iterating import
+    nothing.
+
+    Examples: click's commands of ``feedtune`` by name (:mod:`feedtune.cli`), a plant type's
+    Params model (:data:`feedtune.schema.spec.PLANT_MODELS`).
+    """
+
+    def __init__(self, paths: dict[str, str], then: Callable[[Any], Any] = lambda value: value):
+        self._paths, self._then = paths, then
+
+    def __getitem__(self, name: str):
+        return self._then(load(self._paths[name]))
+
+    def __contains__(self, name) -> bool:  # Mapping's would import the value
+        return name in self._paths
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._paths)
+
+    def __len__(self) -> int:
+        return len(self._paths)

@@ -6,9 +6,11 @@ goes to stderr. Exit status: 0 a successful tuning, 1 a result with ``success`` 
 (still written), 2 a spec or file that cannot be used, 3 an internal error, 130
 interrupted.
 
-Each command's module imports only click and the standard library at load time; what a
-command needs beyond that (pydantic, numpy, CasADi, the tuner) it imports when it runs, so
-``feedtune --help`` and ``feedtune validate`` start quickly (tests/cli/test_startup_imports.py).
+Each command's module is imported when the command is looked up (``feedtune validate``
+loads only its own; ``--help`` lists them all), and imports only click and the standard
+library at load time; what a command needs beyond that (pydantic, numpy, CasADi, the
+tuner) it imports when it runs, so ``feedtune --help`` and ``feedtune validate`` start
+quickly (tests/cli/test_startup_imports.py).
 """
 
 from __future__ import annotations
@@ -19,12 +21,29 @@ import sys
 import click
 
 from feedtune import __version__, interrupts
-from feedtune.cli import (batch, chart, examples, identify, metrics, plants, report, schema,
-                          select, simulate, tune, validate)
 from feedtune.cli.common import EPILOG
+from feedtune.lazy import Loaded
+
+#: command name → its function, as "module:function" (the module imported when the command
+#: is looked up)
+COMMAND_PATHS = {
+    "batch": "feedtune.cli.batch:batch",
+    "chart": "feedtune.cli.chart:chart",
+    "examples": "feedtune.cli.examples:examples",
+    "identify": "feedtune.cli.identify:identify",
+    "metrics": "feedtune.cli.metrics:metrics",
+    "plants": "feedtune.cli.plants:plants",
+    "report": "feedtune.cli.report:report",
+    "schema": "feedtune.cli.schema:schema",
+    "select": "feedtune.cli.select:select_command",
+    "simulate": "feedtune.cli.simulate:simulate",
+    "tune": "feedtune.cli.tune:tune",
+    "validate": "feedtune.cli.validate:validate",
+}
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG)
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, epilog=EPILOG,
+             commands=Loaded(COMMAND_PATHS))
 @click.version_option(__version__, "-V", "--version", prog_name="feedtune")
 def main() -> None:
     """Tune CNC feed drives (gains [1/s], sampling periods [s], compensators) by
@@ -39,16 +58,3 @@ def main() -> None:
     if click.get_current_context().invoked_subcommand != "batch":  # batch: its _Stop does
         interrupts.release()
 
-
-main.add_command(batch.batch)
-main.add_command(chart.chart)
-main.add_command(examples.examples)
-main.add_command(identify.identify)
-main.add_command(metrics.metrics)
-main.add_command(plants.plants)
-main.add_command(report.report)
-main.add_command(schema.schema)
-main.add_command(select.select_command)
-main.add_command(simulate.simulate)
-main.add_command(tune.tune)
-main.add_command(validate.validate)

@@ -19,6 +19,14 @@ import json
 from dataclasses import dataclass
 from typing import Mapping
 
+#: sampled step responses are summed sample by sample over this many times (2τ + dead time),
+#: the dead time (computation_delay + 1)·T at the smallest T of the box (the sampled
+#: plants: software_servo, linear)
+SETTLING_TIME_CONSTANTS = 20.0
+#: the sampled loop's frequency band ends this factor above π/T_min: the Nyquist frequency
+#: of the fastest sampling is then strictly inside it, in a grid interval of its own
+NYQUIST_MARGIN = 1.01
+
 
 @dataclass(frozen=True)
 class Tunable:

@@ -64,13 +64,12 @@ from feedtune.loops.sampled_controllers import cascade_controller, error_control
 from feedtune.loops.sampled_lti import SampledLTILoop
 from feedtune.loops.sampled_plants import (WHOLE_SAMPLE_TOL, ContinuousPlant, DiscretePlant,
                                            SampledModelError, split_dead_time)
-from feedtune.plants.base import Plant, Tunable
+from feedtune.plants.base import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS, Plant, Tunable
 from feedtune.plants.cascade import close_loops, compensator_corners
 from feedtune.plants.compensator import CompensatorKind
 from feedtune.plants.controllers import Law, Structure, controller, controller_tunables, corners
 from feedtune.plants.linear_loop import Blocks, LinearLoop, pade
-from feedtune.plants.software_servo import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS
-from feedtune.schema.model import SpecModel
+from feedtune.schema.model import SpecModel, empty_list
 from feedtune.schema.uncertainty import with_numbers
 
 #: default box of the sampling period T [s]: 10 µs (a fast drive's current loop) to 0.5 s
@@ -212,7 +211,7 @@ class ZerosPolesGain(_ModelBase):
                                    "model]: a number (a real pole) or [re, im] (the pair "
                                    "re ± j·im, im > 0)")
     zeros: list[Root] = Field(
-        default_factory=list, max_length=30,
+        default_factory=empty_list, max_length=30,
         description="Zeros [rad/s; z-plane [1] for a discrete model], as the poles; no more "
                     "than there are poles (fewer for a discrete model)")
     gain: float = Field(description="Gain k [output unit per input unit · (rad/s)^(poles − "

@@ -37,15 +37,8 @@ from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
                                  SampledLoop, TransferLoop)
-from feedtune.plants.base import Plant, Tunable
+from feedtune.plants.base import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS, Plant, Tunable
 from feedtune.schema.model import SpecModel
-
-#: sampled step responses are summed sample by sample over this many times (2τ + dead time),
-#: the dead time (computation_delay + 1)·T at the smallest T of the box
-SETTLING_TIME_CONSTANTS = 20.0
-#: the sampled loop's frequency band ends this factor above π/T_min: the Nyquist frequency
-#: of the fastest sampling is then strictly inside it, in a grid interval of its own
-NYQUIST_MARGIN = 1.01
 
 
 class SoftwareServoParams(SpecModel):

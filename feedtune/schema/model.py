@@ -18,6 +18,14 @@ class SpecModel(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
 
+def empty_list() -> list:
+    """A new empty list: the ``default_factory`` of a spec's list fields. pydantic reads a
+    default factory's signature when it builds a model, and the builtin ``list``'s (a text
+    signature) costs the compilation of the standard tokenizer's regular expressions,
+    ≈ 2.4 ms of ``feedtune validate``'s start-up (issue 15)."""
+    return []
+
+
 def json_number(value: float | None) -> float | str | None:
     """``value`` as JSON carries it: ±∞ as the string "Infinity" / "-Infinity", else itself."""
     return JSON_INFINITY.get(value, value) if value is not None else None

@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import re
+import sys
 import threading
 from typing import Annotated, Any, Callable, Literal, Union, get_origin
 
@@ -25,11 +26,10 @@ from feedtune.expr import Unbounded, to_float
 from feedtune.loops.loop import HorizonError
 from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
-from feedtune.objectives import METRICS
-from feedtune.objectives.time.step_error import StepErrorMetric, has_exact_step
-from feedtune.plants import DATA_PLANTS, PLANTS, plant_for
-from feedtune.plants.linear import MODEL_TYPES
-from feedtune.schema.model import SpecModel
+from feedtune.lazy import Loaded
+from feedtune.objectives import METRIC_PATHS, metric_class
+from feedtune.plants import DATA_PLANTS, PLANT_PATHS, plant_for
+from feedtune.schema.model import SpecModel, empty_list
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
                                          number_path, plant_pointer, scenario_count,
                                          with_numbers)
@@ -237,44 +237,55 @@ def _tagged_union(models: tuple, tag: str):
     return Annotated[Union[models], Field(discriminator=tag)]
 
 
-class MetricTerms:
-    """Objective terms or constraints: the discriminated union, on ``metric``, of one model
-    per metric, each model built when a spec first names its metric.
+class LazyUnion:
+    """The discriminated union, on field ``tag``, of one model per name of a registry, each
+    model built (and its module imported) when a spec first names it.
 
-    Building the 44 metrics' objective and constraint models took about half of
-    ``feedtune validate``'s model building (issue 15's start-up; benchmarks/README.md), and
-    a spec names a few. An item whose ``metric`` names a metric is validated by a
-    one-member union of that metric's model: the same validation, error locations and
-    messages as the whole union's, which validates every other item (an unknown or missing
-    tag: its error lists every tag) and gives the JSON Schema.
+    A spec names one plant and a few metrics of the registries' 5 and 44; building every
+    model (and importing every plant's and metric's module) was most of ``feedtune
+    validate``'s time (issue 15's start-up; benchmarks/README.md). An item whose tag names
+    a model is validated by a one-member union of that model: the same validation, error
+    locations and messages as the whole union's, which validates every other item (an
+    unknown or missing tag: its error lists every tag) and gives the JSON Schema.
+
+    Parameters
+    ----------
+    names : collection of str
+        The tags, in the order of the union's members.
+    tag : str
+        The field that picks the model (``"type"``, ``"metric"``).
+    build : callable
+        Name → its model.
     """
 
-    def __init__(self, build: Callable[[str, type], type]):
-        self._build = build
+    def __init__(self, names, tag: str, build: Callable[[str], type]):
+        self._names, self._tag, self._build = names, tag, build
         self._models: dict[str, type] = {}
-        self._lock = threading.Lock()  # one class per metric, also when threads parse specs
+        self._lock = threading.Lock()  # one class per name, also when threads parse specs
 
     def model(self, name: str) -> type:
-        """The model of metric ``name``'s items (one class per metric and process)."""
+        """The model of ``name``'s items (one class per name and process)."""
         with self._lock:
             if name not in self._models:
-                self._models[name] = self._build(name, METRICS[name])
+                self._models[name] = self._build(name)
             return self._models[name]
 
     @functools.cached_property
     def union(self) -> TypeAdapter:
-        """The discriminated union of every metric's model."""
-        return TypeAdapter(_tagged_union(tuple(self.model(name) for name in METRICS), "metric"))
+        """The discriminated union of every name's model."""
+        return TypeAdapter(_tagged_union(tuple(self.model(name) for name in self._names),
+                                         self._tag))
 
     @functools.cache
     def _one(self, name: str) -> SchemaValidator:
         return SchemaValidator(core_schema.tagged_union_schema(
-            {name: self.model(name).__pydantic_core_schema__}, "metric", from_attributes=True))
+            {name: self.model(name).__pydantic_core_schema__}, self._tag, from_attributes=True))
 
     def validate_python(self, value: Any, strict: bool | None = None):
-        """``value`` (a dict or a model) as the model its ``metric`` names."""
-        tag = value.get("metric") if isinstance(value, dict) else getattr(value, "metric", None)
-        if isinstance(tag, str) and tag in METRICS:
+        """``value`` (a dict or a model) as the model its tag names."""
+        tag = (value.get(self._tag) if isinstance(value, dict)
+               else getattr(value, self._tag, None))
+        if isinstance(tag, str) and tag in self._names:
             return self._one(tag).validate_python(value, strict=strict)
         return self.union.validate_python(value, strict=strict)
 
@@ -294,6 +305,14 @@ class MetricTerms:
         return handler(self.union.core_schema)
 
 
+class MetricTerms(LazyUnion):
+    """Objective terms or constraints: the :class:`LazyUnion`, on ``metric``, of one model
+    per metric, ``build(name, metric class)``."""
+
+    def __init__(self, build: Callable[[str, type], type]):
+        super().__init__(METRIC_PATHS, "metric", lambda name: build(name, metric_class(name)))
+
+
 def _is_strict(handler) -> bool:
     """Whether the validation that called a wrap validator runs in strict mode (pydantic
     tells a validator function its mode, not its strictness): ``handler`` validates an
@@ -305,9 +324,11 @@ def _is_strict(handler) -> bool:
     return False
 
 
-PlantSpec = _tagged_union(tuple(plant.Params for plant in PLANTS.values()), "type")
 #: plant type → its Params model (where an uncertain form may stand for a number)
-PLANT_MODELS = {name: plant.Params for name, plant in PLANTS.items()}
+PLANT_MODELS = Loaded(PLANT_PATHS, lambda plant: plant.Params)
+#: a spec's ``plant``: the union of the plants' Params models, each built on first use
+PLANT_SPECS = LazyUnion(PLANT_PATHS, "type", PLANT_MODELS.__getitem__)
+PlantSpec = Annotated[Any, PLANT_SPECS]
 #: the models of objective terms and of constraints, built per metric on first use
 OBJECTIVE_TERMS, CONSTRAINTS = MetricTerms(_objective_model), MetricTerms(_constraint_model)
 ObjectiveTerm = Annotated[Any, OBJECTIVE_TERMS]
@@ -362,7 +383,7 @@ class Spec(SpecModel):
         description="Weighted sum of metric terms to minimise (terms with goal maximize count "
                     f"negatively) [at most {MAX_OBJECTIVE_TERMS} terms]")
     constraints: list[ConstraintSpec] = Field(
-        default_factory=list, max_length=MAX_CONSTRAINTS,
+        default_factory=empty_list, max_length=MAX_CONSTRAINTS,
         description=f"Metric bounds that must hold [at most {MAX_CONSTRAINTS} constraints]")
     solver: SolverSpec = Field(default_factory=SolverSpec)
     robust: RobustSpec | None = Field(
@@ -500,9 +521,16 @@ def _escape(token) -> str:
     return str(token).replace("~", "~0").replace("/", "~1")
 
 
-#: discriminator values pydantic puts into error locations (a lone model has no tag)
-_UNION_TAGS = ((set(PLANTS) if len(PLANTS) > 1 else set()) | (set(METRICS) if len(METRICS) > 1 else set())
-               | set(MODEL_TYPES))
+@functools.cache
+def _union_tags() -> frozenset[str]:
+    """Discriminator values pydantic puts into error locations (a lone model has no tag):
+    the plant types, the metric names and the linear plant's model types (its module is
+    imported here, on the way to an error message, if the spec did not name it)."""
+    from feedtune.plants.linear import MODEL_TYPES
+
+    return frozenset((set(PLANT_PATHS) if len(PLANT_PATHS) > 1 else set())
+                     | (set(METRIC_PATHS) if len(METRIC_PATHS) > 1 else set())
+                     | set(MODEL_TYPES))
 
 
 def _pointer(loc: tuple, raw: Any) -> str:
@@ -518,7 +546,7 @@ def _pointer(loc: tuple, raw: Any) -> str:
     for item in loc:
         if isinstance(node, dict):
             tag = node.get("type", node.get("metric"))
-            if not tag_seen and item == tag and item in _UNION_TAGS:
+            if not tag_seen and item == tag and item in _union_tags():
                 tag_seen = True
                 continue
             parts.append(_escape(item))
@@ -613,11 +641,11 @@ def _merged(schema: list[tuple[str, str]], semantic: list[tuple[str, str]]) -> l
 
 # -- checks that need the registries -----------------------------------------------------
 
-_PLANT, _TUNABLE = TypeAdapter(PlantSpec), TypeAdapter(TunableSpec)
+_PLANT, _TUNABLE = PLANT_SPECS, TypeAdapter(TunableSpec)
 _TERM = {"objective": OBJECTIVE_TERMS, "constraints": CONSTRAINTS}
 
 
-def _valid(adapter: TypeAdapter | MetricTerms, value: Any):
+def _valid(adapter: TypeAdapter | LazyUnion, value: Any):
     """``value`` validated (strict), or None when it does not validate."""
     try:
         return adapter.validate_python(value, strict=True)
@@ -681,8 +709,8 @@ def _default_options(metric):
 def supported_metrics(loop) -> list[str]:
     """Metrics defined on ``loop`` (with default options, or none for metrics whose
     options have no defaults)."""
-    return [name for name, metric in METRICS.items()
-            if metric().supports(loop, _default_options(metric()))]
+    return [name for name in METRIC_PATHS
+            if metric_class(name)().supports(loop, _default_options(metric_class(name)()))]
 
 
 def plant_configuration(params) -> str:
@@ -703,7 +731,7 @@ def _optimisable_metrics(loop) -> list[str]:
     """Metrics that can be objective terms or constraints on ``loop`` (options as in
     :func:`supported_metrics`)."""
     return [name for name in supported_metrics(loop)
-            if METRICS[name]().optimisable(loop, _default_options(METRICS[name]()))]
+            if metric_class(name)().optimisable(loop, _default_options(metric_class(name)()))]
 
 
 _ROBUST = TypeAdapter(RobustSpec)
@@ -825,9 +853,9 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
             where = f"/{section}/{i}/metric"
             term = _valid(adapter, item)
             name = item.get("metric") if isinstance(item, dict) else None
-            if term is None and not (isinstance(name, str) and name in METRICS):
+            if term is None and not (isinstance(name, str) and name in METRIC_PATHS):
                 continue  # the schema errors say what is wrong with it
-            metric = METRICS[name]()
+            metric = metric_class(name)()
             options = term if term is not None else _default_options(metric)
             if options is None:
                 continue  # a term whose options did not validate and have no defaults
@@ -852,8 +880,7 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
                                       f"{metric.infinite_when}): as an objective term it has "
                                       "no finite optimum; hold it with a constraint ('min') "
                                       "instead, which +∞ meets"))
-            elif (term is not None and box_complete and isinstance(metric, StepErrorMetric)
-                  and has_exact_step(loop, term)):
+            elif term is not None and box_complete and _sums_exact_steps(metric, loop, term):
                 if not loop.offers(Capability.SAMPLE_HORIZON):
                     continue  # a continuous loop's integrals are closed-form lobe sums
                 try:
@@ -862,6 +889,20 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
                     errors.append((where, f"{name} sums the step response sample by sample: "
                                           f"{exc}"))
     return errors
+
+
+#: the module of the metrics that sum a step response sample by sample
+_STEP_ERROR = "feedtune.objectives.time.step_error"
+
+
+def _sums_exact_steps(metric, loop, options) -> bool:
+    """Whether ``metric`` is a :class:`~feedtune.objectives.time.step_error.StepErrorMetric`
+    whose step responses on ``loop`` are exact (``has_exact_step``). That module is imported
+    by every such metric's module, so a spec that names none never loads it (nor the step
+    responses it imports)."""
+    module = sys.modules.get(_STEP_ERROR)
+    return (module is not None and isinstance(metric, module.StepErrorMetric)
+            and module.has_exact_step(loop, options))
 
 
 def _infinite_over_box(plant, box: dict, loop, metric, options) -> bool:

@@ -6,7 +6,9 @@ heavy packages it then holds in ``sys.modules`` (a package loaded by one command
 
 from __future__ import annotations
 
+import ast
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -77,3 +79,81 @@ def test_validate_loads_neither_casadi_nor_numpy_on_the_other_examples():
     reports = loaded([["validate", str(path)] for path in paths], ("casadi", "numpy"))
     assert {path.stem: report for path, report in zip(paths, reports)} == {
         path.stem: (0, []) for path in paths}
+
+
+def _registered_modules() -> dict[str, str]:
+    """Registry key → the module of its class, of every plant and metric."""
+    from feedtune.objectives import METRIC_PATHS
+    from feedtune.plants import PLANT_PATHS
+
+    return {key: path.partition(":")[0] for key, path in {**PLANT_PATHS, **METRIC_PATHS}.items()}
+
+
+def _with_registered_imports(modules: set[str], registered: set[str]) -> set[str]:
+    """``modules`` and every registered module they import, directly or through another
+    registered one (a metric subclassing another metric's class), read from their source."""
+    found, todo = set(), list(modules)
+    while todo:
+        module = todo.pop()
+        if module in found:
+            continue
+        found.add(module)
+        source = (REPO / (module.replace(".", "/") + ".py")).read_text(encoding="utf-8")
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.ImportFrom) and node.module in registered:
+                todo.append(node.module)
+            elif isinstance(node, ast.Import):
+                todo.extend(alias.name for alias in node.names if alias.name in registered)
+    return found
+
+
+def test_validate_imports_only_the_plant_and_metrics_a_spec_names():
+    """Issue 15's start-up: the registries import a plant's or metric's module when a spec
+    names it. Every bundled example, one after the other in one interpreter: after each,
+    the plant and metric modules loaded are those of the plants and metrics named so far
+    (and the registered modules these import), not the other registered ones."""
+    modules = _registered_modules()
+    registered = set(modules.values())
+    reports = loaded([["validate", str(path)] for path in EXAMPLES], tuple(sorted(registered)))
+    named: set[str] = set()
+    for path, (status, heavy) in zip(EXAMPLES, reports):
+        spec = json.loads(path.read_text())
+        named |= {modules[spec["plant"]["type"]]}
+        named |= {modules[term["metric"]]
+                  for term in spec["objective"] + spec.get("constraints", [])}
+        assert status == 0
+        assert set(heavy) <= _with_registered_imports(named, registered), path.stem
+    assert len(set(heavy)) < len(registered) / 2  # the examples name a few of them
+
+
+#: ``feedtune validate ARGV[1]`` in this interpreter, counting the reads of every installed
+#: distribution's entry points (how pydantic looks for plugins); the count on stderr
+_ENTRY_POINT_READS = """
+import importlib.metadata, json, sys
+reads = []
+read = importlib.metadata.entry_points
+importlib.metadata.entry_points = lambda *args, **kwargs: reads.append(kwargs) or read(*args, **kwargs)
+from feedtune.__main__ import run
+status = run(["validate", sys.argv[1]])
+print("\\nreads: " + json.dumps({"status": status, "reads": len(reads)}), file=sys.stderr)
+"""
+
+
+def test_validate_does_not_look_for_pydantic_plugins():
+    """The command sets pydantic's PYDANTIC_DISABLE_PLUGINS (issue 15's start-up), so no
+    entry point is read; a user's own setting is kept
+    (``feedtune.__main__.skip_pydantic_plugins``)."""
+    from feedtune.__main__ import skip_pydantic_plugins
+
+    env = {name: value for name, value in os.environ.items() if name != "PYDANTIC_DISABLE_PLUGINS"}
+    proc = subprocess.run([sys.executable, "-c", _ENTRY_POINT_READS,
+                           str(REPO / "examples" / "koren-1979-sampled-data.json")],
+                          capture_output=True, text=True, cwd=REPO, timeout=120, check=True, env=env)
+    [line] = [line for line in proc.stderr.splitlines() if line.startswith("reads: ")]
+    assert json.loads(line.removeprefix("reads: ")) == {"status": 0, "reads": 0}
+    environ = {}
+    skip_pydantic_plugins(environ)
+    assert environ == {"PYDANTIC_DISABLE_PLUGINS": "__all__"}
+    environ = {"PYDANTIC_DISABLE_PLUGINS": "logfire"}  # the user's: one plugin off
+    skip_pydantic_plugins(environ)
+    assert environ == {"PYDANTIC_DISABLE_PLUGINS": "logfire"}
