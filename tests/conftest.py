@@ -10,7 +10,7 @@ suite starts many ``python -m feedtune`` processes and batch workers, and with
 ``pip install -e`` nothing else writes it when ``PYTHONDONTWRITEBYTECODE`` is set (as the
 tests set it for their subprocesses, and as many CI images do), so each of them compiled
 feedtune's sources again (≈ 0.1 s of CPU a process; issue 15). So is pytest's
-assertion-rewritten code of the test modules (tests/rewrite_cache.py), which every xdist
+assertion-rewritten code of the test modules and the plugins' modules (tests/rewrite_cache.py), which every xdist
 worker rewrote for itself.
 
 Helpers for every test (tests/README.md says when to use which):
@@ -49,7 +49,7 @@ def pytest_configure(config):
     if hasattr(config, "workerinput"):  # an xdist worker: the controller did it
         return
     compileall.compile_dir(Path(feedtune.__file__).parent, quiet=2)
-    rewrite_cache.prewrite(config)
+    rewrite_cache.prewrite(config, plugins=True)
 
 
 #: files whose tests take far more CPU than their number suggests (≈ 50–100 s each on one
