@@ -476,27 +476,39 @@ class Buffered:
     arguments and results in numpy arrays): ≈ 2 µs a call of one point and ≈ 10-200 µs of a
     few hundred points instead of ≈ 70-700 µs through DM conversions; the same evaluation,
     so the same bits. Each output is dense, or all structural zeros (a flat function's
-    derivative), which the buffer leaves at 0."""
+    derivative), which the buffer leaves at 0. Each thread has its own buffer (a Dask
+    worker with several threads runs specs that share a structure's Buffered at once)."""
 
     def __init__(self, fn):
         for i in range(fn.n_out()):
             if fn.nnz_out(i) not in (0, fn.numel_out(i)):
                 raise ValueError(f"{fn.name()}: output {i} is neither dense nor all zeros")
-        self._buffer, self._trigger = fn.buffer()
-        self._args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-        self._results = [np.zeros(fn.numel_out(i)) for i in range(fn.n_out())]
-        for i, a in enumerate(self._args):
-            self._buffer.set_arg(i, memoryview(a))
-        for i, r in enumerate(self._results):
-            self._buffer.set_res(i, memoryview(r))
+        self._fn = fn
+        self._local = threading.local()
+
+    def _bound(self) -> tuple:
+        """This thread's buffer: (buffer, trigger, argument arrays, result arrays)."""
+        bound = getattr(self._local, "bound", None)
+        if bound is None:
+            fn = self._fn
+            buffer, trigger = fn.buffer()
+            args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
+            results = [np.zeros(fn.numel_out(i)) for i in range(fn.n_out())]
+            for i, a in enumerate(args):
+                buffer.set_arg(i, memoryview(a))
+            for i, r in enumerate(results):
+                buffer.set_res(i, memoryview(r))
+            bound = self._local.bound = (buffer, trigger, args, results)
+        return bound
 
     def __call__(self, *args) -> list[np.ndarray]:
         """The Function's outputs (flat copies) at ``args`` (flat arrays of its inputs'
         sizes)."""
-        for target, value in zip(self._args, args):
+        _, trigger, arguments, results = self._bound()
+        for target, value in zip(arguments, args):
             target[:] = value
-        self._trigger()
-        return [r.copy() for r in self._results]
+        trigger()
+        return [r.copy() for r in results]
 
 
 class Mapped:
