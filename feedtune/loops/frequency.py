@@ -517,8 +517,8 @@ class Mapped:
 
     A Function with more inputs takes them from ``fixed`` (arrays of their sizes), the
     same for every element (the map shares them); :meth:`bound` gives a view with other
-    values that shares the maps. A map's buffer is its thread's (a Dask worker runs specs
-    in threads; one buffer filled by two would mix their numbers). Functions derived from
+    values that shares the maps. The maps are shared by threads too (a Dask worker runs
+    specs in threads): each :class:`Buffered` keeps a buffer per thread. Functions derived from
     this one (:meth:`derived`: the golden-section steps, f with its derivatives) are kept
     with it and shared by the views too.
     """
@@ -526,7 +526,7 @@ class Mapped:
     def __init__(self, fn, fixed: tuple = (), expand: bool = True):
         self.fn = _expanded(fn) if expand else fn
         self.fixed = tuple(fixed)
-        self._rows: dict[tuple, Buffered] = {}  # (thread, row length) → the map of fn over it
+        self._rows: dict[int, Buffered] = {}  # row length → the map of fn over it
         # key → (what it was built from, the Mapped or the number of requests before it)
         self._derived: dict[tuple, tuple] = {}
 
@@ -538,11 +538,10 @@ class Mapped:
         return view
 
     def _row(self, size: int) -> Buffered:
-        key = (threading.get_ident(), size)
-        row = self._rows.get(key)
+        row = self._rows.get(size)
         if row is None:  # one point: the Function itself, no map of it
             shared = [False] + [True] * (self.fn.n_in() - 1)
-            row = self._rows[key] = Buffered(
+            row = self._rows[size] = Buffered(
                 self.fn if size == 1 else self.fn.map(size, shared, [False] * self.fn.n_out()))
         return row
 
