@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
+from feedtune.tuner.calls import numeric
 from feedtune.tuner.types import Variable
 
 #: the objective (divided by its value at the start) curves less than this along a direction
@@ -40,13 +43,33 @@ class Solution:
 CURVATURE_STEP = 1e-5
 
 
+#: each solver's derivative Functions by name, taken from it once (``get_function`` returns a
+#: new proxy at every call, and :func:`~feedtune.tuner.calls.numeric` keys on the proxy):
+#: kept while the solver is (a cached solver serves every problem of its structure)
+_derivatives: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_derivatives_lock = threading.Lock()
+
+
+def _derivative(solver, name: str):
+    """The :func:`~feedtune.tuner.calls.numeric` call of the solver's Function ``name``
+    (``nlp_jac_g``, ``nlp_hess_l``): the same evaluation as a call with DMs, so the same
+    bits, without the DM conversions (≈ 50 µs a call of the batch's 2-variable NLPs
+    against ≈ 12 µs, benchmarks/README.md, branch h-bst5)."""
+    with _derivatives_lock:
+        functions = _derivatives.setdefault(solver, {})
+        if name not in functions:
+            functions[name] = solver.get_function(name)
+        function = functions[name]
+    return numeric(function)
+
+
 def _curvature(solver, solution: "Solution", directions: np.ndarray) -> np.ndarray:
     """directionsᵀ H directions, H the Hessian of f + λᵀg at ``solution``: IPOPT's own
     (``nlp_hess_l``), or central differences of the exact gradient f′ + g′ᵀλ along each
     direction when IPOPT approximates it (limited memory) and has built none."""
     x, p, lam_g = solution.x, solution.p, solution.lam_g
     if solver.has_function("nlp_hess_l"):
-        triu = np.asarray(solver.get_function("nlp_hess_l")(x, p, 1.0, lam_g).full())
+        triu = _derivative(solver, "nlp_hess_l")(x, p, 1.0, lam_g)
         return directions.T @ (triu + np.triu(triu, 1).T) @ directions
     grad_f, jac_g = solver.get_function("nlp_grad_f"), solver.get_function("nlp_jac_g")
 
@@ -76,10 +99,10 @@ def flat_tunables(solver, solution: Solution, variables: list[Variable]) -> list
                                     solution.lbg, solution.ubg)
     threshold = ACTIVE_MULTIPLIER * max(1.0, float(np.max(np.abs(lam_g), initial=0.0)),
                                         float(np.max(np.abs(lam_x), initial=0.0)))
-    _, jacobian = solver.get_function("nlp_jac_g")(x, p)
+    _, jacobian = _derivative(solver, "nlp_jac_g")(x, p)
     rows = [i for i in range(len(lbg)) if (lbg[i] == ubg[i] and math.isfinite(lbg[i]))
             or (abs(lam_g[i]) > threshold and (math.isfinite(lbg[i]) or math.isfinite(ubg[i])))]
-    active = np.vstack([np.asarray(jacobian.full())[rows].reshape(len(rows), len(x)),
+    active = np.vstack([jacobian[rows].reshape(len(rows), len(x)),
                         np.eye(len(x))[np.abs(lam_x) > threshold]])
     directions = linalg.null_space(active) if len(active) else np.eye(len(x))
     if directions.shape[1] == 0:
