@@ -65,8 +65,10 @@ class NumericCall:
             sparsity = function.sparsity_out(i)
             shape = (sparsity.size1(), sparsity.size2())
             dense = sparsity.nnz() == shape[0] * shape[1]
-            self._shapes.append((shape, None if dense else (np.array(sparsity.row()),
-                                                            np.array(sparsity.get_col()))))
+            # int: an output without nonzeros (a Jacobian of rows that do not depend on
+            # the variables) has empty index lists, which numpy would make float
+            self._shapes.append((shape, None if dense else (
+                np.array(sparsity.row(), dtype=int), np.array(sparsity.get_col(), dtype=int))))
 
     @property
     def function(self):

@@ -151,3 +151,13 @@ def test_an_interrupted_solve_ends_as_a_dm_calls_does():
         return call.stats()["return_status"]
 
     assert _interrupted(with_dms) == _interrupted(buffered) == "NonIpopt_Exception_Thrown"
+
+
+def test_an_output_without_nonzeros_is_its_zeros():
+    """A Jacobian of rows that do not depend on the variables has no nonzeros at all."""
+    x, p = ca.MX.sym("x", 2), ca.MX.sym("p")
+    f = ca.Function("j", [x, p], [ca.jacobian(ca.vertcat(p, 2 * p), x), x * p])
+    assert f.sparsity_out(0).nnz() == 0
+    ours = NumericCall(f)([1.0, 2.0], 3.0)
+    np.testing.assert_array_equal(ours[0], np.zeros((2, 2)))
+    np.testing.assert_array_equal(ours[1], f([1.0, 2.0], 3.0)[1].full())
