@@ -818,12 +818,15 @@ class SampledLoop(_SampledLoopBase):
         if radius is not None:  # numbers: the small matrices evaluated once, as flat arrays
             numbers = [v.full().ravel(order="F") for v in
                        _numbers([phi, gamma_cl, kx, kr, period, tau])]
+            chunks = _binary_chunks(samples)
+            # a fold of k samples reads each input k times over: the first k of these
+            repeated = [np.tile(v, chunks[0]) for v in numbers]
 
             def integral(name):  # the same samples in the same order, by folds of 2^k
                 final = np.zeros(n + 2)  # samples, through their buffers (issue 15)
-                for k in _binary_chunks(samples):  # a fold reads its inputs k times over
+                for k in chunks:
                     (final,) = _buffered(_sample_fold(n, name, k))(
-                        final, *(np.tile(v, k) for v in numbers))
+                        final, *(r[:v.size * k] for r, v in zip(repeated, numbers)))
                 phi_, gamma_, kx_, _, period_, tau_ = numbers
                 (tail,) = _buffered(_tail(n, name))(final[:n], final[n + 1:], phi_, gamma_,
                                                     kx_, period_, tau_)
