@@ -322,7 +322,9 @@ class Problem:
 
         def value_of(value, read=number):  # ±∞ kept (an Unbounded value), NaN as None
             expr, mag = exact_value(value)
-            return read(ca.fabs(ca.evalf(expr)) if mag else ca.evalf(expr))
+            if not isinstance(expr, (ca.DM, float, int)):  # a number is read as it is
+                expr = ca.evalf(expr)
+            return read(abs(float(expr)) if mag else expr)
 
         terms = [value_of(t.value(loop), finite) for t in self.objective_terms]
         objective = objective_value([t.weight for t in self.objective_terms], terms,

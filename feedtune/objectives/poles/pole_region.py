@@ -80,6 +80,21 @@ def damping_of(poles) -> float:
     return float(np.min(zeta))
 
 
+def _once(build):
+    """``build()`` at the first call, the same result at every later one: the balanced
+    polynomial the conditions and factor rows share, built when the NLP first asks for a
+    row (issue 15: the region of a tuned design's report reads its poles only; ≈ 0.3 ms of
+    MX graph a report otherwise). The same expressions as built at once."""
+    kept = []
+
+    def get():
+        if not kept:
+            kept.append(build())
+        return kept[0]
+
+    return get
+
+
 def _balanced(poly: list) -> tuple[list, object]:
     """(p(ω0·x)/ω0^n, ω0) for a monic p (highest power first), ω0 = |p(0)|^(1/n) [rad/s]:
     roots of geometric mean size 1, so the tests' minors stay O(1)…O(10⁴) for loops whose
@@ -130,9 +145,10 @@ def decay_conditions(loop: Loop):
             return routh_column(linalg.bilinear_to_continuous(scaled))
 
         return conditions
-    balanced, omega0 = _balanced(poly)
+    basis = _once(lambda: _balanced(poly))
 
     def conditions(level):
+        balanced, omega0 = basis()
         return routh_column(linalg.taylor_shift(balanced, -level / omega0))
 
     return conditions
@@ -171,11 +187,12 @@ def damping_conditions(loop: Loop):
     """
     if loop.discrete:
         return None
-    balanced, _ = _balanced(loop.characteristic_polynomial)
+    poly = loop.characteristic_polynomial
+    basis = _once(lambda: _balanced(poly))
 
     def conditions(level):
         # ζ ≥ 1 holds nowhere but on real poles: α = π/2 turns them onto the jω axis
-        return routh_column(rotated_product(balanced, ca.asin(ca.fmin(level, 1))))
+        return routh_column(rotated_product(basis()[0], ca.asin(ca.fmin(level, 1))))
 
     return conditions
 
@@ -248,9 +265,9 @@ def factors(loop: Loop, state, conditions) -> Factors:
     poly = loop.characteristic_polynomial
     degree = len(poly) - 1
     if discrete:
-        target, omega0, period = poly, 1.0, loop.period
+        basis, period = (lambda: (poly, 1.0)), loop.period
     else:
-        (target, omega0), period = _balanced(poly), None
+        basis, period = _once(lambda: _balanced(poly)), None
 
     def start(numbers):
         a = state(numbers)
@@ -262,11 +279,12 @@ def factors(loop: Loop, state, conditions) -> Factors:
         return factor_start(roots)
 
     def matching(x):
-        return list(zip((t - c for t, c in zip(target[1:], product(x, degree)[1:])),
+        return list(zip((t - c for t, c in zip(basis()[0][1:], product(x, degree)[1:])),
                         product(x, degree, ca.fabs)[1:]))
 
     return Factors(degree, start, matching,
-                   lambda level, x: conditions(level, *split_factors(x, degree), omega0, period))
+                   lambda level, x: conditions(level, *split_factors(x, degree), basis()[1],
+                                               period))
 
 
 def damping_factor_conditions(level, quadratic, linear, omega0, period) -> list:
