@@ -55,8 +55,9 @@ def package_trees(*names: str) -> tuple:
 
     With ``names``: only the modules whose source contains one of them, for a contract
     that looks for an identifier (an ``ast.Name`` or attribute named so can only be in a
-    module whose text holds that name: ``Capability`` is in 17 of the 192 modules, so the
-    others need no parse); without: every module."""
+    module whose text holds that name, non-ASCII look-alikes that Python's NFKC folding
+    turns into it aside: ``Capability`` is in 17 of the 192 modules, so the others need no
+    parse); without: every module."""
     return tuple((path, _package_tree(path, source)) for path, source in _package_sources()
                  if not names or any(name in source for name in names))
 
