@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from feedtune.expr import Magnitude  # noqa: F401  (re-exported for metric modules)
+from feedtune.expr import Crossing, Magnitude, Supremum  # noqa: F401  (Magnitude re-exported)
 from feedtune.loops.protocols import Loop
 from feedtune.schema.model import SpecModel
 
@@ -44,6 +44,13 @@ class Metric:
     #: None: never. A spec may not optimise it where it is +∞ at the box's corners and
     #: centre (feedtune.schema.spec)
     infinite_when: ClassVar[str | None] = None
+    #: the kind of value :meth:`evaluate` returns where the tuner reformulates it over ω:
+    #: :class:`feedtune.expr.Supremum` (a peak, held on a grid by the exchange method) or
+    #: :class:`feedtune.expr.Crossing` (the lowest ω of a condition's zero); None for any
+    #: other value (an expression, a Magnitude, an Unbounded or a PoleRegion). Declared, so
+    #: that the kind is known without evaluating the metric (the metric contract's cases are
+    #: chosen by it at collection; its finite test checks it against every value returned)
+    reformulated_as: ClassVar[type[Supremum] | type[Crossing] | None] = None
 
     def unit_of(self, options, position_unit: str = "m") -> str:
         """SI unit of the value for these options on an axis whose position is in

@@ -34,12 +34,32 @@ PACKAGE_ROOT = Path(feedtune.__file__).resolve().parent
 
 
 @lru_cache(maxsize=None)
-def package_trees() -> tuple:
-    """(path, syntax tree) of every module of ``feedtune/``, sorted by path, parsed once
-    per test process for the contracts that walk them (test_loop_protocol.py's two,
-    test_status_vocabulary.py's): ≈ 1 s of CPU a parse of the package. Read them only."""
-    return tuple((path, ast.parse(path.read_text(encoding="utf-8"), filename=str(path)))
+def _package_sources() -> tuple:
+    """(path, source text) of every module of ``feedtune/``, sorted by path, read once per
+    test process."""
+    return tuple((path, path.read_text(encoding="utf-8"))
                  for path in sorted(PACKAGE_ROOT.rglob("*.py")))
+
+
+@lru_cache(maxsize=None)
+def _package_tree(path: Path, source: str) -> ast.Module:
+    return ast.parse(source, filename=str(path))
+
+
+@lru_cache(maxsize=None)
+def package_trees(*names: str) -> tuple:
+    """(path, syntax tree) of the modules of ``feedtune/``, sorted by path, each parsed at
+    most once per test process for the contracts that walk them (test_loop_protocol.py's
+    two, test_status_vocabulary.py's): ≈ 1 s of CPU a parse of the whole package. Read
+    them only.
+
+    With ``names``: only the modules whose source contains one of them, for a contract
+    that looks for an identifier (an ``ast.Name`` or attribute named so can only be in a
+    module whose text holds that name, non-ASCII look-alikes that Python's NFKC folding
+    turns into it aside: ``Capability`` is in 17 of the 192 modules, so the others need no
+    parse); without: every module."""
+    return tuple((path, _package_tree(path, source)) for path, source in _package_sources()
+                 if not names or any(name in source for name in names))
 
 
 #: physical parameters per plant; software_servo: Koren 1979 design example (τ = 20 ms,

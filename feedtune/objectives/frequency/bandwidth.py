@@ -25,6 +25,7 @@ class Bandwidth(Metric):
     unit = "rad/s"
     description = "Lowest frequency where the normalised closed-loop gain falls to 0.707 (-3 dB)"
     reference = "Bhatia 1971 Ch. IV A (b)"
+    reformulated_as = Crossing
 
     def supports(self, loop: Loop, options=None):
         return has_frequency_band(loop)

@@ -20,6 +20,7 @@ class MPeak(Metric):
     unit = "1"
     description = "Peak of the closed-loop gain |position/reference|, normalised to unit DC gain"
     reference = "Bhatia 1971 Ch. IV A (a); M_peak ≤ 1.3"
+    reformulated_as = Supremum
 
     def supports(self, loop: Loop, options=None):
         return has_frequency_band(loop)

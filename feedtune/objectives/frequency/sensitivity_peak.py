@@ -37,6 +37,7 @@ class SensitivityPeak(Metric):
     description = ("Sensitivity peak M_s = max |1/(1 + L(jw))| over frequency [1]; not "
                    "Bhatia's 'sensitivity' (a loop-gain product)")
     reference = "Åström & Hägglund, Advanced PID Control (2006) §4.2, M_s; 1/M_s = min |1 + L|"
+    reformulated_as = Supremum
 
     def supports(self, loop: Loop, options=None):
         return has_open_loop(loop)
