@@ -45,8 +45,9 @@ SUBSTEPS = 64
 def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(grid, L on it, H on it, H(1)) of a model: ω [rad/s] from the slowest pole /
     GRID_SPAN to π/T, π/T itself the last point; H the model's ``complementary``
-    (position/reference, a feed-forward included) and H(z = 1) its ``dc_gain()`` (1 for a
-    type-1 loop). Computed once per model (the metrics share it)."""
+    (position/reference, a feed-forward included; ``frequency_response`` gives L and H
+    together) and H(z = 1) its ``dc_gain()`` (1 for a type-1 loop). Computed once per
+    model (the metrics share it)."""
     z = model.poles().astype(complex)
     speeds = np.abs(np.log(z[np.abs(z) > 1e-12]) / model.period)
     speeds = speeds[speeds > 0]
@@ -55,7 +56,10 @@ def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     count = int(POINTS_PER_DECADE * math.log10(nyquist / low)) + 2
     grid = np.geomspace(low, nyquist, count)
     grid[-1] = nyquist
-    return grid, model.open_loop(grid), model.complementary(grid), model.dc_gain()
+    # (L, H) at once: the servo's H is L/(1 + L) of the same L (one solve on the grid, not
+    # two), the general sampled loop's its own complementary; the same numbers either way
+    open_loop, closed = model.frequency_response(grid)
+    return grid, open_loop, closed, model.dc_gain()
 
 
 def _gain_squared(model, omega) -> np.ndarray:
