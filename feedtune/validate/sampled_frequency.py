@@ -168,8 +168,10 @@ def gain_margin(model, integrators: int = 0) -> float:
 
 class StepPosition:
     """The position x(t) after a unit step, exact at any t [s]: the state at each sample
-    from the closed loop (F, G), and between samples expm([[A, B], [0, 0]]·σ) applied to
-    [drive state, held command]."""
+    from the closed loop (F, G), and between samples the drive's free motion under the
+    held command: the dense grid by expm([[A, B], [0, 0]]·T/SUBSTEPS) applied to [drive
+    state, held command], any other t (the refinements' calls) by its closed form
+    x + u·σ + (ẋ − u)·τ(1 − e^{−σ/τ}), x + u·σ without τ (Koren eq 3's drive)."""
 
     def __init__(self, model):
         a, b, c = model.drive_matrices()
@@ -195,6 +197,8 @@ class StepPosition:
         for _ in range(SUBSTEPS - 1):
             rows.append(rows[-1] @ step)
         self.dense = self.starts @ np.array(rows).T  # (samples, SUBSTEPS)
+        self.tau = model.time_constant
+        self.rows = self.starts.tolist()  # floats for __call__
 
     def times(self) -> np.ndarray:
         return (np.arange(self.samples)[:, None] * self.period
@@ -203,7 +207,11 @@ class StepPosition:
     def __call__(self, t: float) -> float:
         i = min(int(t // self.period), self.samples - 1)
         sigma = t - i * self.period
-        return float((expm(self.big * sigma)[0] @ self.starts[i]))
+        if self.tau is None:
+            x, u = self.rows[i]
+            return x + u * sigma
+        x, v, u = self.rows[i]
+        return x + u * sigma - (v - u) * self.tau * math.expm1(-sigma / self.tau)
 
 
 @functools.lru_cache(maxsize=8)
