@@ -86,7 +86,7 @@ def main() -> None:
     args = parser.parse_args()
     old = baseline_module(args.baseline, "feedtune/validate/software_servo.py",
                           "baseline_servo")
-    sets = {"examples": [(n, p, t, r) for n, p, t, r in _examples()],
+    sets = {"examples": _examples(),
             "grid": [(str(loop), None, loop, {}) for loop in _grid()]}
     print(f"baseline {args.baseline} ({short_revision(args.baseline)}); one BLAS thread; "
           f"load {os.getloadavg()[0]:.1f}")
