@@ -377,10 +377,11 @@ class ServoModel:
         idx = np.flatnonzero(crossing)
         if idx.size:
             x0c, x1c, uc, tc = x0[idx], x1[idx], u[idx], times[idx]
+            v0c = None if m == 1 else v0[idx]
             if m == 1:
                 r1, r2 = np.clip(x0c / -uc, 0.0, h), np.full(idx.size, h)
             else:
-                v0c, sc, xtc, turned = v0[idx], s_turn[idx], x_turn[idx], turns[idx]
+                sc, xtc, turned = s_turn[idx], x_turn[idx], turns[idx]
                 end1 = np.where(turned, xtc, x1c)
                 has1 = x0c * end1 < 0
                 has2 = turned & (xtc * x1c < 0)
@@ -390,7 +391,6 @@ class ServoModel:
                                       np.zeros(has1.sum()), sc[has1])
                 r2[has2] = _free_zero(x0c[has2], v0c[has2], uc[has2], tau, sc[has2],
                                       np.full(has2.sum(), h))
-            v0c = None if m == 1 else v0[idx]
             cuts = [np.zeros(idx.size), r1, r2, np.full(idx.size, h)]
             prims = [_free_integrals(x0c, v0c, uc, tau, s) for s in cuts]
             for (a1, a2), (b1, b2) in zip(prims[:-1], prims[1:]):
