@@ -16,7 +16,8 @@ discretised by ``expm``, Van Loan), never on :mod:`feedtune.loops.loop`:
   often reaches −180° exactly at Nyquist), else +∞;
 * ``overshoot`` and ``settling_time`` (step, continuous time): the position between
   samples from expm of the drive with the held command as a state, on SUBSTEPS points per
-  sample, then refined by bounded Brent (the peak) and brentq (the last exit from the band).
+  sample, then refined by bounded Brent (the peak) and brentq (the last exit from the band)
+  on the drive's closed-form motion between samples.
 
 Declared in :data:`MEASUREMENTS` (metric → measurement), which a sampled
 ``ServoModel`` adds to its table (:mod:`feedtune.validate.measurements`).
@@ -45,8 +46,9 @@ SUBSTEPS = 64
 def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """(grid, L on it, H on it, H(1)) of a model: ω [rad/s] from the slowest pole /
     GRID_SPAN to π/T, π/T itself the last point; H the model's ``complementary``
-    (position/reference, a feed-forward included) and H(z = 1) its ``dc_gain()`` (1 for a
-    type-1 loop). Computed once per model (the metrics share it)."""
+    (position/reference, a feed-forward included; ``frequency_response`` gives L and H
+    together) and H(z = 1) its ``dc_gain()`` (1 for a type-1 loop). Computed once per
+    model (the metrics share it)."""
     z = model.poles().astype(complex)
     speeds = np.abs(np.log(z[np.abs(z) > 1e-12]) / model.period)
     speeds = speeds[speeds > 0]
@@ -55,7 +57,10 @@ def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     count = int(POINTS_PER_DECADE * math.log10(nyquist / low)) + 2
     grid = np.geomspace(low, nyquist, count)
     grid[-1] = nyquist
-    return grid, model.open_loop(grid), model.complementary(grid), model.dc_gain()
+    # (L, H) at once: the servo's H is L/(1 + L) of the same L (one solve on the grid, not
+    # two), the general sampled loop's its own complementary; the same numbers either way
+    open_loop, closed = model.frequency_response(grid)
+    return grid, open_loop, closed, model.dc_gain()
 
 
 def _gain_squared(model, omega) -> np.ndarray:
@@ -164,8 +169,10 @@ def gain_margin(model, integrators: int = 0) -> float:
 
 class StepPosition:
     """The position x(t) after a unit step, exact at any t [s]: the state at each sample
-    from the closed loop (F, G), and between samples expm([[A, B], [0, 0]]·σ) applied to
-    [drive state, held command]."""
+    from the closed loop (F, G), and between samples the drive's free motion under the
+    held command: the dense grid by expm([[A, B], [0, 0]]·T/SUBSTEPS) applied to [drive
+    state, held command], any other t (the refinements' calls) by its closed form
+    x + u·σ + (ẋ − u)·τ(1 − e^{−σ/τ}), x + u·σ without τ (Koren eq 3's drive)."""
 
     def __init__(self, model):
         a, b, c = model.drive_matrices()
@@ -178,11 +185,15 @@ class StepPosition:
         if radius >= 1:
             raise NotCovered("unstable loop: no step response settles")
         self.samples = math.ceil(math.log(1e-13) / math.log(radius)) + 10 if radius > 0 else 10
-        states = np.empty((self.samples, n))
-        state = np.zeros(n)
-        for i in range(self.samples):
-            states[i] = state
-            state = f @ state + g[:, 0]
+        # state(i + 1) = F state(i) + G from 0: the orbit of [state, 1] under [[F, G], [0, 1]]
+        # by doubling (log2(samples) products instead of a Python loop over the samples)
+        from feedtune.validate.software_servo import _orbit
+
+        affine = np.zeros((n + 1, n + 1))
+        affine[:n, :n], affine[:n, n], affine[n, n] = f, g[:, 0], 1.0
+        start = np.zeros(n + 1)
+        start[n] = 1.0
+        states = _orbit(affine, start, self.samples)[:, :n]
         held = (model.gain * (1.0 - states[:, :m] @ c[0]) if model.delay == 0
                 else states[:, n - 1])
         self.starts = np.column_stack([states[:, :m], held])
@@ -191,6 +202,8 @@ class StepPosition:
         for _ in range(SUBSTEPS - 1):
             rows.append(rows[-1] @ step)
         self.dense = self.starts @ np.array(rows).T  # (samples, SUBSTEPS)
+        self.tau = model.time_constant
+        self.rows = self.starts.tolist()  # floats for __call__
 
     def times(self) -> np.ndarray:
         return (np.arange(self.samples)[:, None] * self.period
@@ -199,7 +212,11 @@ class StepPosition:
     def __call__(self, t: float) -> float:
         i = min(int(t // self.period), self.samples - 1)
         sigma = t - i * self.period
-        return float((expm(self.big * sigma)[0] @ self.starts[i]))
+        if self.tau is None:
+            x, u = self.rows[i]
+            return x + u * sigma
+        x, v, u = self.rows[i]
+        return x + u * sigma - (v - u) * self.tau * math.expm1(-sigma / self.tau)
 
 
 @functools.lru_cache(maxsize=8)

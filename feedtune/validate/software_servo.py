@@ -17,8 +17,9 @@ What it measures, all on floats:
 * :meth:`ServoModel.equivalent_pair`: (ζ, ω_n) of the closed-loop pole pair, through
   s = ln(z)/T for a sampled loop (Koren eq 19);
 * :meth:`ServoModel.error_integrals`: IAE, ISE, ITAE of the error after a unit position
-  step by dense simulation: the exact state at every sub-step of every sample, the
-  error between sub-steps integrated by the trapezoid rule, split at sign changes;
+  step, exact to rounding: sampled, sample by sample from the exact state at the samples
+  (Van Loan's integrals of the drive's free motion, |e| split at its zeros between
+  samples); reference pulse, in closed form from the zeros of the second-order error;
 * :meth:`ServoModel.ramp_following_error`: steady error after a unit ramp, at the samples
   (the velocity constant is its inverse);
 * :meth:`ServoModel.sensitivity`: S = 1/(1 + L) on any frequency grid from the open loop
@@ -64,6 +65,9 @@ SUBSTEPS = 256
 CIRCLE_SUBSTEPS = 64
 #: at most this many samples/blocks are simulated (a nearly undamped loop is refused)
 MAX_BLOCKS = 200_000
+#: at most this many Newton steps for a zero of the error inside a sample (it converges
+#: monotonically, quadratically near the zero: ≈ 5 steps)
+NEWTON_STEPS = 60
 
 
 @dataclass(frozen=True)
@@ -214,7 +218,8 @@ class ServoModel:
 
     def step_error(self, substeps: int = SUBSTEPS):
         """(t, e): the error 1 − x(t) after a unit step on a dense grid, every block cut into
-        ``substeps``; exact at every grid point (expm of the augmented matrix)."""
+        ``substeps``; exact at every grid point (expm of the augmented matrix). The
+        report's curves (:meth:`responses`); :meth:`error_integrals` needs no grid."""
         h = self._block()
         a, b, c = self.drive_matrices()
         m = a.shape[0]
@@ -256,16 +261,142 @@ class ServoModel:
         e = 1.0 - positions
         return t.ravel(), e.ravel(), h / substeps
 
-    def error_integrals(self, substeps: int | None = None) -> dict[str, float]:
-        """IAE [m·s], ISE [m²·s], ITAE [m·s²] after a unit step, trapezoid on the dense grid,
-        |e| split exactly at linear-interpolated sign changes. ``substeps`` per block: by
-        default ≥ SUBSTEPS and ≥ 100 per drive time constant (at most 4096)."""
-        if substeps is None:
-            substeps = SUBSTEPS
-            if self.sampled and self.time_constant is not None:
-                substeps = min(4096, max(SUBSTEPS, math.ceil(100 * self.period / self.time_constant)))
-        t, e, _ = self.step_error(substeps)
-        return error_integrals(t, e)
+    def error_integrals(self) -> dict[str, float]:
+        """IAE [m·s], ISE [m²·s], ITAE [m·s²] after a unit step, exact to rounding: the
+        sampled loop sample by sample (:meth:`_sampled_error_integrals`), the reference
+        pulse loop in closed form (:meth:`_continuous_error_integrals`)."""
+        if self.sampled:
+            return self._sampled_error_integrals()
+        return self._continuous_error_integrals()
+
+    def _continuous_error_integrals(self) -> dict[str, float]:
+        """IAE, ISE, ITAE after a unit step of the reference-pulse loop in closed form.
+
+        The error obeys ë + 2ζω_n ė + ω_n² e = 0, e(0) = 1, ė(0) = 0 (Koren eqs 3–7:
+        ω_n² = K/τ, 2ζω_n = 1/τ). Integrating the equation, once and times t, over an
+        interval whose ends are zeros of e (or 0 and a zero) gives ∫e and ∫t·e from ė
+        there: ISE = (1 + 4ζ²)/(4ζω_n) = (τ + 1/K)/2 for any ζ; without zeros (ζ ≥ 1)
+        IAE = ∫e = 2ζ/ω_n = 1/K and ITAE = (4ζ² − 1)/ω_n². Underdamped, e =
+        e^{−σt}(cos ω_d t + (σ/ω_d) sin ω_d t), σ = 1/(2τ): its zeros t_j = t_0 + jπ/ω_d,
+        t_0 = (π/2 + atan(σ/ω_d))/ω_d, where ė = −ω_n e^{−σt_0}(−q)^j, q = e^{−σπ/ω_d};
+        the lobes are geometric series. The loop must still settle within MAX_BLOCKS
+        blocks (:meth:`_blocks_to_settle`), the refusal of the dense simulation."""
+        f, _ = self._closed_loop()
+        self._blocks_to_settle(expm(f * self._block()))
+        k, tau = self.gain, self.time_constant
+        wn2 = k / tau
+        ise = (tau + 1 / k) / 2
+        wd2 = (4 * k * tau - 1) / (4 * tau * tau)  # ω_d² = ω_n² − σ²
+        if wd2 <= 0:
+            return {"iae": 1 / k, "ise": ise, "itae": (1 - k * tau) / (k * k)}
+        sigma, wd, wn = 1 / (2 * tau), math.sqrt(wd2), math.sqrt(wn2)
+        t0 = (math.pi / 2 + math.atan(sigma / wd)) / wd
+        slope = -wn * math.exp(-sigma * t0)  # ė(t_0)
+        q = math.exp(-sigma * math.pi / wd)
+        rest = -math.expm1(-sigma * math.pi / wd)  # 1 − q
+        two_zeta_wn = 1 / tau
+        first = (two_zeta_wn - slope) / wn2  # ∫₀^{t_0} e
+        iae = first - slope * (1 + q) / (rest * wn2)
+        first_moment = -(t0 * slope + 1 - two_zeta_wn * first) / wn2  # ∫₀^{t_0} t·e
+        span = math.pi / wd
+        lobes = -slope / wn2 * (t0 * (1 + q) / rest + 2 * span * q / rest**2
+                                + two_zeta_wn * (1 + q) / (rest * wn2))
+        return {"iae": iae, "ise": ise, "itae": first_moment + lobes}
+
+    @functools.lru_cache(maxsize=8)
+    def _sample_integral_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(J1, J2, Q) of one sample, h = T, for the drive with its held command as a
+        state, w' = M w, M = [[A, B], [0, 0]]: J1 = ∫₀ʰ e^{Ms} ds, J2 = ∫₀ʰ s·e^{Ms} ds and
+        Q = ∫₀ʰ e^{Mᵀs} pᵀp e^{Ms} ds (p picks the position), each from one expm of an
+        augmented matrix (Van Loan 1978, IEEE TAC 23(3), eqs 1.1–1.2): expm of
+        [[M, I, 0], [0, 0, I], [0, 0, 0]]·h holds J1 and ∫₀ʰ (h − s) e^{Ms} ds = h·J1 − J2;
+        expm of [[−Mᵀ, pᵀp], [0, M]]·h holds e^{Mh} and e^{−Mᵀh}Q."""
+        a, b, _ = self.drive_matrices()
+        m, h = a.shape[0], self.period
+        k = m + 1
+        big = np.zeros((k, k))
+        big[:m, :m], big[:m, m:] = a, b
+        chain = np.zeros((3 * k, 3 * k))
+        chain[:k, :k] = big
+        chain[:k, k:2 * k] = chain[k:2 * k, 2 * k:] = np.eye(k)
+        e = expm(chain * h)
+        j1 = e[:k, k:2 * k]
+        j2 = h * j1 - e[:k, 2 * k:]
+        weight = np.zeros((k, k))
+        weight[0, 0] = 1.0
+        gram = np.zeros((2 * k, 2 * k))
+        gram[:k, :k], gram[:k, k:], gram[k:, k:] = -big.T, weight, big
+        e = expm(gram * h)
+        return j1, j2, e[k:, k:].T @ e[:k, k:]
+
+    def _sampled_error_integrals(self) -> dict[str, float]:
+        """IAE, ISE, ITAE after a unit step of the sampled loop, exact to rounding.
+
+        The loop's state is exact at every sample (the orbit of the deviation from the
+        final state [1, 0, …] under F: no 1 − x cancellation), and over sample k the
+        drive moves freely with the held command u_k: w(s) = e^{Ms} w_k, e(s) = −x̃(s) =
+        −p·w(s), w = [x̃ (, ẋ), u] (:meth:`_sample_integral_matrices`). So ∫e = −p J1 w_k,
+        ∫s·e = −p J2 w_k and ∫e² = w_kᵀ Q w_k over the sample. Where e keeps its sign
+        over a sample, ∫|e| = |∫e| and ∫(t_k + s)|e| = |t_k ∫e + ∫s·e|. In between e is
+        the drive's free motion, x̃(s) = x̃_k + u s + (ẋ_k − u)·τ(1 − e^{−s/τ}) (linear
+        without τ): convex or concave, so it has at most two zeros, one on each side of
+        its extremum (where ẋ = 0, s* = τ ln((u − ẋ_k)/u), only when ẋ changes sign in
+        the sample); a zero is found by Newton's method from the end where e·e'' > 0
+        (monotone convergence), and the sample is integrated piecewise by the closed
+        forms of ∫x̃ and ∫s·x̃. Samples from 0 until the free response has decayed to
+        SETTLED (:meth:`_blocks_to_settle`)."""
+        f, _ = self._closed_loop()
+        blocks = self._blocks_to_settle(f)
+        h, tau, m = self.period, self.time_constant, self.drive_matrices()[0].shape[0]
+        start = np.zeros(f.shape[0])
+        start[0] = -1.0  # x = 0 against the final 1; speeds and held commands 0
+        states = _orbit(f, start, blocks + 1)
+        held = -self.gain * states[:, 0] if self.delay == 0 else states[:, -1]
+        w = np.column_stack([states[:, :m], held])
+        j1, j2, q = self._sample_integral_matrices()
+        first = -(w[:-1] @ j1[0])  # ∫e over each sample
+        moment = -(w[:-1] @ j2[0])  # ∫s·e
+        squares = np.einsum("ki,ij,kj->k", w[:-1], q, w[:-1])
+        times = np.arange(blocks) * h
+        timed = times * first + moment
+        x0, x1, u = w[:-1, 0], w[1:, 0], held[:-1]
+        v0 = w[:-1, 1] if m == 2 else None
+        # the extremum inside a sample: ẋ changes sign (two states only)
+        turns = np.zeros(blocks, dtype=bool) if m == 1 else (v0 * w[1:, 1] < 0)
+        if m == 2:
+            s_turn = np.full(blocks, h)
+            s_turn[turns] = np.clip(tau * np.log1p(-v0[turns] / u[turns]), 0.0, h)
+            x_turn = np.full(blocks, np.nan)
+            x_turn[turns] = _free_position(x0[turns], v0[turns], u[turns], tau, s_turn[turns])
+            first_side = np.where(turns, x_turn, x1)
+            crossing = (x0 * first_side < 0) | (turns & (x_turn * x1 < 0))
+        else:
+            crossing = x0 * x1 < 0
+        iae = float(np.sum(np.abs(first[~crossing])))
+        itae = float(np.sum(np.abs(timed[~crossing])))
+        idx = np.flatnonzero(crossing)
+        if idx.size:
+            x0c, x1c, uc, tc = x0[idx], x1[idx], u[idx], times[idx]
+            v0c = None if m == 1 else v0[idx]
+            if m == 1:
+                r1, r2 = np.clip(x0c / -uc, 0.0, h), np.full(idx.size, h)
+            else:
+                sc, xtc, turned = s_turn[idx], x_turn[idx], turns[idx]
+                end1 = np.where(turned, xtc, x1c)
+                has1 = x0c * end1 < 0
+                has2 = turned & (xtc * x1c < 0)
+                r1 = np.zeros(idx.size)
+                r2 = np.full(idx.size, h)
+                r1[has1] = _free_zero(x0c[has1], v0c[has1], uc[has1], tau,
+                                      np.zeros(has1.sum()), sc[has1])
+                r2[has2] = _free_zero(x0c[has2], v0c[has2], uc[has2], tau, sc[has2],
+                                      np.full(has2.sum(), h))
+            cuts = [np.zeros(idx.size), r1, r2, np.full(idx.size, h)]
+            prims = [_free_integrals(x0c, v0c, uc, tau, s) for s in cuts]
+            for (a1, a2), (b1, b2) in zip(prims[:-1], prims[1:]):
+                iae += float(np.sum(np.abs(b1 - a1)))
+                itae += float(np.sum(np.abs(tc * (b1 - a1) + (b2 - a2))))
+        return {"iae": iae, "ise": float(np.sum(squares)), "itae": itae}
 
     def ramp_following_error(self) -> float:
         """Steady error after a unit ramp r = t [m] at the samples (continuous: any time)."""
@@ -653,6 +784,40 @@ def _orbit(matrix: np.ndarray, start: np.ndarray, count: int) -> np.ndarray:
         rows = np.vstack([rows, rows @ power.T])
         power = power @ power
     return rows[:count]
+
+
+def _free_position(x0, v0, u, tau: float, s):
+    """x̃(s) [m] of the drive 1/(s(1 + sτ)) from position x0 and speed v0 under the held
+    command u [m/s], s [s] into the sample: x0 + u·s + (v0 − u)·τ(1 − e^{−s/τ})."""
+    return x0 + u * s - (v0 - u) * tau * np.expm1(-s / tau)
+
+
+def _free_zero(x0, v0, u, tau: float, lower, upper) -> np.ndarray:
+    """The zero [s] of :func:`_free_position` in [lower, upper], where it is monotone and
+    changes sign: Newton's method from the end where x̃·x̃'' > 0 (x̃'' has the sign of
+    u − v0), whose iterates then approach the zero from one side without overshoot."""
+    at_lower = _free_position(x0, v0, u, tau, lower) * (u - v0) > 0
+    s = np.where(at_lower, lower, upper)
+    for _ in range(NEWTON_STEPS):
+        speed = u + (v0 - u) * np.exp(-s / tau)
+        step = _free_position(x0, v0, u, tau, s) / speed
+        s = np.clip(s - step, lower, upper)
+        if np.all(np.abs(step) <= 4 * np.finfo(float).eps * upper):
+            break
+    return s
+
+
+def _free_integrals(x0, v0, u, tau: float | None, s) -> tuple[np.ndarray, np.ndarray]:
+    """(∫₀ˢ e dσ [m·s], ∫₀ˢ σ·e dσ [m·s²]) of the error e = −x̃ of the free drive
+    (:func:`_free_position`; without τ, x̃ = x0 + u·σ), in closed form with
+    g = 1 − e^{−s/τ}: ∫g = s − τg, ∫σg = s²/2 + τs − τ(s + τ)g."""
+    first = x0 * s + u * s * s / 2
+    moment = x0 * s * s / 2 + u * s**3 / 3
+    if tau is not None:
+        g = -np.expm1(-s / tau)
+        first = first + (v0 - u) * tau * (s - tau * g)
+        moment = moment + (v0 - u) * tau * (s * s / 2 + tau * s - tau * (s + tau) * g)
+    return -first, -moment
 
 
 # -- the tables: metric → measurement ---------------------------------------------------
