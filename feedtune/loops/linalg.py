@@ -154,7 +154,7 @@ def hurwitz_conditions(coefficients: list) -> list:
     (:func:`hurwitz_conditions_of_numbers`: the same operations, so the same bits, in one
     call where the operations written out are ≈ 80 CasADi calls on DM numbers: 0.43 →
     0.07 ms a polynomial of the robust searches' loops of numbers, degrees 3-9,
-    benchmarks/hurwitz_numbers_speed.py); non-finite numbers by the operations written out
+    benchmarks/search_numbers_speed.py); non-finite numbers by the operations written out
     (:func:`_hurwitz_conditions`), so that inf·0 stays NaN where the Function's SX has
     folded x·0 to 0.
     """
