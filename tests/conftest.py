@@ -28,6 +28,7 @@ Helpers for every test (tests/README.md says when to use which):
 
 import compileall
 import copy
+import gc
 import json
 from pathlib import Path
 
@@ -39,6 +40,14 @@ from feedtune.__main__ import pin_blas_threads
 from signal_guard import pytest_runtest_setup, pytest_runtest_teardown  # noqa: F401
 
 pin_blas_threads()
+
+# The cyclic garbage collector is off while the test modules are imported and their tests
+# collected (on again in pytest_collection_finish): every process (each xdist worker)
+# collects the whole suite, and the imports and ≈ 6 600 items allocate enough containers to
+# run the collector ≈ 700 times, its passes walking the freshly imported modules' objects
+# again and again (≈ 0.5 s of a worker's ≈ 6.5 s of collection, benchmarks/README.md
+# "Branch h-tcol"). What collection leaves as garbage is collected by the first full pass.
+gc.disable()
 
 
 def pytest_configure(config):
@@ -70,6 +79,11 @@ def pytest_collection_modifyitems(config, items):
         files.setdefault(item.nodeid.split("::")[0], []).append(item)
     order = sorted(files, key=lambda name: (name not in HEAVY_FIRST, -len(files[name])))
     items[:] = [item for name in order for item in files[name]]
+
+
+def pytest_collection_finish(session):
+    """The garbage collector on again for the tests (off while collecting, above)."""
+    gc.enable()
 
 
 @pytest.fixture(scope="session")
