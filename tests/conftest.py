@@ -81,6 +81,13 @@ def pytest_collection_modifyitems(config, items):
     items[:] = [item for name in order for item in files[name]]
 
 
+def pytest_sessionstart(session):
+    """The garbage collector on again at once in an xdist controller, which collects
+    nothing (its workers do)."""
+    if session.config.pluginmanager.has_plugin("dsession"):
+        gc.enable()
+
+
 def pytest_collection_finish(session):
     """The garbage collector on again for the tests (off while collecting, above)."""
     gc.enable()
