@@ -45,9 +45,18 @@ pin_blas_threads()
 # collected (on again in pytest_collection_finish): every process (each xdist worker)
 # collects the whole suite, and the imports and ≈ 6 600 items allocate enough containers to
 # run the collector ≈ 700 times, its passes walking the freshly imported modules' objects
-# again and again (≈ 0.5 s of a worker's ≈ 6.5 s of collection, benchmarks/README.md
-# "Branch h-tcol"). What collection leaves as garbage is collected by the first full pass.
+# again and again (a worker's start-up and collection 6.7–7.7 → 5.1 s of CPU,
+# benchmarks/README.md "Branch h-tcol"). What collection leaves as garbage is collected by
+# the first full pass.
 gc.disable()
+
+#: the collector's first-generation threshold [allocations] while the tests run (Python's
+#: default 700): the tests build CasADi graphs, pydantic models and solver results by the
+#: hundred thousand objects, which at 700 ran ≈ 700 young collections in 25 s of tests, each
+#: walking the generation's survivors; at 10 000 ≈ 40, 0.64 → 0.12 s of collector time
+#: (benchmarks/README.md "Branch h-tcol"). Garbage cycles wait a little longer; nothing a
+#: test checks depends on when (the tests about freeing call ``gc.collect()`` themselves).
+TEST_GC_THRESHOLD = 10_000
 
 
 def pytest_configure(config):
@@ -89,7 +98,9 @@ def pytest_sessionstart(session):
 
 
 def pytest_collection_finish(session):
-    """The garbage collector on again for the tests (off while collecting, above)."""
+    """The garbage collector on again for the tests (off while collecting, above), its
+    first generation at TEST_GC_THRESHOLD."""
+    gc.set_threshold(TEST_GC_THRESHOLD, *gc.get_threshold()[1:])
     gc.enable()
 
 
