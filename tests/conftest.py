@@ -13,6 +13,11 @@ feedtune's sources again (≈ 0.1 s of CPU a process; issue 15). So is pytest's
 assertion-rewritten code of the test modules and the plugins' modules (tests/rewrite_cache.py), which every xdist
 worker rewrote for itself.
 
+The cyclic garbage collector is off while a process imports the test modules and collects
+their tests, and runs the tests with a larger first generation (TEST_GC_THRESHOLD): both
+settings save CPU in every worker (benchmarks/README.md "Branch h-tcol",
+benchmarks/suite_gc.py).
+
 Helpers for every test (tests/README.md says when to use which):
 
 - ``from feedtune_cli import run_cli``: ``feedtune ARGS`` through the real entry point
