@@ -13,6 +13,11 @@ feedtune's sources again (≈ 0.1 s of CPU a process; issue 15). So is pytest's
 assertion-rewritten code of the test modules and the plugins' modules (tests/rewrite_cache.py), which every xdist
 worker rewrote for itself.
 
+The cyclic garbage collector is off while a process imports the test modules and collects
+their tests, and runs the tests with a larger first generation (TEST_GC_THRESHOLD): both
+settings save CPU in every worker (benchmarks/README.md "Branch h-tcol",
+benchmarks/suite_gc.py).
+
 Helpers for every test (tests/README.md says when to use which):
 
 - ``from feedtune_cli import run_cli``: ``feedtune ARGS`` through the real entry point
@@ -28,6 +33,7 @@ Helpers for every test (tests/README.md says when to use which):
 
 import compileall
 import copy
+import gc
 import json
 from pathlib import Path
 
@@ -39,6 +45,23 @@ from feedtune.__main__ import pin_blas_threads
 from signal_guard import pytest_runtest_setup, pytest_runtest_teardown  # noqa: F401
 
 pin_blas_threads()
+
+# The cyclic garbage collector is off while the test modules are imported and their tests
+# collected (on again in pytest_collection_finish): every process (each xdist worker)
+# collects the whole suite, and the imports and ≈ 6 600 items allocate enough containers to
+# run the collector ≈ 700 times, its passes walking the freshly imported modules' objects
+# again and again (a worker's start-up and collection 6.7–7.7 → 5.1 s of CPU,
+# benchmarks/README.md "Branch h-tcol"). What collection leaves as garbage is collected by
+# the first full pass.
+gc.disable()
+
+#: the collector's first-generation threshold [allocations] while the tests run (Python's
+#: default 700): the tests build CasADi graphs, pydantic models and solver results by the
+#: hundred thousand objects, which at 700 ran ≈ 700 young collections in 25 s of tests, each
+#: walking the generation's survivors; at 10 000 ≈ 40, 0.64 → 0.12 s of collector time
+#: (benchmarks/README.md "Branch h-tcol"). Garbage cycles wait a little longer; nothing a
+#: test checks depends on when (the tests about freeing call ``gc.collect()`` themselves).
+TEST_GC_THRESHOLD = 10_000
 
 
 def pytest_configure(config):
@@ -70,6 +93,20 @@ def pytest_collection_modifyitems(config, items):
         files.setdefault(item.nodeid.split("::")[0], []).append(item)
     order = sorted(files, key=lambda name: (name not in HEAVY_FIRST, -len(files[name])))
     items[:] = [item for name in order for item in files[name]]
+
+
+def pytest_sessionstart(session):
+    """The garbage collector on again at once in an xdist controller, which collects
+    nothing (its workers do)."""
+    if session.config.pluginmanager.has_plugin("dsession"):
+        gc.enable()
+
+
+def pytest_collection_finish(session):
+    """The garbage collector on again for the tests (off while collecting, above), its
+    first generation at TEST_GC_THRESHOLD."""
+    gc.set_threshold(TEST_GC_THRESHOLD, *gc.get_threshold()[1:])
+    gc.enable()
 
 
 @pytest.fixture(scope="session")
