@@ -15,12 +15,16 @@ each command also runs from DIR (its ``feedtune`` package: ``python -m`` puts th
 directory first on the path) interleaved with this tree's, on the same example files, and
 the baseline's medians and this tree's CPU over the baseline's are printed too.
 
+With ``--all-examples`` the cases are ``--help`` and ``validate`` of every bundled example
+(``examples/*.json``, issue 15's target holds for each), without ``tune``.
+
 With ``--instructions`` each command but ``tune`` also runs once under valgrind's callgrind
 (``PYTHONHASHSEED=0``), in this tree and the baseline's, and the instructions it executed
 are printed: a count that the machine's load does not change (CPU times on 2 shared cores
 vary by ±15 % between runs), ≈ 10 s of CPU a run.
 
-Run: ``.venv/bin/python benchmarks/startup.py [--repeat N] [--baseline DIR] [--instructions]``
+Run: ``.venv/bin/python benchmarks/startup.py [--repeat N] [--baseline DIR] [--instructions]
+[--all-examples]``
 """
 
 from __future__ import annotations
@@ -48,6 +52,10 @@ CASES = {  # name: (arguments after `python -m feedtune`, issue 15's target [s] 
     "validate (sampled user)": (["validate", SAMPLED_USER], 0.3),
     "tune (Koren's example)": (["tune", EXAMPLE, "-q"], None),
 }
+#: ``--all-examples``: ``--help`` and ``validate`` of every bundled example
+ALL_EXAMPLES = {"--help": CASES["--help"],
+                **{f"validate {path.stem}": (["validate", str(path)], 0.3)
+                   for path in sorted((REPO / "examples").glob("*.json"))}}
 
 
 def wall(command: list[str], cwd: Path = REPO) -> tuple[float, float]:
@@ -90,15 +98,19 @@ def main() -> None:
     parser.add_argument("--baseline", type=Path, help="another feedtune tree to compare with")
     parser.add_argument("--instructions", action="store_true",
                         help="also count each command's instructions (valgrind)")
+    parser.add_argument("--all-examples", action="store_true",
+                        help="validate every bundled example (and --help), not tune")
     args = parser.parse_args()
+    cases = ALL_EXAMPLES if args.all_examples else CASES
+    width = max(len(name) for name in cases)
     if args.instructions and shutil.which("valgrind") is None:
         parser.error("--instructions needs valgrind")
     baseline_command = [sys.executable, "-c", "pass"]
     print(f"load average {os.getloadavg()[0]:.1f}")
-    print(f"{'case':<24} {'median [s]':>10} {'baseline [s]':>12} {'ratio':>6} {'CPU [s]':>8} "
+    print(f"{'case':<{width}} {'median [s]':>10} {'baseline [s]':>12} {'ratio':>6} {'CPU [s]':>8} "
           f"{'base CPU':>8} {'target [s]':>10}"
           + (f" {'tree [s]':>9} {'tree CPU':>8} {'CPU/tree':>8}" if args.baseline else ""))
-    for name, (arguments, target) in CASES.items():
+    for name, (arguments, target) in cases.items():
         times, base, tree = [], [], []
         command = [sys.executable, "-m", "feedtune", *arguments]
         wall(command)  # warm-up, not measured
@@ -111,21 +123,21 @@ def main() -> None:
                 tree.append(wall(command, args.baseline))
         t, b = (statistics.median(w for w, _ in runs) for runs in (times, base))
         cpu, base_cpu = (statistics.median(c for _, c in runs) for runs in (times, base))
-        line = (f"{name:<24} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} {cpu:>8.3f} {base_cpu:>8.3f} "
+        line = (f"{name:<{width}} {t:>10.3f} {b:>12.3f} {t / b:>6.1f} {cpu:>8.3f} {base_cpu:>8.3f} "
                 f"{'—' if target is None else f'{target:.1f}':>10}")
         if args.baseline:
             tree_wall, tree_cpu = (statistics.median(x[i] for x in tree) for i in (0, 1))
             line += f" {tree_wall:>9.3f} {tree_cpu:>8.3f} {cpu / tree_cpu:>8.2f}"
         print(line)
     if args.instructions:
-        print(f"\n{'case':<24} {'instructions':>14}"
+        print(f"\n{'case':<{width}} {'instructions':>14}"
               + (f" {'tree':>14} {'ratio':>6}" if args.baseline else ""))
-        for name, (arguments, target) in CASES.items():
+        for name, (arguments, target) in cases.items():
             if target is None:
                 continue  # a tuning: minutes under valgrind
             command = [sys.executable, "-m", "feedtune", *arguments]
             count = instructions(command)
-            line = f"{name:<24} {count:>14,}"
+            line = f"{name:<{width}} {count:>14,}"
             if args.baseline:
                 tree = instructions(command, args.baseline)
                 line += f" {tree:>14,} {count / tree:>6.3f}"

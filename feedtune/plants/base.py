@@ -77,6 +77,15 @@ class Plant:
         type), or None. None here."""
         return None
 
+    def checked_loop(self, values: Mapping[str, float], box: Mapping[str, tuple[float, float]]):
+        """The loop at ``values`` (numbers per tunable name) that a spec's checks ask which
+        metrics it supports (:func:`feedtune.schema.spec.parse_spec`, ``feedtune
+        validate``): ``loop(values, box)`` here. A plant whose loop imports CasADi to be
+        built returns a :class:`feedtune.lazy.Deferred` that answers those questions from
+        its configuration and builds ``loop(values, box)`` when asked anything else (issue
+        15's start-up); the tuner and the evaluations always get ``loop`` itself."""
+        return self.loop(values, box)
+
     def not_tunable(self) -> dict[str, str]:
         """Tunables of the plant type that this configuration fixes, each with the reason a
         spec may not free it. None here."""

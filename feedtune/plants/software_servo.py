@@ -33,10 +33,11 @@ from typing import Literal, Mapping
 
 from pydantic import Field, PositiveFloat, model_validator
 
-from feedtune.lazy import ca, np
+from feedtune.lazy import Deferred, ca, np
 from feedtune.loops import linalg
 from feedtune.loops.loop import (ContinuousLoop, Drive, Integrator, IntegratorLag, Interpolator,
                                  SampledLoop, TransferLoop)
+from feedtune.loops.protocols import DeclaredCapabilities
 from feedtune.plants.base import NYQUIST_MARGIN, SETTLING_TIME_CONSTANTS, Plant, Tunable
 from feedtune.schema.model import SpecModel
 
@@ -223,6 +224,23 @@ class SoftwareServo(Plant):
                            period_min=period_min, interpolator=interpolator,
                            frequency_band=self._sampled_band(box))
 
+    def checked_loop(self, values: Mapping[str, float], box: Mapping[str, tuple[float, float]]):
+        """The loop a spec's checks read (:meth:`feedtune.plants.base.Plant.checked_loop`):
+        the reference-pulse loop, whose matrices are CasADi's, as a :class:`_PulseLoopFacts`
+        that answers from the configuration what the checks ask of it (a second-order
+        continuous loop, its drive, C_v = K, its frequency band) and builds :meth:`loop`
+        for anything else (a metric evaluated at the box's corners); the sampled loops
+        build no matrix until asked."""
+        if self.params.technique != "reference_pulse":
+            return self.loop(values, box)
+        numbers = {name: values[name] for name in self.numbers() if name in values}
+        return _PulseLoopFacts(lambda: self.loop(values, box),
+                               capabilities=ContinuousLoop.capabilities, exact_only=False,
+                               discrete=False, period=None, order=2, interpolator=None,
+                               has_exact_step_error=True, drive=self.drive(numbers),
+                               velocity_constant=values["position_gain"],
+                               frequency_band=self._pulse_band(box))
+
     def _pulse_band(self, box) -> tuple[float, float]:
         """(low, high) [rad/s] of the reference-pulse loop's frequency metrics: its corners
         K and 1/τ over the box, two decades either side."""
@@ -263,6 +281,15 @@ class SoftwareServo(Plant):
         if p.time_constant is not None:
             corners.append(1 / p.time_constant)
         return min(corners) / 100, max(corners) * 100
+
+
+class _PulseLoopFacts(Deferred):
+    """Koren's reference-pulse :class:`~feedtune.loops.loop.ContinuousLoop` (A = [[0, 1],
+    [−K/τ, −1/τ]], eq 5) as far as a spec's checks ask it: what is given (the built
+    loop's own values, ``tests/unit/test_numeric_loop_queries.py``) and ``offers`` as that
+    class answers it; any other member is the built loop's (CasADi imported then)."""
+
+    offers = DeclaredCapabilities.offers
 
 
 def koren_step_response(gain: float, period: float, time_constant: float, samples: int):

@@ -49,11 +49,11 @@ uses; see docs/ward-leonard.md).
 
 from __future__ import annotations
 
+import math
 from typing import Literal, Mapping
 
 from pydantic import Field, NonNegativeFloat, PositiveFloat, model_validator
 
-from feedtune.lazy import np
 from feedtune.loops import linalg
 from feedtune.loops.loop import TransferLoop
 from feedtune.plants.base import Plant, Tunable
@@ -229,7 +229,7 @@ class WardLeonard(Plant):
         low-gain loop), and the largest pole the uncompensated velocity loop can have at
         the top of the K'_v box (Fujiwara's bound on the roots of d_g + K'_v n_g).
 
-        Computed once per box (D(s)'s roots by numpy): a loop is built at every point of
+        Computed once per box (D(s)'s roots in closed form, :func:`root_moduli`): a loop is built at every point of
         a robust search, a batch's reports and the contract tests' grids.
         """
         key = tuple(sorted(box.items()))
@@ -240,11 +240,11 @@ class WardLeonard(Plant):
     def _frequency_band(self, box: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
         p = self.params
         n_g, d_f, d_m = self.velocity_per_volt()
-        if not np.all(np.isfinite(np.concatenate([n_g, d_f, d_m]))):
+        if not all(math.isfinite(c) for c in [*n_g, *d_f, *d_m]):
             # e.g. R_a = 9e306 Ω: R_a·B_m is inf, and D(s) has no roots to place the band by
             raise OverflowError("G(s)'s coefficients overflow double precision")
         corners = [1 / p.field_time_constant()]
-        corners += [abs(r) for r in np.roots(d_m) if abs(r) > 0]
+        corners += [modulus for modulus in root_moduli(d_m) if modulus > 0]
         corners += compensator_corners(box)
         for prefix, kind in (("velocity_compensator", p.velocity_compensator),
                              ("position_compensator", p.position_compensator)):
@@ -258,6 +258,43 @@ class WardLeonard(Plant):
                                 linalg.poly_scale(n_g, box["velocity_gain"][1]))
         corners.append(fujiwara_bound(inner))
         return min(corners) / 100, max(corners) * 100
+
+
+def root_moduli(poly: list) -> list[float]:
+    """The moduli [rad/s] of the roots of a_0 s² + a_1 s + a_2 or a_0 s + a_1 (floats, a
+    root at 0 included as 0): D(s)'s modes, in closed form without numpy (``feedtune
+    validate`` imports none, issue 15). For the quadratic, the larger root's modulus
+    (|p| + √(p² − 4q))/2 of s² + p s + q, scaled by max(|p|, √|q|) so that no square
+    overflows, and the other's |q| over it; a complex pair's √q. numpy's ``roots`` (the
+    eigenvalues of the companion matrix) gives the same up to rounding
+    (``tests/unit/test_ward_leonard.py``).
+
+    Raises
+    ------
+    OverflowError
+        When a_k/a_0 leaves double precision (the companion matrix cannot be formed).
+    """
+    coefficients = list(poly)
+    while coefficients and coefficients[0] == 0:
+        coefficients.pop(0)
+    if len(coefficients) <= 1:
+        return []
+    lead = coefficients[0]
+    monic = [c / lead for c in coefficients[1:]]
+    if not all(math.isfinite(c) for c in monic):
+        raise OverflowError("D(s)'s roots overflow double precision")
+    if len(monic) == 1:
+        return [abs(monic[0])]
+    p, q = monic
+    scale = max(abs(p), math.sqrt(abs(q)))
+    if scale == 0:
+        return [0.0, 0.0]
+    ps, qs = p / scale, q / scale / scale
+    discriminant = ps * ps - 4 * qs
+    if discriminant < 0:
+        return [math.sqrt(q)] * 2
+    larger = scale * (abs(ps) + math.sqrt(discriminant)) / 2
+    return [larger, abs(q) / larger]
 
 
 def fujiwara_bound(poly: list) -> float:

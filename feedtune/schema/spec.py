@@ -837,7 +837,7 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
         errors.append(("/constraints", f"at most {MAX_CONSTRAINTS - 1} constraints with "
                                        "integer_ratio, which adds one (q = a whole number)"))
     try:
-        loop = plant.loop({n: hi for n, (lo, hi) in box.items()}, box)
+        loop = plant.checked_loop({n: hi for n, (lo, hi) in box.items()}, box)
     except SampledModelError as exc:  # "<pointer>: <message>" (feedtune.plants.linear)
         pointer, _, message = str(exc).partition(": ")
         return errors + [(pointer, message)]

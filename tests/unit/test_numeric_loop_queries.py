@@ -2,7 +2,8 @@
 expressions give: ``order`` against the size of the built state matrix, and
 ``SampledLoop.symbolic_horizon_samples`` against ``horizon_samples`` of the loop the tuner
 builds on symbols (HorizonError alike). Every bundled example's plant and a spread of plant
-configurations, at both ends of the default box."""
+configurations, at both ends of the default box. ``Plant.checked_loop``, the loop the
+spec's checks read, answers every metric's applicability as the built loop does."""
 
 from __future__ import annotations
 
@@ -11,9 +12,13 @@ from pathlib import Path
 
 import casadi as ca
 import pytest
+from pydantic import ValidationError
 
+from feedtune.lazy import Deferred
 from feedtune.loops.loop import HorizonError
+from feedtune.loops.protocols import Capability
 from feedtune.loops.sampled_plants import SampledModelError
+from feedtune.objectives import METRIC_PATHS, metric_class
 from feedtune.plants import plant_for
 from feedtune.schema.spec import _PLANT, PLANT_MODELS, tunable_box
 from feedtune.schema.uncertainty import move_inline_forms
@@ -96,3 +101,49 @@ def test_some_variant_is_over_the_sample_limit():
     loop = plant.loop({name: hi for name, (lo, hi) in box.items()}, box)
     with pytest.raises(HorizonError):
         loop.symbolic_horizon_samples  # noqa: B018
+
+
+def _default_options(metric):
+    """The metric's options at their defaults, or None (as ``feedtune.schema.spec`` asks)."""
+    try:
+        return metric.Options()
+    except ValidationError:
+        return None
+
+
+@pytest.mark.parametrize("box_name", BOXES)
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_the_checked_loop_answers_as_the_loop_without_building_it(variant, box_name):
+    """``Plant.checked_loop`` (what ``feedtune validate`` asks which metrics a plant
+    supports, issue 15's start-up): every metric's ``supports`` and ``optimisable`` and every
+    capability as on the loop the plant builds at the box's upper end; a deferred loop
+    (Koren's reference pulse, whose matrices are CasADi's) answers them without being built,
+    and every value it gives is the built loop's."""
+    plant = _plant(VARIANTS[variant])
+    tunables = plant.tunables()
+    raw_box = {name: bounds for name, bounds in BOXES[box_name].items() if name in tunables}
+    box, _, _ = tunable_box(raw_box, tunables)
+    values = {name: hi for name, (lo, hi) in box.items()}
+    try:
+        built = plant.loop(values, box)
+    except SampledModelError:
+        return  # refused at its pointer (the test above)
+    checked = plant.checked_loop(values, box)
+    answers = {}
+    for name in METRIC_PATHS:
+        metric = metric_class(name)()
+        options = _default_options(metric)
+        answers[name] = [(metric.supports(loop, options),
+                          metric.supports(loop, options) and metric.optimisable(loop, options))
+                         for loop in (checked, built)]
+    offered = {capability: (checked.offers(capability), built.offers(capability))
+               for capability in Capability}
+    assert {name: len(set(both)) for name, both in answers.items()} == dict.fromkeys(answers, 1)
+    assert {c: len(set(both)) for c, both in offered.items()} == dict.fromkeys(offered, 1)
+    assert any(supported for (supported, _), _ in answers.values())
+    if isinstance(checked, Deferred):
+        given = {name: value for name, value in vars(checked).items() if name != "_build"}
+        assert "_built" not in given  # nothing above built it
+        assert given == {name: getattr(built, name) for name in given}
+    assert (plant.params.type == "software_servo"
+            and plant.params.technique == "reference_pulse") == isinstance(checked, Deferred)

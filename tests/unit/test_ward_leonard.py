@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from feedtune.plants import PLANTS
-from feedtune.plants.ward_leonard import WardLeonard, WardLeonardParams
+from feedtune.plants.ward_leonard import WardLeonard, WardLeonardParams, root_moduli
 from feedtune.schema.spec import SpecError, parse_spec
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "ward-leonard-feed-drive.json"
@@ -253,6 +253,36 @@ def test_frequency_band_covers_every_pole_and_zero_in_the_box(velocity, position
             moduli = np.abs(np.roots(floats(poly)))
             moduli = moduli[moduli > 0]
             assert np.all(moduli <= high / 10) and np.all(moduli >= low * 10), (values, moduli)
+
+
+def test_root_moduli_are_numpys_up_to_rounding():
+    """D(s)'s modes set the band's corners in closed form (no numpy for ``feedtune
+    validate``): 2 000 quadratics with coefficients over 24 decades (real, double and complex
+    pairs) and 200 first-order ones against numpy's companion-matrix roots: modes a decade
+    or more apart to 1e-13 of the modulus (a few hundred ulps), closer ones to 1e-7 (rounding
+    the coefficients by ε moves a double root by ≈ √ε ≈ 1.5e-8 of its size, whichever way it
+    is computed); both far below the two decades the band extends past a corner."""
+    rng = np.random.default_rng(7)
+    polys = [list(10.0 ** rng.uniform(-12, 12, size=3)) for _ in range(2000)]
+    polys += [[a, 2 * math.sqrt(a * c), c] for a, _, c in polys[:100]]  # a double root
+    polys += [list(10.0 ** rng.uniform(-12, 12, size=2)) for _ in range(200)]
+    for poly in polys:
+        expected = sorted(abs(r) for r in np.roots(poly))
+        separated = expected[-1] > 10 * expected[0]
+        assert sorted(root_moduli(poly)) == pytest.approx(expected, rel=1e-13 if separated
+                                                          else 1e-7), poly
+
+
+def test_root_moduli_refuse_what_double_precision_cannot_hold():
+    """a_1/a_0 = 1e310 has no double: an OverflowError, which the spec check reports at
+    /plant (numpy raised LinAlgError there, a traceback from `feedtune validate`)."""
+    with pytest.raises(OverflowError):
+        root_moduli([1e-300, 1e10, 1.0])
+    assert root_moduli([2.0, 3.0, 0.0]) == [1.5, 0.0]  # a root at 0, as numpy's roots
+    with pytest.raises(SpecError) as err:
+        parse_spec(_spec(inertia=1e-150, armature_inductance=1e-150, armature_resistance=1e160))
+    (pointer, message), = err.value.errors
+    assert pointer == "/plant" and "leave double precision" in message
 
 
 # -- spec validation -------------------------------------------------------------------------
