@@ -1001,8 +1001,9 @@ feedtune.batch.job.warm_up = lambda: None  # nothing to load: the worker's start
 
 
 def pause(_anchor):
-    with open(sys.argv[1], "w") as out:
-        out.write(str(os.getpid()))
+    with open(sys.argv[1] + ".part", "w") as out:  # whole or absent: the test reads it as
+        out.write(str(os.getpid()))                # soon as this process's batch is dead
+    os.replace(sys.argv[1] + ".part", sys.argv[1])
     time.sleep(1.0)
 
 
@@ -1040,6 +1041,11 @@ def test_a_worker_whose_batch_died_as_it_started_does_not_wait_forever(tmp_path)
                                str(tmp_path / "worker")], stdout=subprocess.DEVNULL,
                               stderr=stderr, timeout=120, cwd=REPO)
     assert done.returncode == -signal.SIGKILL, (tmp_path / "stderr").read_text()
+    # the batch died right after forking: under load its worker writes its pid only later
+    # (an empty file was read at load 25 when the worker wrote it in place)
+    deadline = time.monotonic() + 30
+    while not (tmp_path / "worker").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
     pid = int((tmp_path / "worker").read_text())
     try:
         deadline = time.monotonic() + 30
