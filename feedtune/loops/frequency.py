@@ -18,6 +18,7 @@ import math
 import threading
 from collections import OrderedDict
 
+from feedtune.buffers import ThreadBuffers
 from feedtune.lazy import ca, np
 from feedtune.loops.twin import OfLoop, parametric_twin
 
@@ -484,27 +485,12 @@ class Buffered:
             if fn.nnz_out(i) not in (0, fn.numel_out(i)):
                 raise ValueError(f"{fn.name()}: output {i} is neither dense nor all zeros")
         self._fn = fn
-        self._local = threading.local()
-
-    def _bound(self) -> tuple:
-        """This thread's buffer: (buffer, trigger, argument arrays, result arrays)."""
-        bound = getattr(self._local, "bound", None)
-        if bound is None:
-            fn = self._fn
-            buffer, trigger = fn.buffer()
-            args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-            results = [np.zeros(fn.numel_out(i)) for i in range(fn.n_out())]
-            for i, a in enumerate(args):
-                buffer.set_arg(i, memoryview(a))
-            for i, r in enumerate(results):
-                buffer.set_res(i, memoryview(r))
-            bound = self._local.bound = (buffer, trigger, args, results)
-        return bound
+        self._buffers = ThreadBuffers([fn.numel_out(i) for i in range(fn.n_out())])
 
     def __call__(self, *args) -> list[np.ndarray]:
         """The Function's outputs (flat copies) at ``args`` (flat arrays of its inputs'
         sizes)."""
-        _, trigger, arguments, results = self._bound()
+        _, trigger, arguments, results = self._buffers.bound(lambda: self._fn)
         for target, value in zip(arguments, args):
             target[:] = value
         trigger()

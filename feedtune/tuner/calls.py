@@ -21,6 +21,8 @@ import weakref
 
 import numpy as np
 
+from feedtune.buffers import ThreadBuffers
+
 #: each Function's numeric callers, by ``check``: kept while the Function is (its proxy
 #: object, e.g. a cached solver or a structure's Functions), never beyond
 _calls: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -55,7 +57,6 @@ class NumericCall:
         self.check = check
         self.name, self.inputs, self.names = (function.name(), function.name_in(),
                                               function.name_out())
-        self._local = threading.local()
         for i in range(function.n_in()):
             if not function.sparsity_in(i).is_dense():
                 raise ValueError(f"{function.name()}: input {i} is not dense")
@@ -69,28 +70,23 @@ class NumericCall:
             # the variables) has empty index lists, which numpy would make float
             self._shapes.append((shape, None if dense else (
                 np.array(sparsity.row(), dtype=int), np.array(sparsity.get_col(), dtype=int))))
+        self._buffers = ThreadBuffers([function.nnz_out(i) for i in range(function.n_out())])
 
     @property
     def function(self):
         """The Function (None once it is gone)."""
         return self._function()
 
-    def _buffers(self):
-        """(evaluate, argument arrays, result arrays, buffer) of this thread."""
-        buffers = getattr(self._local, "buffers", None)
-        if buffers is None:
-            fn = self.function
-            if fn is None:
-                raise RuntimeError(f"{self.name}: the Function no longer exists")
-            buffer, evaluate = fn.buffer()
-            args = [np.zeros(fn.nnz_in(i)) for i in range(fn.n_in())]
-            results = [np.zeros(fn.nnz_out(i)) for i in range(fn.n_out())]
-            for i, a in enumerate(args):
-                buffer.set_arg(i, memoryview(a))
-            for i, r in enumerate(results):
-                buffer.set_res(i, memoryview(r))
-            buffers = self._local.buffers = (evaluate, args, results, buffer)
-        return buffers
+    def _bound(self) -> tuple:
+        """(buffer, evaluate, argument arrays, result arrays) of this thread."""
+        return self._buffers.bound(self._alive)
+
+    def _alive(self):
+        """The Function, to bind a thread's buffer to."""
+        fn = self.function
+        if fn is None:
+            raise RuntimeError(f"{self.name}: the Function no longer exists")
+        return fn
 
     def __call__(self, *inputs) -> np.ndarray | list[np.ndarray]:
         """The outputs at ``inputs`` (by position), as a Function called with DMs gives
@@ -100,7 +96,7 @@ class NumericCall:
 
     def outputs(self, *inputs) -> list[np.ndarray]:
         """Every output at ``inputs`` (by position), in a list."""
-        evaluate, args, results, buffer = self._buffers()
+        buffer, evaluate, args, results = self._bound()
         for i, target in enumerate(args):
             value = inputs[i] if i < len(inputs) else None
             if value is None:
@@ -139,4 +135,4 @@ class NumericCall:
     def stats(self) -> dict:
         """The statistics of this thread's last evaluation (an nlpsol's: ``iter_count``,
         ``return_status``, ...)."""
-        return self._buffers()[3].stats()
+        return self._bound()[0].stats()
