@@ -257,8 +257,9 @@ def roots(p: list, iterations: int = 200) -> list[complex]:
     Aberth–Ehrlich iteration (Bini, "Numerical computation of polynomial zeros by means of
     Aberth's method", Numer. Algorithms 13, 1996): every estimate moves by the Newton step
     corrected for the others, w = (p/p′)/(1 − (p/p′)·Σ_{j≠i} 1/(z_i − z_j)), from points on
-    a circle of the roots' mean radius |a_n/a_0|^(1/n). Roots at 0 (trailing zeros) are
-    exact. Cubic convergence for simple roots, linear for multiple ones; stops when no
+    the circles of the Newton polygon's radii (:func:`_newton_polygon_starts`, Bini §3), so
+    roots dozens of decades apart start near their own moduli. Roots at 0 (trailing zeros)
+    are exact. Cubic convergence for simple roots, linear for multiple ones; stops when no
     estimate moves by more than 4 ulps of its magnitude. A scale, not an eigenvalue
     solver: numbers as numpy's ``roots`` to about 1e-12 relative for simple roots.
     """
@@ -274,8 +275,7 @@ def roots(p: list, iterations: int = 200) -> list[complex]:
         return [0j] * zeros
     monic = [c / p[0] for c in p]
     derivative = [c * (n - i) for i, c in enumerate(monic[:-1])]
-    radius = abs(monic[-1]) ** (1 / n)
-    z = [radius * cmath.exp(1j * (2 * math.pi * k / n + 0.4)) for k in range(n)]
+    z = _newton_polygon_starts(monic)
 
     def horner(q, x):
         value = 0j
@@ -298,6 +298,34 @@ def roots(p: list, iterations: int = 200) -> list[complex]:
         if largest <= 4 * 2.0 ** -52:
             break
     return z + [0j] * zeros
+
+
+def _newton_polygon_starts(monic: list[complex]) -> list[complex]:
+    """Aberth's starting points for the monic ``monic`` (highest power first, degree n):
+    the upper convex hull of the points (i, ln|a_i|), a_i the coefficient of x^i; an edge
+    from i = k to k + m puts m points on the circle of radius (|a_k|/|a_(k+m)|)^(1/m), the
+    modulus of m roots to within a factor of the degree (Bini 1996, §3, Newton polygon).
+    A single edge (no coefficient above the line) is the circle of the mean radius
+    |a_0|^(1/n)."""
+    n = len(monic) - 1
+    hull: list[tuple[int, float]] = []
+    for i in range(n + 1):
+        if monic[n - i] == 0:
+            continue
+        point = (i, math.log(abs(monic[n - i])))
+        # drop the last point while it lies on or below the line from its predecessor
+        # to this one (a non-negative cross product): the hull's upper side stays
+        while len(hull) >= 2 and ((hull[-1][0] - hull[-2][0]) * (point[1] - hull[-2][1])
+                                  - (hull[-1][1] - hull[-2][1]) * (point[0] - hull[-2][0])) >= 0:
+            hull.pop()
+        hull.append(point)
+    starts = []
+    for (k, log_k), (j, log_j) in zip(hull, hull[1:]):
+        m = j - k
+        radius = math.exp((log_k - log_j) / m)
+        starts += [radius * cmath.exp(1j * (2 * math.pi * (t / m + k / n) + 0.4))
+                   for t in range(m)]
+    return starts
 
 
 def pivoted_solve(matrix, rhs):
