@@ -95,8 +95,9 @@ class Settings:
 
 @dataclass
 class StartOutcome:
-    """What one start did: status, objective, IPOPT iterations, wall time [s], feasibility
-    and the exchange points it added."""
+    """What one start did: status, objective, iterations (IPOPT's, or the search's
+    evaluations: see ``method``), wall time [s], feasibility, the exchange points it added
+    and the method that solved it (``ipopt``, ``brent``, ``root``, ...)."""
 
     index: int
     status: str
@@ -106,6 +107,7 @@ class StartOutcome:
     solve_time: float
     feasible: bool
     exchange_points: int = 0
+    method: str = "ipopt"
 
 
 @dataclass

@@ -1,0 +1,281 @@
+"""One free tunable and one |e| minimised: each start solved by a root of the signed e.
+
+A problem whose only free tunable is z = ln x and whose objective is one magnitude |e(z)|
+(weight > 0) becomes, in the NLP, an epigraph: minimise t subject to −t ≤ e(z) ≤ t, so
+IPOPT solves a two-variable problem for what is a root of e in the feasible set. Here
+(measured in benchmarks/README.md, branch h-bst5 and h-bst6: the same optimum to within
+IPOPT's own spread between starts, ≈ 10 % of the CPU)
+
+1. the signed e and the feasibility of every grid point are evaluated once per problem:
+   the starts, the box's ends and :data:`GRID_POINTS` points evenly spaced in z, each one
+   call of the NLP check's Function (the expressions IPOPT sees, not expanded);
+2. a start whose grid point is feasible searches its feasible run (the consecutive
+   feasible grid points around it); a start whose grid point is not enters the feasible
+   run nearest to it at its boundary (what IPOPT's restoration phase does: the nearest
+   feasible point), which is located as the root of the constraint's own row;
+3. in the run, the sign change of e nearest the entry point is bracketed by two points and
+   its root found by ``scipy.optimize.brentq`` to :data:`ROOT_XTOL` in z; |e| is then 0
+   to rounding, the global minimum of |e|;
+4. a run without a sign change has |e| of one sign, a smooth function: when its smallest
+   value lies on an end of the run (a bound of the box, or a constraint's crossing, whose
+   root is found as in 2) and |e| rises into the box from there, that end is the optimum,
+   a vertex of the feasible set (the first-order condition, checked over
+   :data:`EDGE_STEP`).
+
+Everything else (a run whose smallest |e| is interior without a root, a boundary made by a
+stability or settling condition, which the NLP holds with a margin, a root that turns out
+infeasible) is declined: the tuner solves that start with IPOPT, so every start's
+evidence stays its own and a result says per start which method solved it.
+
+The search sees only numbers from a callable (duck-typed, no plant or metric name):
+``evaluate(z) -> (e, bound rows, other)`` with e the signed error, the bound rows' signed
+relative violations (≤ 0 where each holds) and the largest violation of every other
+condition (stability, settling; ≤ 0 where they hold, +inf where undefined).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+#: points evenly spaced in z over the box, besides the starts and the box's ends: h-bst5
+#: measured 17 (benchmarks/README.md): with the starts and ends alone the scalar search
+#: missed a sign change on 11 of 40 specs, with 17 more none of the 60
+GRID_POINTS = 17
+#: brentq's tolerance [1] in z = ln x: a relative 1e-14 of the tunable, below IPOPT's own
+#: spread of ln x between starts reaching one optimum (median 3e-12, 90 % 3e-10,
+#: benchmarks/README.md, h-bst5) and above rounding of z ≈ 5 (≈ 1e-15)
+ROOT_XTOL = 1e-14
+#: bisection of a boundary that a stability or settling condition shares with a bound
+#: stops at this width [1] in z (a relative 1e-10 of the tunable), as the scalar search's
+#: BOUNDARY_XTOL
+BOUNDARY_XTOL = 1e-10
+#: step [1] in z either side of a start that decides which way is downhill (a relative
+#: 1e-6 of the tunable: |e| changes there by |e'|·1e-6, far above its rounding)
+SLOPE_STEP = 1e-6
+#: step [1] in z (a relative 1e-8 of the tunable) into the run from an end whose |e| is the
+#: run's smallest: |e| must rise over it (as feedtune.tuner.scalar.EDGE_STEP)
+EDGE_STEP = 1e-8
+
+
+def applies(problem) -> bool:
+    """One free tunable, no exchange point, no numeric scan, and an objective of one
+    magnitude term minimised (weight > 0): the NLP's epigraph of |e|."""
+    if not (problem.has_nlp and problem.n_z == 1 and not problem.exchange_groups):
+        return False
+    ev = problem.evaluator
+    return bool(ev.term_magnitude == [True] and len(ev.weights) == 1 and ev.weights[0] > 0
+                and ev.term_scans == [None] and all(s is None for s in ev.bound_scans))
+
+
+@dataclass
+class Found:
+    """A start solved: its end point z [ln tunable], the error evaluations it took beyond
+    the shared grid [count], and whether it lies on a bound or a constraint's crossing."""
+
+    z: float
+    evaluations: int
+    vertex: bool
+
+
+@dataclass
+class RootSearch:
+    """Grid and roots on a problem with one free tunable and one |e| (module docstring)."""
+
+    evaluate: Callable
+    lower: float
+    upper: float
+    starts: np.ndarray
+    grid_points: int = GRID_POINTS
+    grid: np.ndarray = field(init=False)
+    errors: np.ndarray = field(init=False)  # the signed e at each grid point
+    feasible: np.ndarray = field(init=False)
+    _points: list = field(init=False)
+    evaluations: int = field(init=False, default=0)
+
+    def __post_init__(self):
+        self.grid = np.unique(np.concatenate([
+            [self.lower, self.upper], np.clip(self.starts, self.lower, self.upper),
+            np.linspace(self.lower, self.upper, self.grid_points)]))
+        self._points = [self.evaluate(z) for z in self.grid]
+        self.evaluations = len(self.grid)
+        self.errors = np.array([p[0] for p in self._points], dtype=float)
+        self.feasible = np.array([_feasible(p) for p in self._points])
+
+    @classmethod
+    def for_problem(cls, problem) -> "RootSearch | None":
+        """The search on ``problem``'s NLP check Function (the expressions IPOPT sees), or
+        None where :func:`applies` says it does not."""
+        if not applies(problem):
+            return None
+        from feedtune.tuner.calls import numeric
+
+        check = numeric(problem.evaluator.function)
+        p = problem.param_values[:problem.evaluator.n_params]
+        magnitude = problem.evaluator.bound_magnitude
+        sides = [(b.lower, b.upper, max(1.0, abs(b.lower or 0), abs(b.upper or 0)))
+                 for b in problem.bounds]
+
+        def evaluate(z):
+            out = check.named(z=np.array([z]), p=p)
+            values = np.asarray(out["bounds"], dtype=float).ravel()
+            rows = []  # relative violations, as feedtune.tuner.scalar.violation
+            for v, mag, (lower, upper, size) in zip(values, magnitude, sides):
+                v = abs(v) if mag else v
+                if lower is not None:
+                    rows.append((lower - v) / size)
+                if upper is not None:
+                    rows.append((v - upper) / size)
+            other = np.concatenate([-np.asarray(out["stability"], dtype=float).ravel(),
+                                    -np.asarray(out["settling"], dtype=float).ravel(), [-np.inf]])
+            worst = float(np.max(other))
+            return (float(np.asarray(out["terms"], dtype=float).ravel()[0]),
+                    np.array(rows, dtype=float), math.inf if math.isnan(worst) else worst)
+
+        return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
+                   np.asarray(problem.starts, dtype=float)[:, 0])
+
+    @property
+    def solvable(self) -> bool:
+        """Some grid point is feasible."""
+        return bool(self.feasible.any())
+
+    def _at(self, z: float):
+        self.evaluations += 1
+        return self.evaluate(z)
+
+    def solve_from(self, z0: float) -> Found | None:
+        """The start at ``z0`` (a grid point) solved, or None: declined (module docstring)."""
+        before = self.evaluations
+        index = int(np.argmin(np.abs(self.grid - z0)))
+        run = self._run(index)
+        if run is None:
+            return None
+        left, right, entry = run
+        ends: dict[int, tuple | None] = {}
+
+        def end(side):  # (z, e) where the run ends on ``side`` (-1, +1), or None (declined)
+            if side not in ends:
+                inner = left if side < 0 else right
+                outer = inner + side
+                ends[side] = ((float(self.grid[inner]), float(self.errors[inner]))
+                              if outer < 0 or outer >= len(self.grid) else
+                              self._crossing(float(self.grid[inner]), float(self.grid[outer])))
+            return ends[side]
+
+        def found(z, vertex=False):
+            return Found(float(z), self.evaluations - before, vertex)
+
+        if entry is None:  # downhill from the start, as IPOPT's first step
+            j = index
+            if self.errors[j] == 0:
+                return found(self.grid[j])
+            lower, upper = (abs(self._at(z0 + h)[0]) for h in (-SLOPE_STEP, SLOPE_STEP))
+            direction = 1 if upper < lower else -1
+        else:  # entered at the crossing facing the start
+            edge = end(entry)
+            if edge is None:
+                return None
+            direction, j = -entry, (left if entry < 0 else right)
+            root = self._root(edge, (float(self.grid[j]), float(self.errors[j])))
+            if root is not None:
+                return found(root)
+            if self._rises(edge, direction):
+                return found(edge[0], True)
+            if abs(self.errors[j]) >= abs(edge[1]):
+                return None  # |e| least between the crossing and the grid: IPOPT
+        while True:  # down the grid's |e| in ``direction`` to a sign change or the run's end
+            here = (float(self.grid[j]), float(self.errors[j]))
+            k = j + direction
+            if not left <= k <= right:  # the run's end: a bound of the box or a crossing
+                edge = end(direction)
+                if edge is None:
+                    return None
+                if edge[0] == here[0]:  # the box's bound
+                    return found(here[0], True) if self._rises(here, -direction) else None
+                root = self._root(here, edge)
+                if root is not None:
+                    return found(root)
+                if abs(edge[1]) <= abs(here[1]) and self._rises(edge, -direction):
+                    return found(edge[0], True)
+                return None
+            root = self._root(here, (float(self.grid[k]), float(self.errors[k])))
+            if root is not None:
+                return found(root)
+            if abs(self.errors[k]) >= abs(here[1]):
+                return None  # an interior minimum of |e| without a root: IPOPT
+            j = k
+
+    def _root(self, a: tuple, b: tuple) -> float | None:
+        """The root of e between the points ``a`` and ``b`` ((z, e) each) by brentq to
+        ROOT_XTOL, or None without a sign change."""
+        from scipy import optimize  # imported when used (start-up time)
+
+        (za, ea), (zb, eb) = a, b
+        if ea == 0 or eb == 0:
+            return za if ea == 0 else zb
+        if ea * eb > 0:
+            return None
+        lower, upper = sorted((za, zb))
+        return float(optimize.brentq(lambda z: self._at(z)[0], lower, upper, xtol=ROOT_XTOL))
+
+    def _rises(self, edge: tuple, inward: int) -> bool:
+        """|e| rises from the run's end ``edge`` ((z, e)) over EDGE_STEP in ``inward``
+        (±1): the first-order condition of a minimum on that end."""
+        step = self._at(edge[0] + inward * EDGE_STEP)
+        return _feasible(step) and abs(step[0]) > abs(edge[1])
+
+    def _run(self, index: int) -> tuple[int, int, int | None] | None:
+        """(first, last grid index, entry side) of the feasible run the start at grid point
+        ``index`` searches: its own (entry None), or for an infeasible start the nearest
+        run, entered from its end facing the start (-1: left, +1: right); None without a
+        feasible grid point."""
+        entry = None
+        if not self.feasible[index]:
+            feasible = np.flatnonzero(self.feasible)
+            if not feasible.size:
+                return None
+            nearest = feasible[np.argmin(np.abs(self.grid[feasible] - self.grid[index]))]
+            entry = 1 if nearest < index else -1
+            index = int(nearest)
+        left = right = index
+        while left > 0 and self.feasible[left - 1]:
+            left -= 1
+        while right < len(self.grid) - 1 and self.feasible[right + 1]:
+            right += 1
+        return left, right, entry
+
+    def _crossing(self, inside: float, outside: float) -> tuple[float, float] | None:
+        """(z, e) where the feasible set ends between the feasible ``inside`` and the
+        infeasible ``outside``: the root of the one bound row violated there (brentq to
+        ROOT_XTOL, the feasible side of its bracket kept); None when the boundary is a
+        stability or settling condition's (the NLP holds those with a margin: IPOPT's)."""
+        from scipy import optimize
+
+        point = self._at(outside)
+        while point[2] > 0 or not math.isfinite(point[0]):  # narrow to the bound's crossing
+            if abs(outside - inside) <= BOUNDARY_XTOL:
+                return None
+            middle = 0.5 * (inside + outside)
+            probe = self._at(middle)
+            if _feasible(probe):
+                inside = middle
+            else:
+                outside, point = middle, probe
+        row = int(np.argmax(point[1]))
+        root = optimize.brentq(lambda z: self._at(z)[1][row], inside, outside, xtol=ROOT_XTOL)
+        # brentq's answer lies within ROOT_XTOL of the crossing, on either side: keep the
+        # feasible one of it and its neighbour towards inside
+        for z in (root, root + math.copysign(2 * ROOT_XTOL, inside - outside)):
+            found = self._at(z)
+            if _feasible(found):
+                return float(z), float(found[0])
+        return None
+
+
+def _feasible(point) -> bool:
+    e, rows, other = point
+    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or np.all(rows <= 0)))
