@@ -53,8 +53,8 @@ ROOT_XTOL = 1e-14
 #: stops at this width [1] in z (a relative 1e-10 of the tunable), as the scalar search's
 #: BOUNDARY_XTOL
 BOUNDARY_XTOL = 1e-10
-#: step [1] in z either side of a start that decides which way is downhill (a relative
-#: 1e-6 of the tunable: |e| changes there by |e'|·1e-6, far above its rounding)
+#: step [1] in z from a start that decides which way is downhill (a relative 1e-6 of the
+#: tunable: |e| changes over it by |e'|·1e-6, far above its rounding)
 SLOPE_STEP = 1e-6
 #: step [1] in z (a relative 1e-8 of the tunable) into the run from an end whose |e| is the
 #: run's smallest: |e| must rise over it (as feedtune.tuner.scalar.EDGE_STEP)
@@ -73,8 +73,9 @@ def applies(problem) -> bool:
 
 @dataclass
 class Found:
-    """A start solved: its end point z [ln tunable], the error evaluations it took beyond
-    the shared grid [count], and whether it lies on a bound or a constraint's crossing."""
+    """A start solved: its end point z [ln tunable], the error evaluations its search took
+    beyond the shared grid (a root an earlier start found is not searched again, and its
+    evaluations count for both) [count], and whether it lies on a bound or a constraint's crossing."""
 
     z: float
     evaluations: int
@@ -93,17 +94,18 @@ class RootSearch:
     grid: np.ndarray = field(init=False)
     errors: np.ndarray = field(init=False)  # the signed e at each grid point
     feasible: np.ndarray = field(init=False)
-    _points: list = field(init=False)
-    evaluations: int = field(init=False, default=0)
+    evaluations: int = field(init=False, default=0)  # of the error, by every start
+    _charged: int = field(init=False, default=0)  # by the start being solved
+    _roots: dict = field(init=False, default_factory=dict)  # bracket → (root, evaluations)
 
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([
             [self.lower, self.upper], np.clip(self.starts, self.lower, self.upper),
             np.linspace(self.lower, self.upper, self.grid_points)]))
-        self._points = [self.evaluate(z) for z in self.grid]
+        points = [self.evaluate(z) for z in self.grid]
         self.evaluations = len(self.grid)
-        self.errors = np.array([p[0] for p in self._points], dtype=float)
-        self.feasible = np.array([_feasible(p) for p in self._points])
+        self.errors = np.array([p[0] for p in points], dtype=float)
+        self.feasible = np.array([_feasible(p) for p in points])
 
     @classmethod
     def for_problem(cls, problem) -> "RootSearch | None":
@@ -115,25 +117,22 @@ class RootSearch:
 
         check = numeric(problem.evaluator.function)
         p = problem.param_values[:problem.evaluator.n_params]
-        magnitude = problem.evaluator.bound_magnitude
-        sides = [(b.lower, b.upper, max(1.0, abs(b.lower or 0), abs(b.upper or 0)))
-                 for b in problem.bounds]
+        # each bound's sides as (bound, sign, size): sign·(bound − v)/size ≤ 0 where it holds
+        sides = []
+        for index, (b, magnitude) in enumerate(zip(problem.bounds,
+                                                   problem.evaluator.bound_magnitude)):
+            size = max(1.0, abs(b.lower or 0), abs(b.upper or 0))
+            sides += [(index, magnitude, bound, sign, size)
+                      for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
 
         def evaluate(z):
-            out = check.named(z=np.array([z]), p=p)
-            values = np.asarray(out["bounds"], dtype=float).ravel()
-            rows = []  # relative violations, as feedtune.tuner.scalar.violation
-            for v, mag, (lower, upper, size) in zip(values, magnitude, sides):
-                v = abs(v) if mag else v
-                if lower is not None:
-                    rows.append((lower - v) / size)
-                if upper is not None:
-                    rows.append((v - upper) / size)
-            other = np.concatenate([-np.asarray(out["stability"], dtype=float).ravel(),
-                                    -np.asarray(out["settling"], dtype=float).ravel(), [-np.inf]])
-            worst = float(np.max(other))
-            return (float(np.asarray(out["terms"], dtype=float).ravel()[0]),
-                    np.array(rows, dtype=float), math.inf if math.isnan(worst) else worst)
+            terms, bounds, stability, settling = check.outputs(np.array([z]), p)[:4]
+            values = bounds.ravel()
+            rows = np.array([sign * (bound - (abs(values[i]) if magnitude else values[i])) / size
+                             for i, magnitude, bound, sign, size in sides])
+            conditions = np.concatenate([stability.ravel(), settling.ravel()])
+            other = -float(conditions.min()) if conditions.size else -math.inf
+            return (float(terms[0, 0]), rows, math.inf if math.isnan(other) else other)
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
                    np.asarray(problem.starts, dtype=float)[:, 0])
@@ -145,11 +144,12 @@ class RootSearch:
 
     def _at(self, z: float):
         self.evaluations += 1
+        self._charged += 1
         return self.evaluate(z)
 
     def solve_from(self, z0: float) -> Found | None:
         """The start at ``z0`` (a grid point) solved, or None: declined (module docstring)."""
-        before = self.evaluations
+        self._charged = 0
         index = int(np.argmin(np.abs(self.grid - z0)))
         run = self._run(index)
         if run is None:
@@ -167,14 +167,14 @@ class RootSearch:
             return ends[side]
 
         def found(z, vertex=False):
-            return Found(float(z), self.evaluations - before, vertex)
+            return Found(float(z), self._charged, vertex)
 
         if entry is None:  # downhill from the start, as IPOPT's first step
             j = index
             if self.errors[j] == 0:
                 return found(self.grid[j])
-            lower, upper = (abs(self._at(z0 + h)[0]) for h in (-SLOPE_STEP, SLOPE_STEP))
-            direction = 1 if upper < lower else -1
+            direction = 1 if abs(self._at(float(self.grid[j]) + SLOPE_STEP)[0]) < abs(
+                self.errors[j]) else -1
         else:  # entered at the crossing facing the start
             edge = end(entry)
             if edge is None:
@@ -231,7 +231,14 @@ class RootSearch:
         if ea * eb > 0:
             return None
         lower, upper = sorted((za, zb))
-        return float(optimize.brentq(lambda z: self._at(z)[0], lower, upper, xtol=ROOT_XTOL))
+        if (lower, upper) in self._roots:  # a bracket an earlier start reached: the same
+            root, evaluations = self._roots[lower, upper]  # search, its count charged again
+            self._charged += evaluations
+            return root
+        before = self._charged
+        root = float(optimize.brentq(lambda z: self._at(z)[0], lower, upper, xtol=ROOT_XTOL))
+        self._roots[lower, upper] = (root, self._charged - before)
+        return root
 
     def _rises(self, edge: tuple, inward: int) -> bool:
         """|e| rises from the run's end ``edge`` ((z, e)) over EDGE_STEP in ``inward``
