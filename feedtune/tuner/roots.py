@@ -285,9 +285,10 @@ class RootSearch:
                 outside, point = middle, probe
         row = int(np.argmax(point[1]))
         root = optimize.brentq(lambda z: self._at(z)[1][row], inside, outside, xtol=ROOT_XTOL)
-        # brentq's answer lies within ROOT_XTOL of the crossing, on either side: keep the
-        # feasible one of it and its neighbour towards inside
-        for z in (root, root + math.copysign(2 * ROOT_XTOL, inside - outside)):
+        # brentq's answer lies within its tolerance (ROOT_XTOL + 4ε|z|) of the crossing, on
+        # either side: keep the feasible one of it and a step of twice that towards inside
+        step = 2 * (ROOT_XTOL + 4 * np.finfo(float).eps * abs(root))
+        for z in (root, root + math.copysign(step, inside - outside)):
             found = self._at(z)
             if _feasible(found):
                 return float(z), float(found[0])
