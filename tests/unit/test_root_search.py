@@ -24,7 +24,7 @@ from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
 from feedtune.tuner.roots import ROOT_XTOL, RootSearch
 
-from example_specs import load_example
+from example_specs import EXAMPLES
 
 #: a batch spec of kind 1 (benchmarks/batch_throughput.py, spec 10): sampled data, T fixed,
 #: ζ ≥ 0.35; its third start (K = 47.7 1/s) is below ζ's bound: entered at the crossing
@@ -46,6 +46,7 @@ ON_BOUND = {"name": "on-bound", "plant": {"type": "software_servo",
             "objective": [{"metric": "radial_error", "radius": 0.004, "feed": 0.072478}],
             "constraints": [{"metric": "damping_ratio", "min": 0.6}],
             "solver": {"multistart": 2}}
+KOREN = json.loads((EXAMPLES / "koren-1979-reference-pulse.json").read_text(encoding="utf-8"))
 LN_K_TOL = 1e-9  # see the module docstring
 E_TOL_BLU = 1e-9
 
@@ -62,7 +63,7 @@ def _gain(result) -> float:
     return result.tuned["position_gain"].value
 
 
-@pytest.mark.parametrize("data", [load_example("koren-1979-reference-pulse.json"), SAMPLED],
+@pytest.mark.parametrize("data", [KOREN, SAMPLED],
                          ids=["koren-reference-pulse", "sampled-infeasible-start"])
 def test_each_start_is_ipopts_root(data, monkeypatch):
     """Every start ends where IPOPT's does (a root, or for the example's third start the
@@ -90,7 +91,7 @@ def test_each_start_is_ipopts_root(data, monkeypatch):
 def test_koren_reference_pulse_is_eq_36s_exact_gain(monkeypatch):
     """The example's description: the exact optimum is K = (1 + (ωτ)²)/(2τ) = 25.25 1/s
     (ω = V/R = 5 rad/s, τ = 20 ms); the root search lands on it to ROOT_XTOL in ln K."""
-    result = tune(parse_spec(load_example("koren-1979-reference-pulse.json")))
+    result = tune(parse_spec(copy.deepcopy(KOREN)))
     assert abs(math.log(_gain(result)) - math.log(25.25)) <= 10 * ROOT_XTOL
     assert result.solver.starts[0].method == "root"
 
