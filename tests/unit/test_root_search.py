@@ -188,3 +188,28 @@ def test_declined_starts_are_left_to_ipopt(e, rows, start):
     (benchmarks/README.md, h-bst6)."""
     search = _search(e, [start], rows=rows)
     assert search.solve_from(start) is None
+
+
+def test_the_grid_in_one_mapped_call_is_the_grid_point_by_point(monkeypatch):
+    """The grid's signed e and feasibility from the check Function mapped over the points
+    (one call) are the bits of one call per point."""
+    import dataclasses
+
+    from feedtune.tuner import roots
+
+    searches = []
+    for_problem = roots.RootSearch.for_problem
+
+    def spy(problem):
+        searches.append(for_problem(problem))
+        return searches[-1]
+
+    monkeypatch.setattr(roots.RootSearch, "for_problem", spy)
+    tune(parse_spec(copy.deepcopy(SAMPLED)))
+    mapped = searches[0]
+    assert mapped.evaluate_all is not None
+    one_by_one = dataclasses.replace(mapped, evaluate_all=None)
+    assert np.array_equal(mapped.grid, one_by_one.grid)
+    assert mapped.errors.tobytes() == one_by_one.errors.tobytes()
+    assert np.array_equal(mapped.feasible, one_by_one.feasible)
+    assert not mapped.feasible.all() and mapped.feasible.any()  # ζ's bound cuts the grid
