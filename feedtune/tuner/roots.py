@@ -3,29 +3,32 @@
 A problem whose only free tunable is z = ln x and whose objective is one magnitude |e(z)|
 (weight > 0) becomes, in the NLP, an epigraph: minimise t subject to −t ≤ e(z) ≤ t, so
 IPOPT solves a two-variable problem for what is a root of e in the feasible set. Here
-(measured in benchmarks/README.md, branch h-bst5 and h-bst6: the same optimum to within
-IPOPT's own spread between starts, ≈ 10 % of the CPU)
+(measured in benchmarks/README.md, branches h-bst5 and h-bst6: the same optimum to within
+IPOPT's own spread between starts, a quarter of IPOPT's CPU or less)
 
 1. the signed e and the feasibility of every grid point are evaluated once per problem:
-   the starts, the box's ends and :data:`GRID_POINTS` points evenly spaced in z, each one
-   call of the NLP check's Function (the expressions IPOPT sees, not expanded);
-2. a start whose grid point is feasible searches its feasible run (the consecutive
-   feasible grid points around it); a start whose grid point is not enters the feasible
-   run nearest to it at its boundary (what IPOPT's restoration phase does: the nearest
-   feasible point), which is located as the root of the constraint's own row;
-3. in the run, the sign change of e nearest the entry point is bracketed by two points and
-   its root found by ``scipy.optimize.brentq`` to :data:`ROOT_XTOL` in z; |e| is then 0
-   to rounding, the global minimum of |e|;
-4. a run without a sign change has |e| of one sign, a smooth function: when its smallest
-   value lies on an end of the run (a bound of the box, or a constraint's crossing, whose
-   root is found as in 2) and |e| rises into the box from there, that end is the optimum,
-   a vertex of the feasible set (the first-order condition, checked over
-   :data:`EDGE_STEP`).
+   the starts, the box's ends and :data:`GRID_POINTS` points evenly spaced in z, in one
+   call of the NLP check's Function mapped over them (the expressions IPOPT sees, not
+   expanded);
+2. a start whose grid point is feasible goes downhill on |e| (the side where |e| falls
+   over :data:`SLOPE_STEP`, as IPOPT's first step), from grid point to grid point of its
+   feasible run, to the first sign change of e: its root is found by
+   ``scipy.optimize.brentq`` to :data:`ROOT_XTOL` in z, where |e| is 0 to rounding, the
+   global minimum of |e|. A bracket two starts reach is searched once;
+3. reaching the run's end without a sign change, the optimum is that end when |e| is
+   least there and rises into the run over :data:`EDGE_STEP` (the first-order condition
+   of a vertex): a bound of the box, or a constraint's crossing, the root of the violated
+   bound row found by brentq and kept on the feasible side;
+4. a start whose grid point is infeasible enters the feasible run nearest it at that run's
+   crossing (IPOPT's restoration phase: the nearest feasible point) and goes on downhill
+   from there, or ends there when |e| rises inward and the run has no sign change.
 
-Everything else (a run whose smallest |e| is interior without a root, a boundary made by a
-stability or settling condition, which the NLP holds with a margin, a root that turns out
-infeasible) is declined: the tuner solves that start with IPOPT, so every start's
-evidence stays its own and a result says per start which method solved it.
+Everything else is declined and that start is solved by IPOPT, so every start's evidence
+stays its own and a result says per start which method solved it: an interior minimum of
+|e| without a root; a boundary made by a stability or settling condition (which the NLP
+holds with a margin); a crossing that is a local minimum of |e| while its run has a root
+(IPOPT from such starts went either way, to the crossing or over it to the root: measured
+on the batch's 200 such specs); a root or end point that the NLP check finds infeasible.
 
 The search sees only numbers from a callable (duck-typed, no plant or metric name):
 ``evaluate(z) -> (e, bound rows, other)`` with e the signed error, the bound rows' signed
