@@ -74,8 +74,9 @@ class Settings:
     """Solver settings: starts [count], IPOPT's iteration limit per round [count] and
     tolerance [1], the wall-clock limit of a start [s], SX expansion (None: automatic),
     further IPOPT options, and whether a problem of one free tunable may be solved by the
-    scalar search (:mod:`feedtune.tuner.scalar`) instead of IPOPT: only when no IPOPT
-    option is given."""
+    scalar search (:mod:`feedtune.tuner.scalar`), or with one |e| minimised by the root
+    search (:mod:`feedtune.tuner.roots`), instead of IPOPT: only when no IPOPT option is
+    given."""
 
     multistart: int = 8
     max_iter: int = 500
