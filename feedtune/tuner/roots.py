@@ -165,6 +165,13 @@ class RootSearch:
     def solve_from(self, z0: float) -> Found | None:
         """The start at ``z0`` (a grid point) solved, or None: declined (module docstring)."""
         self._charged = 0
+        try:
+            return self._solve(z0)
+        except _Declined:
+            return None
+
+    def _solve(self, z0: float) -> Found | None:
+        """:meth:`solve_from`'s search (None, or :class:`_Declined` raised: declined)."""
         index = int(np.argmin(np.abs(self.grid - z0)))
         run = self._run(index)
         if run is None:
@@ -237,9 +244,8 @@ class RootSearch:
 
     def _root(self, a: tuple, b: tuple) -> float | None:
         """The root of e between the points ``a`` and ``b`` ((z, e) each) by brentq to
-        ROOT_XTOL, or None without a sign change."""
-        from scipy import optimize  # imported when used (start-up time)
-
+        ROOT_XTOL, or None without a sign change; :class:`_Declined` where brentq fails
+        (see :func:`_brentq`)."""
         (za, ea), (zb, eb) = a, b
         if ea == 0 or eb == 0:
             return za if ea == 0 else zb
@@ -251,7 +257,9 @@ class RootSearch:
             self._charged += evaluations
             return root
         before = self._charged
-        root = float(optimize.brentq(lambda z: self._at(z)[0], lower, upper, xtol=ROOT_XTOL))
+        root = _brentq(lambda z: self._at(z)[0], lower, upper)
+        if root is None:
+            raise _Declined
         self._roots[lower, upper] = (root, self._charged - before)
         return root
 
@@ -286,10 +294,9 @@ class RootSearch:
         infeasible ``outside``: the root of the one bound row violated there (brentq to
         ROOT_XTOL, the feasible side of its bracket kept); None when the boundary is a
         stability or settling condition's (the NLP holds those with a margin: IPOPT's)."""
-        from scipy import optimize
-
         point = self._at(outside)
-        while point[2] > 0 or not math.isfinite(point[0]):  # narrow to the bound's crossing
+        # narrow to where only bound rows, all defined, are violated: the bound's crossing
+        while point[2] > 0 or not math.isfinite(point[0]) or not np.all(np.isfinite(point[1])):
             if abs(outside - inside) <= BOUNDARY_XTOL:
                 return None
             middle = 0.5 * (inside + outside)
@@ -299,7 +306,9 @@ class RootSearch:
             else:
                 outside, point = middle, probe
         row = int(np.argmax(point[1]))
-        root = optimize.brentq(lambda z: self._at(z)[1][row], inside, outside, xtol=ROOT_XTOL)
+        root = _brentq(lambda z: self._at(z)[1][row], inside, outside)
+        if root is None:
+            return None
         # brentq's answer lies within its tolerance (ROOT_XTOL + 4ε|z|) of the crossing, on
         # either side: keep the feasible one of it and a step of twice that towards inside
         step = 2 * (ROOT_XTOL + 4 * np.finfo(float).eps * abs(root))
@@ -327,6 +336,28 @@ def mapped(function, n: int):
         if n not in maps:
             maps[n] = function.map(n)
         return numeric(maps[n])
+
+
+class _Declined(Exception):
+    """A root the search needs could not be found (see :func:`_brentq`): IPOPT's start."""
+
+
+def _brentq(f: Callable, a: float, b: float) -> float | None:
+    """The root of ``f`` in [a, b] by ``scipy.optimize.brentq`` to ROOT_XTOL, or None where it
+    fails (a value that is not a number inside the bracket, e.g. an undefined row between
+    two defined ends: the start is then IPOPT's)."""
+    from scipy import optimize  # imported when used (start-up time)
+
+    def finite(z):
+        value = f(z)
+        if not math.isfinite(value):
+            raise ArithmeticError(value)
+        return value
+
+    try:
+        return float(optimize.brentq(finite, a, b, xtol=ROOT_XTOL))
+    except (ArithmeticError, ValueError, RuntimeError):
+        return None
 
 
 def _feasible(point) -> bool:

@@ -213,3 +213,15 @@ def test_the_grid_in_one_mapped_call_is_the_grid_point_by_point(monkeypatch):
     assert mapped.errors.tobytes() == one_by_one.errors.tobytes()
     assert np.array_equal(mapped.feasible, one_by_one.feasible)
     assert not mapped.feasible.all() and mapped.feasible.any()  # ζ's bound cuts the grid
+
+
+def test_an_undefined_error_inside_a_bracket_declines_the_start():
+    """e = z − 2.6, not a number on (2.59, 2.61) around its root (between grid points, so
+    the grid sees a plain sign change): brentq cannot finish, and the start is left to
+    IPOPT rather than given a point that is not a root."""
+    def e(z):
+        return math.nan if 2.59 < z < 2.61 else z - 2.6
+
+    search = _search(e, [1.0])
+    assert search.errors[np.isfinite(search.errors)].size == search.grid.size
+    assert search.solve_from(1.0) is None
