@@ -82,7 +82,8 @@ class SolverResult(ResultModel):
     return_status: str = Field(description="The solver's own return status of the chosen start "
                                            "(IPOPT's names, also for the search)")
     message: str
-    iterations: int = Field(description="IPOPT iterations of the chosen start")
+    iterations: int = Field(description="The chosen start's iterations (IPOPT's; for root, "
+                                        "its evaluations of the error) [count]")
     solve_time: float = Field(description="Wall time of all starts [s]")
     build_time: float = Field(description="Wall time to build the NLP [s]")
     evaluation_time: float = Field(description="Wall time to evaluate every metric at the tuned point [s]")
