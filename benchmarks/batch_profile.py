@@ -51,6 +51,10 @@ try:
     from feedtune.tuner.scalar import ScalarSearch  # noqa: E402
 except ImportError:
     ScalarSearch = None
+try:  # the root search of one tunable and one |e| (h-bst6)
+    from feedtune.tuner.roots import RootSearch  # noqa: E402
+except ImportError:
+    RootSearch = None
 
 TOTALS: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)
@@ -67,11 +71,14 @@ PHASES = [
     ("nlpsol creation (cache miss)", cache, "make_solver", 3),
     ("nlpsol creation (cache miss)", nlp, "_nlpsol", 3),
     ("structure key (serialize graph)", cache, "structure_key", 3),
+    ("root search's grid (signed e at 17+ points)", RootSearch, "for_problem", 3),
     ("Problem.solve", nlp.Problem, "solve", 2),
-    ("one start (restoration + IPOPT + exchange)", nlp.Problem, "_solve_from", 3),
-    ("restoration / stability check", nlp.Problem, "_stable_start", 4),
-    ("one start, scalar search (grid bracket + Brent)", ScalarSearch, "solve_from", 3),
-    ("NLP check at each start's end", nlp.Problem, "_evaluate", 3),
+    ("the starts (every method, the end's check)", nlp.Problem, "_run_start", 3),
+    ("one start (restoration + IPOPT + exchange)", nlp.Problem, "_solve_from", 4),
+    ("restoration / stability check", nlp.Problem, "_stable_start", 5),
+    ("one start, scalar search (grid bracket + Brent)", ScalarSearch, "solve_from", 4),
+    ("one start, root search (downhill, brentq)", RootSearch, "solve_from", 4),
+    ("NLP check at each start's end", nlp.Problem, "_evaluate", 4),
     # the reduced Hessian: feedtune.tuner.optimum.flat_tunables (called from nlp) since
     # issue 15, Problem._flat_tunables before; the scalar search's curvature test
     ("flat directions (reduced Hessian)", nlp, "flat_tunables", 3),

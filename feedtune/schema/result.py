@@ -59,23 +59,31 @@ class StartResult(ResultModel):
     status: Status
     return_status: str
     objective: float | None
-    iterations: int = Field(description="IPOPT iterations, summed over exchange rounds [count]")
+    iterations: int = Field(description="IPOPT iterations, summed over exchange rounds; "
+                                        "brent: Brent's iterations; root: evaluations of the "
+                                        "error beyond the shared grid [count]")
     exchange_points: int = Field(
         0, description="Frequencies added to peak/crossing constraints after IPOPT found the "
                        "refined peak (or dip) beyond its bound [count]")
     solve_time: float = Field(description="[s]")
     feasible: bool
+    method: Literal["ipopt", "brent", "root", "differential_evolution"] = Field(
+        "ipopt", description="What solved this start: see the solver's method")
 
 
 class SolverResult(ResultModel):
-    method: Literal["ipopt", "brent", "differential_evolution", "convex"] = Field(
-        "ipopt", description="ipopt: the NLP with exact derivatives; differential_evolution: "
+    method: Literal["ipopt", "brent", "root", "differential_evolution", "convex"] = Field(
+        "ipopt", description="The chosen start's: ipopt: the NLP with exact derivatives; "
+                             "brent: the scalar search of one tunable; root: a root of the "
+                             "signed error (one tunable, one |e| minimised), or the "
+                             "constraint's crossing where |e| is least; differential_evolution: "
                              "the search on an exact simulation (pulse generators); convex: "
                              "iterated SOCPs on measured frequency responses")
     return_status: str = Field(description="The solver's own return status of the chosen start "
                                            "(IPOPT's names, also for the search)")
     message: str
-    iterations: int = Field(description="IPOPT iterations of the chosen start")
+    iterations: int = Field(description="The chosen start's iterations (IPOPT's; for root, "
+                                        "its evaluations of the error) [count]")
     solve_time: float = Field(description="Wall time of all starts [s]")
     build_time: float = Field(description="Wall time to build the NLP [s]")
     evaluation_time: float = Field(description="Wall time to evaluate every metric at the tuned point [s]")

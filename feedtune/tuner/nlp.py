@@ -16,6 +16,8 @@ own module:
 * feedtune.tuner.calls — its Functions and IPOPT called with numbers through their
   evaluation buffers;
 * feedtune.tuner.optimum — whether the optimum is unique;
+* feedtune.tuner.scalar, feedtune.tuner.roots — one free tunable without IPOPT: the
+  scalar search, or a root of the signed e where the objective is one |e|;
 * feedtune.tuner.types — what the tuner takes and returns.
 
 Solver reuse: every number of a problem that does not shape its graph is an NLP
@@ -41,6 +43,8 @@ from feedtune.tuner.calls import numeric
 from feedtune.tuner.evaluation import Seen, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scenarios import objective_value, worst_group
+from feedtune.tuner.roots import RootSearch
+from feedtune.tuner.roots import applies as root_search_applies
 from feedtune.tuner.scalar import ScalarSearch
 from feedtune.tuner.scalar import applies as scalar_search_applies
 from feedtune.tuner.stability import (add_stability_rows, feasibility, nan_where_unstable,
@@ -111,8 +115,8 @@ class _Run(NamedTuple):
     """What one start gave (:meth:`Problem._run_start`): its status, IPOPT's return
     status, objective, iterations and exchange points, whether its end point is feasible,
     that point z [ln tunable], the bound values and stability conditions there,
-    and (solver, :class:`~feedtune.tuner.optimum.Solution`) of its last IPOPT round (None
-    without one)."""
+    (solver, :class:`~feedtune.tuner.optimum.Solution`) of its last IPOPT round (None
+    without one), and the method that solved it."""
 
     status: str
     return_status: str
@@ -124,6 +128,7 @@ class _Run(NamedTuple):
     bounds: list
     conditions: np.ndarray
     solution: tuple | None
+    method: str = "ipopt"
 
 
 class Problem:
@@ -198,9 +203,12 @@ class Problem:
         self._solvers: dict[tuple[str, bool], object] = {}  # (Hessian, warm) → nlpsol
         self._last_solver = None  # the solver of the last round run
         # one free tunable and nothing else to decide: a line search, no IPOPT solver built
-        scalar = (settings.scalar_search and not settings.ipopt_options
-                  and scalar_search_applies(self))
-        entry = self._entry(self.hessians[0], with_solver=not scalar)
+        searched = settings.scalar_search and not settings.ipopt_options
+        scalar = searched and scalar_search_applies(self)
+        # one free tunable and one |e| minimised: a root of e per start, IPOPT (its solver
+        # built when a start first needs it) for the starts the root search declines
+        roots = searched and root_search_applies(self)
+        entry = self._entry(self.hessians[0], with_solver=not (scalar or roots))
         # called with numbers through their evaluation buffers (feedtune.tuner.calls), which
         # hold their Functions weakly: kept here while this problem is
         self._entry_functions = entry.functions
@@ -216,6 +224,9 @@ class Problem:
             self.scalar = None
         if self.scalar is not None:
             self.starts = self.scalar.start_points()
+        self.roots = RootSearch.for_problem(self) if roots else None
+        if self.roots is not None and not self.roots.solvable:
+            self.roots = None  # no feasible grid point: IPOPT's restoration looks between
         self.build_time = time.perf_counter() - started
 
     def _functions(self, structure: Structure, builder: NlpBuilder, f, scaled_settling: list,
@@ -354,7 +365,8 @@ class Problem:
             status, return_status, objective = run.status, run.return_status, run.objective
             z_opt, feasible = run.z, run.feasible
             starts.append(StartOutcome(index, status, return_status, objective, run.iterations,
-                                       time.perf_counter() - started, feasible, run.exchanged))
+                                       time.perf_counter() - started, feasible, run.exchanged,
+                                       run.method))
             if progress is not None:
                 progress(starts[-1], len(self.starts))
             violation = self._violation(run.bounds, run.conditions)
@@ -369,6 +381,8 @@ class Problem:
         solver, solution = solutions.get(index, (None, None))
         if self.scalar is not None:
             flat = self.scalar.flat_tunables(z_opt, self.variables[0].name)
+        elif starts[index].method == "root":
+            flat = []  # a root of e with e' ≠ 0, or a constraint's crossing: a vertex of |e|
         else:
             flat = flat_tunables(solver, solution, self.variables) if solution else None
         started = time.perf_counter()
@@ -414,7 +428,7 @@ class Problem:
             evaluation_time=evaluation_time, model_gap=model_gap, horizon_bound=horizon_bound,
             starts=starts, equal_optima=equal if success else [],
             flat_tunables=flat if success else None,
-            method="brent" if self.scalar is not None else "ipopt")
+            method=starts[index].method)
 
     def _run_start(self, z0: np.ndarray, started: float) -> "_Run":
         """Every attempt of the start from ``z0`` (the scalar search, or IPOPT with each
@@ -422,6 +436,14 @@ class Problem:
         perf_counter]."""
         iterations = exchanged = 0
         solution = None
+        found = self.roots.solve_from(float(z0[0])) if self.roots is not None else None
+        if found is not None:
+            z_opt = np.array([found.z])
+            objective, bounds, conditions, matrices = self._evaluate(z_opt)
+            feasible, _ = self._feasible(bounds, conditions, matrices)
+            if feasible:  # else IPOPT, as for a start the search declines
+                return _Run(OPTIMAL, "Solve_Succeeded", objective, found.evaluations, 0, True,
+                            z_opt, bounds, conditions, None, "root")
         attempts = (["scalar"] if self.scalar is not None else
                     self.hessians if self.has_nlp else [None])
         resume = None  # where the previous attempt of this start ended, if stable there
@@ -451,7 +473,8 @@ class Problem:
         if return_status == "No_Stable_Start":  # nothing was solved: no objective to show
             objective = None
         return _Run(status, return_status, objective, iterations, exchanged, feasible, z_opt,
-                    bounds, conditions, solution)
+                    bounds, conditions, solution,
+                    "brent" if self.scalar is not None else "ipopt")
 
     def _solve_from(self, start: np.ndarray, started: float, hessian: str, resume=None) -> tuple:
         """One start: IPOPT (with this Hessian approximation), then exchange rounds while a

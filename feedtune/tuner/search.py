@@ -168,7 +168,8 @@ class SearchProblem:
             objective, bounds, stable = self.evaluate(self._values(z))
             feasible = stable and all(_within(v, b.lower, b.upper) for v, b in zip(bounds, self.bounds))
             starts.append(StartOutcome(index, status, return_status, objective, iterations,
-                                       time.perf_counter() - started, feasible))
+                                       time.perf_counter() - started, feasible,
+                                       method="differential_evolution"))
             if progress is not None:
                 progress(starts[-1], count)
             solved = status == OPTIMAL and feasible and objective is not None

@@ -74,8 +74,9 @@ class Settings:
     """Solver settings: starts [count], IPOPT's iteration limit per round [count] and
     tolerance [1], the wall-clock limit of a start [s], SX expansion (None: automatic),
     further IPOPT options, and whether a problem of one free tunable may be solved by the
-    scalar search (:mod:`feedtune.tuner.scalar`) instead of IPOPT: only when no IPOPT
-    option is given."""
+    scalar search (:mod:`feedtune.tuner.scalar`), or with one |e| minimised by the root
+    search (:mod:`feedtune.tuner.roots`), instead of IPOPT: only when no IPOPT option is
+    given."""
 
     multistart: int = 8
     max_iter: int = 500
@@ -95,8 +96,9 @@ class Settings:
 
 @dataclass
 class StartOutcome:
-    """What one start did: status, objective, IPOPT iterations, wall time [s], feasibility
-    and the exchange points it added."""
+    """What one start did: status, objective, iterations (IPOPT's, or the search's
+    evaluations: see ``method``), wall time [s], feasibility, the exchange points it added
+    and the method that solved it (``ipopt``, ``brent``, ``root``, ...)."""
 
     index: int
     status: str
@@ -106,6 +108,7 @@ class StartOutcome:
     solve_time: float
     feasible: bool
     exchange_points: int = 0
+    method: str = "ipopt"
 
 
 @dataclass

@@ -1,0 +1,365 @@
+"""One free tunable and one |e| minimised: each start solved by a root of the signed e.
+
+A problem whose only free tunable is z = ln x and whose objective is one magnitude |e(z)|
+(weight > 0) becomes, in the NLP, an epigraph: minimise t subject to −t ≤ e(z) ≤ t, so
+IPOPT solves a two-variable problem for what is a root of e in the feasible set. Here
+(measured in benchmarks/README.md, branches h-bst5 and h-bst6: the same optimum to within
+IPOPT's own spread between starts, a quarter of IPOPT's CPU or less)
+
+1. the signed e and the feasibility of every grid point are evaluated once per problem:
+   the starts, the box's ends and :data:`GRID_POINTS` points evenly spaced in z, in one
+   call of the NLP check's Function mapped over them (the expressions IPOPT sees, not
+   expanded);
+2. a start whose grid point is feasible goes downhill on |e| (the side where |e| falls
+   over :data:`SLOPE_STEP`, as IPOPT's first step), from grid point to grid point of its
+   feasible run, to the first sign change of e: its root is found by
+   ``scipy.optimize.brentq`` to :data:`ROOT_XTOL` in z, where |e| is 0 to rounding, the
+   global minimum of |e|. A bracket two starts reach is searched once;
+3. reaching the run's end without a sign change, the optimum is that end when |e| is
+   least there and rises into the run over :data:`EDGE_STEP` (the first-order condition
+   of a vertex): a bound of the box, or a constraint's crossing, the root of the violated
+   bound row found by brentq and kept on the feasible side;
+4. a start whose grid point is infeasible enters the feasible run nearest it at that run's
+   crossing (IPOPT's restoration phase: the nearest feasible point) and goes on downhill
+   from there, or ends there when |e| rises inward and the run has no sign change.
+
+Everything else is declined and that start is solved by IPOPT, so every start's evidence
+stays its own and a result says per start which method solved it: an interior minimum of
+|e| without a root; a boundary made by a stability or settling condition (which the NLP
+holds with a margin); a crossing that is a local minimum of |e| while its run has a root
+(IPOPT from such starts went either way, to the crossing or over it to the root: measured
+on the batch's 200 such specs); a root or end point that the NLP check finds infeasible.
+
+The search sees only numbers from a callable (duck-typed, no plant or metric name):
+``evaluate(z) -> (e, bound rows, other)`` with e the signed error, the bound rows' signed
+relative violations (≤ 0 where each holds) and the largest violation of every other
+condition (stability, settling; ≤ 0 where they hold, +inf where undefined).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import weakref
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+#: points evenly spaced in z over the box, besides the starts and the box's ends: h-bst5
+#: measured 17 (benchmarks/README.md): with the starts and ends alone the scalar search
+#: missed a sign change on 11 of 40 specs, with 17 more none of the 60
+GRID_POINTS = 17
+#: brentq's tolerance [1] in z = ln x: a relative 1e-14 of the tunable, below IPOPT's own
+#: spread of ln x between starts reaching one optimum (median 3e-12, 90 % 3e-10,
+#: benchmarks/README.md, h-bst5) and above rounding of z ≈ 5 (≈ 1e-15)
+ROOT_XTOL = 1e-14
+#: bisection of a boundary that a stability or settling condition shares with a bound
+#: stops at this width [1] in z (a relative 1e-10 of the tunable), as the scalar search's
+#: BOUNDARY_XTOL
+BOUNDARY_XTOL = 1e-10
+#: step [1] in z from a start that decides which way is downhill (a relative 1e-6 of the
+#: tunable: |e| changes over it by |e'|·1e-6, far above its rounding)
+SLOPE_STEP = 1e-6
+#: step [1] in z (a relative 1e-8 of the tunable) into the run from an end whose |e| is the
+#: run's smallest: |e| must rise over it (as feedtune.tuner.scalar.EDGE_STEP)
+EDGE_STEP = 1e-8
+
+
+def applies(problem) -> bool:
+    """One free tunable, no exchange point, no numeric scan, and an objective of one
+    magnitude term minimised (weight > 0): the NLP's epigraph of |e|."""
+    if not (problem.has_nlp and problem.n_z == 1 and not problem.exchange_groups):
+        return False
+    ev = problem.evaluator
+    return bool(ev.term_magnitude == [True] and len(ev.weights) == 1 and ev.weights[0] > 0
+                and ev.term_scans == [None] and all(s is None for s in ev.bound_scans))
+
+
+@dataclass
+class Found:
+    """A start solved: its end point z [ln tunable], the error evaluations its search took
+    beyond the shared grid (a root an earlier start found is not searched again, and its
+    evaluations count for both) [count], and whether it lies on a bound or a constraint's crossing."""
+
+    z: float
+    evaluations: int
+    vertex: bool
+
+
+@dataclass
+class RootSearch:
+    """Grid and roots on a problem with one free tunable and one |e| (module docstring)."""
+
+    evaluate: Callable
+    lower: float
+    upper: float
+    starts: np.ndarray
+    grid_points: int = GRID_POINTS
+    evaluate_all: Callable | None = None  # points at an array of z, as [evaluate(z), ...]
+    grid: np.ndarray = field(init=False)
+    errors: np.ndarray = field(init=False)  # the signed e at each grid point
+    feasible: np.ndarray = field(init=False)
+    evaluations: int = field(init=False, default=0)  # of the error, by every start
+    _charged: int = field(init=False, default=0)  # by the start being solved
+    _roots: dict = field(init=False, default_factory=dict)  # bracket → (root, evaluations)
+
+    def __post_init__(self):
+        self.grid = np.unique(np.concatenate([
+            [self.lower, self.upper], np.clip(self.starts, self.lower, self.upper),
+            np.linspace(self.lower, self.upper, self.grid_points)]))
+        points = (self.evaluate_all(self.grid) if self.evaluate_all is not None else
+                  [self.evaluate(z) for z in self.grid])
+        self.evaluations = len(self.grid)
+        self.errors = np.array([p[0] for p in points], dtype=float)
+        self.feasible = np.array([_feasible(p) for p in points])
+
+    @classmethod
+    def for_problem(cls, problem) -> "RootSearch | None":
+        """The search on ``problem``'s NLP check Function (the expressions IPOPT sees), or
+        None where :func:`applies` says it does not."""
+        if not applies(problem):
+            return None
+        from feedtune.tuner.calls import numeric
+
+        check = numeric(problem.evaluator.function)
+        p = problem.param_values[:problem.evaluator.n_params]
+        # each bound's sides as (bound, sign, size): sign·(bound − v)/size ≤ 0 where it holds
+        sides = []
+        for index, (b, magnitude) in enumerate(zip(problem.bounds,
+                                                   problem.evaluator.bound_magnitude)):
+            size = max(1.0, abs(b.lower or 0), abs(b.upper or 0))
+            sides += [(index, magnitude, bound, sign, size)
+                      for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
+
+        def point(terms, bounds, conditions, column=0):
+            values = bounds[:, column]
+            rows = np.array([sign * (bound - (abs(values[i]) if magnitude else values[i])) / size
+                             for i, magnitude, bound, sign, size in sides])
+            other = -float(conditions[:, column].min()) if conditions.size else -math.inf
+            return (float(terms[0, column]), rows, math.inf if math.isnan(other) else other)
+
+        def evaluate(z):
+            terms, bounds, stability, settling = check.outputs(np.array([z]), p)[:4]
+            return point(terms, bounds, np.vstack([stability, settling]))
+
+        def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
+            terms, bounds, stability, settling = mapped(check.function, len(zs)).outputs(
+                zs, np.tile(p, len(zs)))[:4]
+            conditions = np.vstack([stability, settling])
+            return [point(terms, bounds, conditions, j) for j in range(len(zs))]
+
+        return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
+                   np.asarray(problem.starts, dtype=float)[:, 0], evaluate_all=evaluate_all)
+
+    @property
+    def solvable(self) -> bool:
+        """Some grid point is feasible."""
+        return bool(self.feasible.any())
+
+    def _at(self, z: float):
+        self.evaluations += 1
+        self._charged += 1
+        return self.evaluate(z)
+
+    def solve_from(self, z0: float) -> Found | None:
+        """The start at ``z0`` (a grid point) solved, or None: declined (module docstring)."""
+        self._charged = 0
+        try:
+            return self._solve(z0)
+        except _Declined:
+            return None
+
+    def _solve(self, z0: float) -> Found | None:
+        """:meth:`solve_from`'s search (None, or :class:`_Declined` raised: declined)."""
+        index = int(np.argmin(np.abs(self.grid - z0)))
+        run = self._run(index)
+        if run is None:
+            return None
+        left, right, entry = run
+        ends: dict[int, tuple | None] = {}
+
+        def end(side):  # (z, e) where the run ends on ``side`` (-1, +1), or None (declined)
+            if side not in ends:
+                inner = left if side < 0 else right
+                outer = inner + side
+                ends[side] = ((float(self.grid[inner]), float(self.errors[inner]))
+                              if outer < 0 or outer >= len(self.grid) else
+                              self._crossing(float(self.grid[inner]), float(self.grid[outer])))
+            return ends[side]
+
+        def found(z, vertex=False):
+            return Found(float(z), self._charged, vertex)
+
+        if entry is None:  # downhill from the start, as IPOPT's first step
+            j = index
+            if self.errors[j] == 0:
+                return found(self.grid[j])
+            direction = 1 if abs(self._at(float(self.grid[j]) + SLOPE_STEP)[0]) < abs(
+                self.errors[j]) else -1
+        else:  # entered at the crossing facing the start
+            edge = end(entry)
+            if edge is None:
+                return None
+            direction, j = -entry, (left if entry < 0 else right)
+            if self._rises(edge, direction):
+                # a local minimum of |e| at the crossing: IPOPT from such a start (measured on
+                # 200 batch specs) stayed there or went on to a root inside, either way: a
+                # run with a sign change is left to it, one without ends at the crossing
+                if edge[1] * self.errors[j] <= 0 or self._has_root(left, right):
+                    return None
+                return found(edge[0], True)
+            root = self._root(edge, (float(self.grid[j]), float(self.errors[j])))
+            if root is not None:
+                return found(root)
+            if abs(self.errors[j]) >= abs(edge[1]):
+                return None  # |e| least between the crossing and the grid: IPOPT
+        while True:  # down the grid's |e| in ``direction`` to a sign change or the run's end
+            here = (float(self.grid[j]), float(self.errors[j]))
+            k = j + direction
+            if not left <= k <= right:  # the run's end: a bound of the box or a crossing
+                edge = end(direction)
+                if edge is None:
+                    return None
+                if edge[0] == here[0]:  # the box's bound
+                    return found(here[0], True) if self._rises(here, -direction) else None
+                root = self._root(here, edge)
+                if root is not None:
+                    return found(root)
+                if abs(edge[1]) <= abs(here[1]) and self._rises(edge, -direction) \
+                        and not self._has_root(left, right):
+                    return found(edge[0], True)
+                return None  # see the infeasible start's crossing above
+            root = self._root(here, (float(self.grid[k]), float(self.errors[k])))
+            if root is not None:
+                return found(root)
+            if abs(self.errors[k]) >= abs(here[1]):
+                return None  # an interior minimum of |e| without a root: IPOPT
+            j = k
+
+    def _has_root(self, left: int, right: int) -> bool:
+        """e changes sign between grid points ``left`` … ``right``."""
+        errors = self.errors[left:right + 1]
+        return bool(np.any(errors[:-1] * errors[1:] <= 0))
+
+    def _root(self, a: tuple, b: tuple) -> float | None:
+        """The root of e between the points ``a`` and ``b`` ((z, e) each) by brentq to
+        ROOT_XTOL, or None without a sign change; :class:`_Declined` where brentq fails
+        (see :func:`_brentq`)."""
+        (za, ea), (zb, eb) = a, b
+        if ea == 0 or eb == 0:
+            return za if ea == 0 else zb
+        if ea * eb > 0:
+            return None
+        lower, upper = sorted((za, zb))
+        if (lower, upper) in self._roots:  # a bracket an earlier start reached: the same
+            root, evaluations = self._roots[lower, upper]  # search, its count charged again
+            self._charged += evaluations
+            return root
+        before = self._charged
+        root = _brentq(lambda z: self._at(z)[0], lower, upper)
+        if root is None:
+            raise _Declined
+        self._roots[lower, upper] = (root, self._charged - before)
+        return root
+
+    def _rises(self, edge: tuple, inward: int) -> bool:
+        """|e| rises from the run's end ``edge`` ((z, e)) over EDGE_STEP in ``inward``
+        (±1): the first-order condition of a minimum on that end."""
+        step = self._at(edge[0] + inward * EDGE_STEP)
+        return _feasible(step) and abs(step[0]) > abs(edge[1])
+
+    def _run(self, index: int) -> tuple[int, int, int | None] | None:
+        """(first, last grid index, entry side) of the feasible run the start at grid point
+        ``index`` searches: its own (entry None), or for an infeasible start the nearest
+        run, entered from its end facing the start (-1: left, +1: right); None without a
+        feasible grid point."""
+        entry = None
+        if not self.feasible[index]:
+            feasible = np.flatnonzero(self.feasible)
+            if not feasible.size:
+                return None
+            nearest = feasible[np.argmin(np.abs(self.grid[feasible] - self.grid[index]))]
+            entry = 1 if nearest < index else -1
+            index = int(nearest)
+        left = right = index
+        while left > 0 and self.feasible[left - 1]:
+            left -= 1
+        while right < len(self.grid) - 1 and self.feasible[right + 1]:
+            right += 1
+        return left, right, entry
+
+    def _crossing(self, inside: float, outside: float) -> tuple[float, float] | None:
+        """(z, e) where the feasible set ends between the feasible ``inside`` and the
+        infeasible ``outside``: the root of the one bound row violated there (brentq to
+        ROOT_XTOL, the feasible side of its bracket kept); None when the boundary is a
+        stability or settling condition's (the NLP holds those with a margin: IPOPT's)."""
+        point = self._at(outside)
+        # narrow to where only bound rows, all defined, are violated: the bound's crossing
+        while point[2] > 0 or not math.isfinite(point[0]) or not np.all(np.isfinite(point[1])):
+            if abs(outside - inside) <= BOUNDARY_XTOL:
+                return None
+            middle = 0.5 * (inside + outside)
+            probe = self._at(middle)
+            if _feasible(probe):
+                inside = middle
+            else:
+                outside, point = middle, probe
+        row = int(np.argmax(point[1]))
+        root = _brentq(lambda z: self._at(z)[1][row], inside, outside)
+        if root is None:
+            return None
+        # brentq's answer lies within its tolerance (ROOT_XTOL + 4ε|z|) of the crossing, on
+        # either side: keep the feasible one of it and a step of twice that towards inside
+        step = 2 * (ROOT_XTOL + 4 * np.finfo(float).eps * abs(root))
+        for z in (root, root + math.copysign(step, inside - outside)):
+            found = self._at(z)
+            if _feasible(found):
+                return float(z), float(found[0])
+        return None
+
+
+#: the check Functions mapped over n points, by Function and n, kept while the Function is
+_mapped: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_mapped_lock = threading.Lock()
+
+
+def mapped(function, n: int):
+    """The :class:`~feedtune.tuner.calls.NumericCall` of ``function`` mapped over ``n``
+    points (``Function.map``: one call evaluates them in turn, the same bits as ``n``
+    calls; measured on a batch spec's 17 grid points 417 → 138 µs), built once per
+    Function and n."""
+    from feedtune.tuner.calls import numeric
+
+    with _mapped_lock:
+        maps = _mapped.setdefault(function, {})
+        if n not in maps:
+            maps[n] = function.map(n)
+        return numeric(maps[n])
+
+
+class _Declined(Exception):
+    """A root the search needs could not be found (see :func:`_brentq`): IPOPT's start."""
+
+
+def _brentq(f: Callable, a: float, b: float) -> float | None:
+    """The root of ``f`` in [a, b] by ``scipy.optimize.brentq`` to ROOT_XTOL, or None where it
+    fails (a value that is not a number inside the bracket, e.g. an undefined row between
+    two defined ends: the start is then IPOPT's)."""
+    from scipy import optimize  # imported when used (start-up time)
+
+    def finite(z):
+        value = f(z)
+        if not math.isfinite(value):
+            raise ArithmeticError(value)
+        return value
+
+    try:
+        return float(optimize.brentq(finite, a, b, xtol=ROOT_XTOL))
+    except (ArithmeticError, ValueError, RuntimeError):
+        return None
+
+
+def _feasible(point) -> bool:
+    e, rows, other = point
+    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or np.all(rows <= 0)))
