@@ -301,6 +301,14 @@ class SampledLinearModel:
         f, g = self.closed_loop()
         return self._resolvent(omega, f, g[:, 0])
 
+    def open_loop_at(self, omega: float) -> np.complex128:
+        """:meth:`open_loop` at one ω [rad/s] (the refinements' calls)."""
+        return self.open_loop(omega)[0]
+
+    def complementary_at(self, omega: float) -> np.complex128:
+        """:meth:`complementary` at one ω [rad/s] (the refinements' calls)."""
+        return self.complementary(omega)[0]
+
     def dc_gain(self) -> float:
         """H(1) = C(I − F)⁻¹G [1]."""
         f, g = self.closed_loop()

@@ -434,6 +434,30 @@ class ServoModel:
             out = np.linalg.solve(resolvent, rhs)[:, :, 0] @ c
         return self.gain * z ** (-self.delay) * out
 
+    def open_loop_at(self, omega: float) -> np.complex128:
+        """:meth:`open_loop` at one ω [rad/s] (brentq's and Brent's calls, ≈ 65 a batch
+        spec), ``open_loop(omega)[0]`` to the bit without the arrays around one value.
+
+        The same operations on the same numbers: the same LAPACK solve of zI − Φ built by
+        numpy, and numpy's own ufuncs for the steps whose rounding is numpy's (the complex
+        product and quotient, whose SIMD loops may fuse a multiply and an add). Python
+        floats only where the result is exact or one correctly rounded operation either
+        way: e^{jωT} = cos ωT + j sin ωT (numpy's complex exp of a pure imaginary number,
+        both from the C library), z^{−1} (numpy's reciprocal, the same formula), K·z^{−1}
+        and C x = x₀ (C = [1, 0…]: products with 0 and 1 are exact)."""
+        if not self.sampled:
+            s = 1j * omega
+            return np.divide(self.gain, s * (1 + s * self.time_constant))
+        if self.delay > 1:  # numpy's z**(−d) by repeated products: the array's own
+            return self.open_loop(omega)[0]
+        phi, gamma, _, eye = self._resolvent_parts
+        y = omega * self.period
+        z = complex(math.cos(y), math.sin(y))
+        position = complex(np.linalg.solve(z * eye - phi, gamma)[0, 0])
+        if self.delay == 0:
+            return np.complex128(self.gain * position)
+        return np.multiply(self.gain * (1 / z), position)
+
     @functools.cached_property
     def _resolvent_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(Φ, Γ, C's row, I) of :meth:`open_loop`, once per model: brentq and bounded Brent
@@ -457,6 +481,12 @@ class ServoModel:
         lo = self.open_loop(omega)
         return lo / (1.0 + lo)
 
+    def complementary_at(self, omega: float) -> np.complex128:
+        """:meth:`complementary` at one ω [rad/s], ``complementary(omega)[0]`` to the bit
+        (:meth:`open_loop_at`, numpy's complex quotient)."""
+        lo = self.open_loop_at(omega)
+        return np.divide(lo, 1.0 + lo)
+
     def dc_gain(self) -> float:
         """H(z = 1) = C(I − F)⁻¹G [1] of the sampled closed loop (position first)."""
         f, g = self.closed_loop()
@@ -465,7 +495,7 @@ class ServoModel:
     def radial_error(self, radius: float, feed: float) -> float:
         """r·| |H(jω)| − 1 |, ω = feed/r: |H| − 1 = (|L|² − |1+L|²)/(|1+L|(|L| + |1+L|)),
         whose numerator −1 − 2 Re L does not cancel."""
-        lo = self.open_loop(feed / radius)[0]
+        lo = self.open_loop_at(feed / radius)
         one = abs(1 + lo)
         return float(radius * abs((-1 - 2 * lo.real) / (one * (abs(lo) + one))))
 
@@ -475,7 +505,7 @@ class ServoModel:
         (r − r̄) + r̄·(1 − |H|) with 1 − |H| free of cancellation as in :meth:`radial_error`."""
         omega = feed / radius
         average = average_polygon_radius(radius, omega, reference_interval)
-        lo = self.open_loop(omega)[0]
+        lo = self.open_loop_at(omega)
         one = abs(1 + lo)
         deficit = (1 + 2 * lo.real) / (one * (abs(lo) + one))  # 1 − |H|
         return float(abs(radius - average + average * deficit))
@@ -610,6 +640,15 @@ class ServoModel:
         one = np.abs(1 + lo)
         return radii * np.abs((1 + 2 * lo.real) / (one * (np.abs(lo) + one)))
 
+    def criterion_at(self, radius: float) -> float:
+        """:meth:`blu_criterion` at one radius [m] (brentq's and Brent's ≈ 34 calls a spec),
+        its value to the bit: L by :meth:`open_loop_at`, the moduli by numpy's ufunc (its
+        SIMD loop rounds otherwise than Python's abs), the real arithmetic in floats (one
+        correctly rounded operation each, as numpy's)."""
+        lo = self.open_loop_at(self.max_velocity / radius)
+        one = float(np.abs(1 + lo))
+        return radius * abs((1 + 2 * float(lo.real)) / (one * (float(np.abs(lo)) + one)))
+
     def min_radius(self, level: float | None = None) -> float:
         """r_min [m]: the smallest r* such that every circle of radius r ≥ r* traversed at
         V_m has a radial error ≤ ``level`` [m] (default BLU/2, Koren eqs 30–32).
@@ -643,7 +682,7 @@ class ServoModel:
                 worst = max(worst, where)
         above = grid > worst
         upper = float(grid[above][np.argmax(values[above] <= level)])
-        return float(brentq(lambda r: self.blu_criterion(r)[0] - level, worst, upper,
+        return float(brentq(lambda r: self.criterion_at(r) - level, worst, upper,
                             xtol=1e-15 * worst))
 
     @functools.lru_cache(maxsize=MIN_RADIUS_EXTENSIONS + 1)
@@ -664,7 +703,7 @@ class ServoModel:
     def _criterion_peak(self, lower: float, upper: float) -> tuple[float, float]:
         """(radius [m], :meth:`blu_criterion` [m]) of the criterion's largest value between
         the radii ``lower`` and ``upper`` [m] (bounded Brent on ln r), for any level."""
-        res = minimize_scalar(lambda u: -self.blu_criterion(math.exp(u))[0],
+        res = minimize_scalar(lambda u: -self.criterion_at(math.exp(u)),
                               bounds=(math.log(lower), math.log(upper)),
                               method="bounded", options={"xatol": 1e-12})
         return math.exp(float(res.x)), float(-res.fun)
