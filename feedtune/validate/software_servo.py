@@ -468,9 +468,22 @@ class ServoModel:
         return phi, gamma, self.drive_matrices()[2][0], np.eye(phi.shape[0])
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
-        """(L, H) at ``omega`` [rad/s] (sampled: on the unit circle, below Nyquist)."""
-        lo = self.open_loop(omega)
+        """(L, H) at ``omega`` [rad/s] (sampled: on the unit circle, below Nyquist), L by
+        :meth:`_grid_open_loop` (the frequency metrics' scan, the report's curves)."""
+        lo = self._grid_open_loop(omega)
         return lo, lo / (1.0 + lo)
+
+    def _grid_open_loop(self, omega) -> np.ndarray:
+        """:meth:`open_loop` on a grid of ω [rad/s], the sampled loop's by Cramer's rule
+        (:func:`resolvent_position`) instead of a LAPACK solve a frequency: the same
+        quantity ≈ 1e-15 relative apart, 0.1 of the time. The scans that bracket the
+        minimum radius and the frequency metrics' peaks and crossings take it; their
+        refinements take :meth:`open_loop_at`, LAPACK's."""
+        if not self.sampled:
+            return self.open_loop(omega)
+        phi, gamma, _, _ = self._resolvent_parts
+        z = np.exp(1j * np.atleast_1d(np.asarray(omega, dtype=float)) * self.period)
+        return self.gain * z ** (-self.delay) * resolvent_position(phi, gamma, z)
 
     def sensitivity(self, omega) -> np.ndarray:
         """S = 1/(1 + L) = error/reference."""
@@ -698,15 +711,10 @@ class ServoModel:
         return np.concatenate([grid, more]), np.concatenate([values, self._scan_criterion(more)])
 
     def _scan_criterion(self, radii: np.ndarray) -> np.ndarray:
-        """:meth:`blu_criterion` on the scan's radii [m] with the sampled open loop by
-        :func:`resolvent_position` instead of a LAPACK solve a radius (the same quantity,
-        ≈ 1e-15 relative apart; 0.5 of 0.6 ms a scan was the 1601 solves). The scan only
-        brackets: r_min and the peaks are refined on :meth:`criterion_at` (LAPACK's)."""
-        if not self.sampled:
-            return self.blu_criterion(radii)
-        phi, gamma, _, _ = self._resolvent_parts
-        z = np.exp(1j * (self.max_velocity / radii) * self.period)
-        return _criterion(radii, self.gain * z ** (-self.delay) * resolvent_position(phi, gamma, z))
+        """:meth:`blu_criterion` on the scan's radii [m], L by :meth:`_grid_open_loop`
+        (0.5 of 0.6 ms a scan were the 1601 LAPACK solves). The scan only brackets: r_min
+        and the peaks are refined on :meth:`criterion_at`."""
+        return _criterion(radii, self._grid_open_loop(self.max_velocity / radii))
 
     @functools.lru_cache(maxsize=64)
     def _criterion_peak(self, lower: float, upper: float) -> tuple[float, float]:

@@ -202,19 +202,16 @@ def test_judging_scans_the_criterion_once_for_its_three_levels(monkeypatch):
     (17.98, 0.02, 1 / 64, 0), (40.0, 0.01, 1 / 128, 1), (20.0, 0.02, 1 / 256, 2),
     (30.0, None, 1 / 100, 0), (400.0, 0.002, 1 / 2000, 0)])
 def test_the_scans_cramer_open_loop_is_lapacks_to_rounding(gain, tau, period, delay):
-    """The minimum radius's scan takes C(zI − Φ)⁻¹Γ by Cramer's rule (resolvent_position)
-    instead of a LAPACK solve a radius: the same quantity to rounding, 1e-14 of |L| (a
-    relative scale of L itself, which is never 0 on the unit circle of a stable loop's
-    open loop), from 1e-4 rad/s to π/T; and the scan's criterion is blu_criterion's."""
-    from feedtune.validate.software_servo import resolvent_position
-
+    """The scans (the minimum radius's, the frequency metrics' through frequency_response)
+    take C(zI − Φ)⁻¹Γ by Cramer's rule (resolvent_position) instead of a LAPACK solve a
+    frequency: the same quantity to rounding, 1e-14 of |L| (a relative scale of L itself,
+    never 0 on the unit circle), from 1e-4 rad/s to π/T; and the scan's criterion is
+    blu_criterion's to 1e-15 m."""
     model = ServoModel(gain, tau, period, delay, blu=1e-6, max_velocity=0.02)
     omega = np.geomspace(1e-4, math.pi / period, 4000)
-    z = np.exp(1j * omega * period)
-    phi, gamma, _, _ = model._resolvent_parts
-    cramer = model.gain * z ** (-delay) * resolvent_position(phi, gamma, z)
     lapack = model.open_loop(omega)
-    assert np.max(np.abs(cramer - lapack) / np.abs(lapack)) <= 1e-14
+    for cramer in (model._grid_open_loop(omega), model.frequency_response(omega)[0]):
+        assert np.max(np.abs(cramer - lapack) / np.abs(lapack)) <= 1e-14
     grid = model._criterion_scan(0)[0]
     # the criterion r·||H| − 1| in metres: BLU/1e9 is far below the level BLU/2 it brackets
     assert np.max(np.abs(model._scan_criterion(grid) - model.blu_criterion(grid))) <= 1e-15
