@@ -10,7 +10,8 @@ against the result's schema), in one process with one BLAS thread.
 
 ``--checks``: this checkout's CPU a spec per check: the model's construction, each
 metric's measurement (a measurement pays for the model parts it is the first to need, as
-in a real run), the judging, the pole and stability rows, the schema check.
+in a real run), the judging, the pole and stability rows; ``--in-batch`` times them while
+``job.solve`` tunes the specs (as ``batch_profile.py``), not on the replayed results.
 
 ``--baseline REV``: each tree (REV's ``feedtune/`` by ``git archive``, and this checkout)
 validates every result in a child process of its own, ``--rounds`` times in turn; printed:
@@ -84,16 +85,19 @@ def _head(path: Path, count: int) -> Path:
     return out
 
 
-def checks(path: Path, rounds: int) -> None:
-    """Print this checkout's CPU a spec per check (see the module's docstring)."""
+def checks(path: Path, rounds: int, in_batch: bool) -> None:
+    """Print this checkout's CPU a spec per check (see the module's docstring); with
+    ``in_batch`` while the specs are tuned (``job.solve``), not replayed."""
     sys.path.insert(0, str(REPO))
+    sys.path.insert(1, str(REPO / "benchmarks"))
     from feedtune.__main__ import pin_blas_threads
 
     pin_blas_threads()
+    import feedtune.batch.job as job
+    import feedtune.problem as problem
     import feedtune.validate.block as block
     import feedtune.validate.measurements as measurements
     import feedtune.validate.tolerances as tolerances
-    from feedtune.problem import _validation
     from feedtune.schema.result import TuneResult
 
     results = [TuneResult.model_validate_json(line) for line in path.read_text().splitlines()]
@@ -124,22 +128,37 @@ def checks(path: Path, rounds: int) -> None:
     block.poles_entry = timed("poles row", block.poles_entry)
     block.stable_entry = timed("stable row", block.stable_entry)
     block.validate_result = timed("validate_result", block.validate_result)
+    TuneResult.model_dump = timed("TuneResult.model_dump (validate_result's and others')",
+                                  TuneResult.model_dump)
+    from feedtune.validate.software_servo import ServoModel
+
+    ServoModel.context = timed("ServoModel.context (time scale)", ServoModel.context)
     import feedtune.validate as validate_package
 
     validate_package.validate_result = block.validate_result
-    for r in results[:5]:
-        _validation(r)
-    totals.clear()
-    started = time.process_time()
-    for _ in range(rounds):
-        for r in results:
-            _validation(r)
-    cpu = time.process_time() - started
+    problem._validation = timed("_validation (all of it)", problem._validation)
+    if in_batch:
+        from batch_throughput import generate, one_spec_per_structure
+
+        specs = generate(max(len(results), 300))
+        for spec in one_spec_per_structure(specs):  # imports, first calls
+            job.solve(json.dumps(spec).encode())
+        data = [json.dumps(spec).encode() for spec in specs[:len(results)]]
+        totals.clear()
+        for _ in range(rounds):
+            for d in data:
+                job.solve(d)
+    else:
+        for r in results[:5]:
+            problem._validation(r)
+        totals.clear()
+        for _ in range(rounds):
+            for r in results:
+                problem._validation(r)
     n = len(results) * rounds
-    print(f"{len(results)} results × {rounds} rounds, feedtune from {REPO}; load average "
-          f"{os.getloadavg()[0]:.2f}")
-    print(f"_validation (validate_result + the block's schema check): {cpu / n * 1e3:.2f} "
-          f"ms a spec")
+    how = "tuned by job.solve" if in_batch else "validation replayed"
+    print(f"{len(results)} specs × {rounds} rounds ({how}), feedtune from {REPO}; load "
+          f"average {os.getloadavg()[0]:.2f}")
     print()
     print("| check | CPU ms a spec |")
     print("|---|---|")
@@ -219,12 +238,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--results", type=Path,
                         default=Path(tempfile.gettempdir()) / "feedtune-validator-batch.jsonl")
     parser.add_argument("--checks", action="store_true")
+    parser.add_argument("--in-batch", action="store_true",
+                        help="--checks while job.solve tunes the specs, not on replayed results")
     parser.add_argument("--baseline")
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args(argv)
     path = _head(ensure_results(args.results, args.specs), args.specs)
     if args.checks:
-        checks(path, args.rounds)
+        checks(path, args.rounds, args.in_batch)
     if args.baseline:
         side_by_side(path, args.baseline, args.rounds)
     return 0

@@ -182,7 +182,7 @@ class StepPosition:
         self.period = model.period
         self.big = np.zeros((m + 1, m + 1))
         self.big[:m, :m], self.big[:m, m:] = a, b
-        radius = float(np.max(np.abs(np.linalg.eigvals(f))))
+        radius = float(np.max(np.abs(model.poles())))  # eigenvalues of F, kept by the model
         if radius >= 1:
             raise NotCovered("unstable loop: no step response settles")
         self.samples = math.ceil(math.log(1e-13) / math.log(radius)) + 10 if radius > 0 else 10
@@ -206,7 +206,10 @@ class StepPosition:
         self.tau = model.time_constant
         self.rows = self.starts.tolist()  # floats for __call__
 
+    @functools.cached_property
     def times(self) -> np.ndarray:
+        """The dense grid's times [s] (samples, SUBSTEPS), once: overshoot and settling
+        time both read it."""
         return (np.arange(self.samples)[:, None] * self.period
                 + np.arange(SUBSTEPS)[None, :] * self.period / SUBSTEPS)
 
@@ -228,7 +231,7 @@ def _step_position(model) -> StepPosition:
 def overshoot(model) -> float:
     """max over t of x(t) − 1 [1] after a unit step, 0 if none."""
     x = _step_position(model)
-    t = x.times().ravel()
+    t = x.times.ravel()
     values = x.dense.ravel()
     k = int(np.argmax(values))
     lo, hi = t[max(k - 1, 0)], t[min(k + 1, t.size - 1)]
@@ -240,7 +243,7 @@ def overshoot(model) -> float:
 def settling_time(model, band: float) -> float:
     """Last t [s] with |1 − x(t)| = ``band`` after a unit step (0 if never outside)."""
     x = _step_position(model)
-    t = x.times().ravel()
+    t = x.times.ravel()
     error = 1.0 - x.dense.ravel()
     outside = np.flatnonzero(np.abs(error) > band)
     if outside.size == 0:

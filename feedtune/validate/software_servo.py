@@ -207,8 +207,12 @@ class ServoModel:
             return self.period
         return 0.1 / float(np.max(np.abs(self.poles())))
 
-    def _blocks_to_settle(self, f_block: np.ndarray) -> int:
-        radius = float(np.max(np.abs(np.linalg.eigvals(f_block))))
+    def _blocks_to_settle(self, f_block: np.ndarray | None = None) -> int:
+        """Blocks until the free response has decayed to SETTLED, from the spectral radius
+        of ``f_block``, the state's transition over one block; None: the sampled loop's
+        F, whose eigenvalues are the poles (:meth:`poles`, once per model)."""
+        eigenvalues = self._poles() if f_block is None else np.linalg.eigvals(f_block)
+        radius = float(np.max(np.abs(eigenvalues)))
         if radius >= 1:
             raise ValueError("unstable loop: the step response does not settle")
         blocks = math.ceil(math.log(SETTLED) / math.log(radius)) + 10
@@ -235,7 +239,7 @@ class ServoModel:
             starts = _orbit(expm(big * h), state, blocks)
         else:
             f, g = self.closed_loop()
-            blocks = self._blocks_to_settle(f)
+            blocks = self._blocks_to_settle()
             n = f.shape[0]
             # the command held over sample i: K(1 − x) without delay, else the buffer's last
             if self.delay == 0:
@@ -346,7 +350,7 @@ class ServoModel:
         forms of ∫x̃ and ∫s·x̃. Samples from 0 until the free response has decayed to
         SETTLED (:meth:`_blocks_to_settle`)."""
         f, _ = self._closed_loop()
-        blocks = self._blocks_to_settle(f)
+        blocks = self._blocks_to_settle()
         h, tau, m = self.period, self.time_constant, self.drive_matrices()[0].shape[0]
         start = np.zeros(f.shape[0])
         start[0] = -1.0  # x = 0 against the final 1; speeds and held commands 0
@@ -573,7 +577,7 @@ class ServoModel:
         f, g = self.closed_loop()
         a, b, c = self.drive_matrices()
         m, n, period = a.shape[0], f.shape[0], self.period
-        settle = self._blocks_to_settle(f)
+        settle = self._blocks_to_settle()
         total = settle + math.ceil(revolution / period) + 1
         k = np.arange(total)
         reference = self._circle_reference(radius, omega, k * period)
