@@ -31,7 +31,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 
 for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -173,7 +173,7 @@ def _leaves(entry: dict) -> dict:
 
 def compare(old: list[dict], new: list[dict]) -> list[str]:
     """Lines describing every difference between two lists of blocks."""
-    lines, worst = [], defaultdict(float)
+    lines, worst, moved = [], defaultdict(float), Counter()
     entries = same = 0
     for i, (a, b) in enumerate(zip(old, new)):
         for key in ("covered", "ok", "reason", "error"):
@@ -189,17 +189,24 @@ def compare(old: list[dict], new: list[dict]) -> list[str]:
             if x == y:
                 same += 1
                 continue
+            moved[x["metric"]] += 1
             for key in x:
                 if x[key] == y[key]:
                     continue
-                if key in ("validated", "gap", "tolerance") and isinstance(x[key], float):
-                    rel = abs(x[key] - y[key]) / max(abs(x[key]), 1e-300)
-                    worst[(x["metric"], key)] = max(worst[(x["metric"], key)], rel)
+                if key in ("validated", "tolerance") and isinstance(x[key], float):
+                    rel = abs(x[key] - y[key]) / abs(x[key])
+                    worst[(x["metric"], f"{key} (relative)")] = max(
+                        worst[(x["metric"], f"{key} (relative)")], rel)
+                elif key == "gap" and isinstance(x[key], float):  # a gap is often 0
+                    rel = abs(x[key] - y[key]) / x["tolerance"]
+                    worst[(x["metric"], "gap (of the tolerance)")] = max(
+                        worst[(x["metric"], "gap (of the tolerance)")], rel)
                 else:
                     lines.append(f"result {i} {x['metric']}: {key} {x[key]!r} → {y[key]!r}")
-    lines.insert(0, f"{entries} entries in {len(old)} blocks: {same} equal in every field")
+    lines.insert(0, f"{entries} entries in {len(old)} blocks: {same} equal in every field; "
+                    f"the others: {dict(moved) if moved else 'none'}")
     for (metric, key), rel in sorted(worst.items()):
-        lines.append(f"  {metric} {key}: largest relative difference {rel:.2e}")
+        lines.append(f"  {metric} {key}: largest difference {rel:.2e}")
     return lines
 
 

@@ -64,10 +64,8 @@ def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
 
 
 def _gain_squared(model, omega: float) -> float:
-    """|H(e^{jωT})/H(1)|² at one ω [rad/s] (the refinements' calls), the grid's formula to
-    the bit: numpy's complex quotient and modulus on the model's ``complementary_at``."""
-    gain = float(np.abs(np.divide(model.complementary_at(omega), _scan(model)[3])))
-    return gain * gain
+    """|H(e^{jωT})/H(1)|² at one ω [rad/s] (the refinements' calls)."""
+    return abs(model.frequency_response_at(omega)[1] / _scan(model)[3]) ** 2
 
 
 def m_peak(model) -> float:
@@ -95,7 +93,7 @@ def sensitivity_peak(model) -> float:
     peaks = (padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]) & (s > 1 + 1e-9)
     for i in np.flatnonzero(peaks):
         lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)])
-        res = minimize_scalar(lambda u: -abs(1.0 / (1.0 + model.open_loop_at(math.exp(u)))),
+        res = minimize_scalar(lambda u: -abs(1.0 / (1.0 + model.frequency_response_at(math.exp(u))[0])),
                               bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
         best = max(best, -float(res.fun))
     return best
@@ -126,7 +124,7 @@ def bandwidth(model) -> float:
 def crossover(model) -> float:
     """Lowest ω [rad/s] with |L| = 1, below π/T."""
     grid, open_loop, _, _ = _scan(model)
-    found = _first_crossing(lambda w: float(np.log(np.abs(model.open_loop_at(w)))), grid,
+    found = _first_crossing(lambda w: math.log(abs(model.frequency_response_at(w)[0])), grid,
                             np.log(np.abs(open_loop)))
     if found is None:
         raise NotCovered("|L| stays above 1 up to the Nyquist frequency")
@@ -135,7 +133,7 @@ def crossover(model) -> float:
 
 def phase_margin(model) -> float:
     """180° + arg L at the crossover [deg], arg in (−360°, 0°]."""
-    lo = model.open_loop_at(crossover(model))
+    lo = model.frequency_response_at(crossover(model))[0]
     return math.degrees(math.atan2(-lo.imag, -lo.real))
 
 
@@ -158,11 +156,11 @@ def gain_margin(model, integrators: int = 0) -> float:
         i = int(inner[0])
 
         def imag(u):
-            value = model.open_loop_at(math.exp(u))
+            value = model.frequency_response_at(math.exp(u))[0]
             return value.imag / abs(value)
 
         omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-14))
-        return float(1.0 / abs(model.open_loop_at(omega)))
+        return float(1.0 / abs(model.frequency_response_at(omega)[0]))
     if lo[-1].real < 0:
         return float(1.0 / abs(lo[-1]))
     return math.inf

@@ -463,6 +463,13 @@ class ServoModel:
         return np.multiply(self.gain * (1 / z), position)
 
     @functools.cached_property
+    def _resolvent_floats(self) -> tuple[list, list]:
+        """(Φ, Γ) of :meth:`_resolvent_parts` as Python floats, for
+        :meth:`frequency_response_at`'s complex arithmetic."""
+        phi, gamma, _, _ = self._resolvent_parts
+        return phi.tolist(), gamma[:, 0].tolist()
+
+    @functools.cached_property
     def _resolvent_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(Φ, Γ, C's row, I) of :meth:`open_loop`, once per model: brentq and bounded Brent
         call it at one ω at a time (≈ 66 calls a batch spec), where building the drive's
@@ -498,11 +505,24 @@ class ServoModel:
         lo = self.open_loop(omega)
         return lo / (1.0 + lo)
 
-    def complementary_at(self, omega: float) -> np.complex128:
-        """:meth:`complementary` at one ω [rad/s], ``complementary(omega)[0]`` to the bit
-        (:meth:`open_loop_at`, numpy's complex quotient)."""
-        lo = self.open_loop_at(omega)
-        return np.divide(lo, 1.0 + lo)
+    def frequency_response_at(self, omega: float) -> tuple[complex, complex]:
+        """(L, H) at one ω [rad/s], the frequency metrics' refinements (≈ 70 calls a
+        sampled spec): the sampled open loop by Cramer's rule in Python's complex numbers,
+        the grid's formula (:meth:`_grid_open_loop`, :func:`resolvent_position`) without
+        arrays, ≈ 1e-15 relative from it and from LAPACK's :meth:`open_loop_at`."""
+        if not self.sampled:
+            lo = complex(self.open_loop_at(omega))
+            return lo, lo / (1.0 + lo)
+        phi, gamma = self._resolvent_floats
+        y = omega * self.period
+        z = complex(math.cos(y), math.sin(y))
+        if len(gamma) == 1:
+            x = gamma[0] / (z - phi[0][0])
+        else:
+            x = (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
+                 / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
+        lo = self.gain * x / z**self.delay
+        return lo, lo / (1.0 + lo)
 
     def dc_gain(self) -> float:
         """H(z = 1) = C(I − F)⁻¹G [1] of the sampled closed loop (position first)."""
