@@ -464,8 +464,8 @@ class ServoModel:
 
     @functools.cached_property
     def _resolvent_floats(self) -> tuple[list, list]:
-        """(Φ, Γ) of :meth:`_resolvent_parts` as Python floats, for
-        :meth:`frequency_response_at`'s complex arithmetic."""
+        """(Φ's rows, Γ) of :meth:`_resolvent_parts` as Python floats
+        (:func:`resolvent_position`)."""
         phi, gamma, _, _ = self._resolvent_parts
         return phi.tolist(), gamma[:, 0].tolist()
 
@@ -492,9 +492,8 @@ class ServoModel:
         refinements take :meth:`open_loop_at`, LAPACK's."""
         if not self.sampled:
             return self.open_loop(omega)
-        phi, gamma, _, _ = self._resolvent_parts
         z = np.exp(1j * np.atleast_1d(np.asarray(omega, dtype=float)) * self.period)
-        return self.gain * z ** (-self.delay) * resolvent_position(phi, gamma, z)
+        return self.gain * z ** (-self.delay) * resolvent_position(*self._resolvent_floats, z)
 
     def sensitivity(self, omega) -> np.ndarray:
         """S = 1/(1 + L) = error/reference."""
@@ -513,15 +512,9 @@ class ServoModel:
         if not self.sampled:
             lo = complex(self.open_loop_at(omega))
             return lo, lo / (1.0 + lo)
-        phi, gamma = self._resolvent_floats
         y = omega * self.period
         z = complex(math.cos(y), math.sin(y))
-        if len(gamma) == 1:
-            x = gamma[0] / (z - phi[0][0])
-        else:
-            x = (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
-                 / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
-        lo = self.gain * x / z**self.delay
+        lo = self.gain * resolvent_position(*self._resolvent_floats, z) / z**self.delay
         return lo, lo / (1.0 + lo)
 
     def dc_gain(self) -> float:
@@ -821,14 +814,15 @@ def _criterion(radii: np.ndarray, open_loop: np.ndarray) -> np.ndarray:
     return radii * np.abs((1 + 2 * open_loop.real) / (one * (np.abs(open_loop) + one)))
 
 
-def resolvent_position(phi: np.ndarray, gamma: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """C(zI − Φ)⁻¹Γ [m per (m/s)] at each z of the drive's one or two states, C = [1, 0]
-    (the position first), by Cramer's rule: Γ₀/(z − Φ₀₀), or ((z − Φ₁₁)Γ₀ + Φ₀₁Γ₁)/
-    ((z − Φ₀₀)(z − Φ₁₁) − Φ₀₁Φ₁₀)."""
-    if phi.shape[0] == 1:
-        return gamma[0, 0] / (z - phi[0, 0])
-    return (((z - phi[1, 1]) * gamma[0, 0] + phi[0, 1] * gamma[1, 0])
-            / ((z - phi[0, 0]) * (z - phi[1, 1]) - phi[0, 1] * phi[1, 0]))
+def resolvent_position(phi: list, gamma: list, z):
+    """C(zI − Φ)⁻¹Γ [m per (m/s)] of the drive's one or two states, C = [1, 0] (the
+    position first), by Cramer's rule: Γ₀/(z − Φ₀₀), or ((z − Φ₁₁)Γ₀ + Φ₀₁Γ₁)/
+    ((z − Φ₀₀)(z − Φ₁₁) − Φ₀₁Φ₁₀); Φ rows and Γ as floats, z a complex number or an
+    array of them (numpy's arithmetic then, Python's for one)."""
+    if len(gamma) == 1:
+        return gamma[0] / (z - phi[0][0])
+    return (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
+            / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
 
 
 def _pair(s: np.ndarray) -> tuple[float, float]:
