@@ -60,9 +60,9 @@ print(json.dumps({"cpu": cpu, "blocks": blocks}))
 
 
 def ensure_results(path: Path, count: int) -> Path:
-    """``path`` holding the first ``count`` generated specs' results, tuned with this
-    checkout when the file is missing or shorter."""
-    if path.exists() and len(path.read_text().splitlines()) >= count:
+    """``path`` holding results (one JSON a line): as it is when it exists, else the first
+    ``count`` generated specs' results, tuned with this checkout."""
+    if path.exists():
         return path
     sys.path.insert(0, str(REPO))
     sys.path.insert(1, str(REPO / "benchmarks"))
@@ -220,7 +220,7 @@ def side_by_side(path: Path, revision: str, rounds: int) -> None:
     cpu: dict[str, list[float]] = defaultdict(list)
     blocks = {}
     count = len(path.read_text().splitlines())
-    print(f"{count} results; load average {os.getloadavg()[0]:.2f} at start")
+    print(f"{count} results from {path}; load average {os.getloadavg()[0]:.2f} at start")
     for _ in range(rounds):
         for label, tree in trees.items():
             env = {**os.environ, "PYTHONPATH": str(tree)}
