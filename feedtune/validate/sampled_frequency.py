@@ -93,8 +93,9 @@ def sensitivity_peak(model) -> float:
     peaks = (padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]) & (s > 1 + 1e-9)
     for i in np.flatnonzero(peaks):
         lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)])
-        res = minimize_scalar(lambda u: -abs(1.0 / (1.0 + model.frequency_response_at(math.exp(u))[0])),
-                              bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
+        res = minimize_scalar(
+            lambda u: -abs(1.0 / (1.0 + model.frequency_response_at(math.exp(u))[0])),
+            bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
         best = max(best, -float(res.fun))
     return best
 

@@ -488,8 +488,9 @@ class ServoModel:
         """:meth:`open_loop` on a grid of ω [rad/s], the sampled loop's by Cramer's rule
         (:func:`resolvent_position`) instead of a LAPACK solve a frequency: the same
         quantity ≈ 1e-15 relative apart, 0.1 of the time. The scans that bracket the
-        minimum radius and the frequency metrics' peaks and crossings take it; their
-        refinements take :meth:`open_loop_at`, LAPACK's."""
+        minimum radius and the frequency metrics' peaks and crossings take it; the minimum
+        radius's refinements take LAPACK's :meth:`open_loop_at`, the frequency metrics'
+        :meth:`frequency_response_at`."""
         if not self.sampled:
             return self.open_loop(omega)
         z = np.exp(1j * np.atleast_1d(np.asarray(omega, dtype=float)) * self.period)
