@@ -5,8 +5,7 @@ against a git revision's, every entry compared (issue 15's batch target).
 The first ``--specs`` specs of ``benchmarks/batch_throughput.py``'s generated set are tuned
 once with this checkout (``feedtune.batch.job.solve``; the results kept in ``--results``,
 made when missing), then only the validation is replayed on them, the way a batch worker
-runs it (``feedtune.problem._validation``: ``validate_result`` and the block's check
-against the result's schema), in one process with one BLAS thread.
+runs it (``feedtune.problem._validation``), in one process with one BLAS thread.
 
 ``--checks``: this checkout's CPU a spec per check: the model's construction, each
 metric's measurement (a measurement pays for the model parts it is the first to need, as
