@@ -512,13 +512,13 @@ def optimum_check(equal_optima: list[tuple[int, dict[str, float]]], flat: list[s
 
 
 def _validation(result: TuneResult) -> dict:
-    """The validation block (feedtune.validate); a validator failure is a block, never raised."""
+    """The validation block (feedtune.validate); a validator failure is a block, never raised.
+    (The result's ``validation`` field takes any dict: re-validating the whole result with
+    the block, a second dump and a validation of every field, checked nothing more.)"""
     try:
         from feedtune.validate import validate_result
 
-        block = validate_result(result)
-        TuneResult.model_validate({**result.model_dump(mode="json"), "validation": block})
-        return block
+        return validate_result(result)
     except Exception as exc:  # noqa: BLE001 — validation never breaks a tuning
         return {"covered": False, "ok": None, "entries": [], "reason": "validator error",
                 "error": f"{type(exc).__name__}: {exc}"}

@@ -63,9 +63,9 @@ def _scan(model) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     return grid, open_loop, closed, model.dc_gain()
 
 
-def _gain_squared(model, omega) -> np.ndarray:
-    """|H(e^{jωT})/H(1)|²."""
-    return np.abs(model.complementary(omega) / _scan(model)[3]) ** 2
+def _gain_squared(model, omega: float) -> float:
+    """|H(e^{jωT})/H(1)|² at one ω [rad/s] (the refinements' calls)."""
+    return abs(model.frequency_response_at(omega)[1] / _scan(model)[3]) ** 2
 
 
 def m_peak(model) -> float:
@@ -76,7 +76,7 @@ def m_peak(model) -> float:
     padded = np.concatenate([[-np.inf], g, [-np.inf]])
     for i in np.flatnonzero((padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:])):
         lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)])
-        res = minimize_scalar(lambda u: -_gain_squared(model, math.exp(u))[0], bounds=(lo, hi),
+        res = minimize_scalar(lambda u: -_gain_squared(model, math.exp(u)), bounds=(lo, hi),
                               method="bounded", options={"xatol": 1e-12})
         best = max(best, math.sqrt(-float(res.fun)))
     return best
@@ -93,23 +93,23 @@ def sensitivity_peak(model) -> float:
     peaks = (padded[1:-1] >= padded[:-2]) & (padded[1:-1] >= padded[2:]) & (s > 1 + 1e-9)
     for i in np.flatnonzero(peaks):
         lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, grid.size - 1)])
-        res = minimize_scalar(lambda u: -abs(1.0 / (1.0 + model.open_loop(
-            np.array([math.exp(u)]))[0])), bounds=(lo, hi), method="bounded",
-            options={"xatol": 1e-12})
+        res = minimize_scalar(
+            lambda u: -abs(1.0 / (1.0 + model.frequency_response_at(math.exp(u))[0])),
+            bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
         best = max(best, -float(res.fun))
     return best
 
 
 def _first_crossing(fn, grid: np.ndarray, values: np.ndarray) -> float | None:
-    """Lowest ω of ``grid`` where ``fn`` (> 0 below; ``values`` on the grid) falls to 0, by
-    brentq in ln ω; None when it does not."""
+    """Lowest ω of ``grid`` where ``fn`` (> 0 below; ``values`` on the grid; called at one
+    ω [rad/s]) falls to 0, by brentq in ln ω; None when it does not."""
     below = np.flatnonzero(values <= 0)
     if below.size == 0:
         return None
     i = int(below[0])
     if i == 0 or values[i] == 0:
         return float(grid[i])
-    return float(math.exp(brentq(lambda u: fn(np.array([math.exp(u)]))[0],
+    return float(math.exp(brentq(lambda u: fn(math.exp(u)),
                                  math.log(grid[i - 1]), math.log(grid[i]), xtol=1e-14)))
 
 
@@ -125,7 +125,7 @@ def bandwidth(model) -> float:
 def crossover(model) -> float:
     """Lowest ω [rad/s] with |L| = 1, below π/T."""
     grid, open_loop, _, _ = _scan(model)
-    found = _first_crossing(lambda w: np.log(np.abs(model.open_loop(w))), grid,
+    found = _first_crossing(lambda w: math.log(abs(model.frequency_response_at(w)[0])), grid,
                             np.log(np.abs(open_loop)))
     if found is None:
         raise NotCovered("|L| stays above 1 up to the Nyquist frequency")
@@ -134,7 +134,7 @@ def crossover(model) -> float:
 
 def phase_margin(model) -> float:
     """180° + arg L at the crossover [deg], arg in (−360°, 0°]."""
-    lo = model.open_loop(crossover(model))[0]
+    lo = model.frequency_response_at(crossover(model))[0]
     return math.degrees(math.atan2(-lo.imag, -lo.real))
 
 
@@ -157,11 +157,11 @@ def gain_margin(model, integrators: int = 0) -> float:
         i = int(inner[0])
 
         def imag(u):
-            value = model.open_loop(math.exp(u))[0]
+            value = model.frequency_response_at(math.exp(u))[0]
             return value.imag / abs(value)
 
         omega = math.exp(brentq(imag, math.log(grid[i]), math.log(grid[i + 1]), xtol=1e-14))
-        return float(1.0 / abs(model.open_loop(omega)[0]))
+        return float(1.0 / abs(model.frequency_response_at(omega)[0]))
     if lo[-1].real < 0:
         return float(1.0 / abs(lo[-1]))
     return math.inf
@@ -181,7 +181,7 @@ class StepPosition:
         self.period = model.period
         self.big = np.zeros((m + 1, m + 1))
         self.big[:m, :m], self.big[:m, m:] = a, b
-        radius = float(np.max(np.abs(np.linalg.eigvals(f))))
+        radius = float(np.max(np.abs(model.poles())))  # eigenvalues of F, kept by the model
         if radius >= 1:
             raise NotCovered("unstable loop: no step response settles")
         self.samples = math.ceil(math.log(1e-13) / math.log(radius)) + 10 if radius > 0 else 10
@@ -205,7 +205,10 @@ class StepPosition:
         self.tau = model.time_constant
         self.rows = self.starts.tolist()  # floats for __call__
 
+    @functools.cached_property
     def times(self) -> np.ndarray:
+        """The dense grid's times [s] (samples, SUBSTEPS), once: overshoot and settling
+        time both read it."""
         return (np.arange(self.samples)[:, None] * self.period
                 + np.arange(SUBSTEPS)[None, :] * self.period / SUBSTEPS)
 
@@ -227,7 +230,7 @@ def _step_position(model) -> StepPosition:
 def overshoot(model) -> float:
     """max over t of x(t) − 1 [1] after a unit step, 0 if none."""
     x = _step_position(model)
-    t = x.times().ravel()
+    t = x.times.ravel()
     values = x.dense.ravel()
     k = int(np.argmax(values))
     lo, hi = t[max(k - 1, 0)], t[min(k + 1, t.size - 1)]
@@ -239,7 +242,7 @@ def overshoot(model) -> float:
 def settling_time(model, band: float) -> float:
     """Last t [s] with |1 − x(t)| = ``band`` after a unit step (0 if never outside)."""
     x = _step_position(model)
-    t = x.times().ravel()
+    t = x.times.ravel()
     error = 1.0 - x.dense.ravel()
     outside = np.flatnonzero(np.abs(error) > band)
     if outside.size == 0:

@@ -301,6 +301,10 @@ class SampledLinearModel:
         f, g = self.closed_loop()
         return self._resolvent(omega, f, g[:, 0])
 
+    def frequency_response_at(self, omega: float) -> tuple[complex, complex]:
+        """(L, H) at one ω [rad/s] (the frequency metrics' refinements)."""
+        return complex(self.open_loop(omega)[0]), complex(self.complementary(omega)[0])
+
     def dc_gain(self) -> float:
         """H(1) = C(I − F)⁻¹G [1]."""
         f, g = self.closed_loop()

@@ -207,8 +207,12 @@ class ServoModel:
             return self.period
         return 0.1 / float(np.max(np.abs(self.poles())))
 
-    def _blocks_to_settle(self, f_block: np.ndarray) -> int:
-        radius = float(np.max(np.abs(np.linalg.eigvals(f_block))))
+    def _blocks_to_settle(self, f_block: np.ndarray | None = None) -> int:
+        """Blocks until the free response has decayed to SETTLED, from the spectral radius
+        of ``f_block``, the state's transition over one block; None: the sampled loop's
+        F, whose eigenvalues are the poles (:meth:`poles`, once per model)."""
+        eigenvalues = self._poles() if f_block is None else np.linalg.eigvals(f_block)
+        radius = float(np.max(np.abs(eigenvalues)))
         if radius >= 1:
             raise ValueError("unstable loop: the step response does not settle")
         blocks = math.ceil(math.log(SETTLED) / math.log(radius)) + 10
@@ -235,7 +239,7 @@ class ServoModel:
             starts = _orbit(expm(big * h), state, blocks)
         else:
             f, g = self.closed_loop()
-            blocks = self._blocks_to_settle(f)
+            blocks = self._blocks_to_settle()
             n = f.shape[0]
             # the command held over sample i: K(1 − x) without delay, else the buffer's last
             if self.delay == 0:
@@ -346,7 +350,7 @@ class ServoModel:
         forms of ∫x̃ and ∫s·x̃. Samples from 0 until the free response has decayed to
         SETTLED (:meth:`_blocks_to_settle`)."""
         f, _ = self._closed_loop()
-        blocks = self._blocks_to_settle(f)
+        blocks = self._blocks_to_settle()
         h, tau, m = self.period, self.time_constant, self.drive_matrices()[0].shape[0]
         start = np.zeros(f.shape[0])
         start[0] = -1.0  # x = 0 against the final 1; speeds and held commands 0
@@ -434,6 +438,37 @@ class ServoModel:
             out = np.linalg.solve(resolvent, rhs)[:, :, 0] @ c
         return self.gain * z ** (-self.delay) * out
 
+    def open_loop_at(self, omega: float) -> np.complex128:
+        """:meth:`open_loop` at one ω [rad/s] (brentq's and Brent's calls, ≈ 65 a batch
+        spec), ``open_loop(omega)[0]`` to the bit without the arrays around one value.
+
+        The same operations on the same numbers: the same LAPACK solve of zI − Φ built by
+        numpy, and numpy's own ufuncs for the steps whose rounding is numpy's (the complex
+        product and quotient, whose SIMD loops may fuse a multiply and an add). Python
+        floats only where the result is exact or one correctly rounded operation either
+        way: e^{jωT} = cos ωT + j sin ωT (numpy's complex exp of a pure imaginary number,
+        both from the C library), z^{−1} (numpy's reciprocal, the same formula), K·z^{−1}
+        and C x = x₀ (C = [1, 0…]: products with 0 and 1 are exact)."""
+        if not self.sampled:
+            s = 1j * omega
+            return np.divide(self.gain, s * (1 + s * self.time_constant))
+        if self.delay > 1:  # numpy's z**(−d) by repeated products: the array's own
+            return self.open_loop(omega)[0]
+        phi, gamma, _, eye = self._resolvent_parts
+        y = omega * self.period
+        z = complex(math.cos(y), math.sin(y))
+        position = complex(np.linalg.solve(z * eye - phi, gamma)[0, 0])
+        if self.delay == 0:
+            return np.complex128(self.gain * position)
+        return np.multiply(self.gain * (1 / z), position)
+
+    @functools.cached_property
+    def _resolvent_floats(self) -> tuple[list, list]:
+        """(Φ's rows, Γ) of :meth:`_resolvent_parts` as Python floats
+        (:func:`resolvent_position`)."""
+        phi, gamma, _, _ = self._resolvent_parts
+        return phi.tolist(), gamma[:, 0].tolist()
+
     @functools.cached_property
     def _resolvent_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(Φ, Γ, C's row, I) of :meth:`open_loop`, once per model: brentq and bounded Brent
@@ -444,9 +479,22 @@ class ServoModel:
         return phi, gamma, self.drive_matrices()[2][0], np.eye(phi.shape[0])
 
     def frequency_response(self, omega) -> tuple[np.ndarray, np.ndarray]:
-        """(L, H) at ``omega`` [rad/s] (sampled: on the unit circle, below Nyquist)."""
-        lo = self.open_loop(omega)
+        """(L, H) at ``omega`` [rad/s] (sampled: on the unit circle, below Nyquist), L by
+        :meth:`_grid_open_loop` (the frequency metrics' scan, the report's curves)."""
+        lo = self._grid_open_loop(omega)
         return lo, lo / (1.0 + lo)
+
+    def _grid_open_loop(self, omega) -> np.ndarray:
+        """:meth:`open_loop` on a grid of ω [rad/s], the sampled loop's by Cramer's rule
+        (:func:`resolvent_position`) instead of a LAPACK solve a frequency: the same
+        quantity ≈ 1e-15 relative apart, 0.1 of the time. The scans that bracket the
+        minimum radius and the frequency metrics' peaks and crossings take it; the minimum
+        radius's refinements take LAPACK's :meth:`open_loop_at`, the frequency metrics'
+        :meth:`frequency_response_at`."""
+        if not self.sampled:
+            return self.open_loop(omega)
+        z = np.exp(1j * np.atleast_1d(np.asarray(omega, dtype=float)) * self.period)
+        return self.gain * z ** (-self.delay) * resolvent_position(*self._resolvent_floats, z)
 
     def sensitivity(self, omega) -> np.ndarray:
         """S = 1/(1 + L) = error/reference."""
@@ -457,6 +505,19 @@ class ServoModel:
         lo = self.open_loop(omega)
         return lo / (1.0 + lo)
 
+    def frequency_response_at(self, omega: float) -> tuple[complex, complex]:
+        """(L, H) at one ω [rad/s], the frequency metrics' refinements (≈ 70 calls a
+        sampled spec): the sampled open loop by Cramer's rule in Python's complex numbers,
+        the grid's formula (:meth:`_grid_open_loop`, :func:`resolvent_position`) without
+        arrays, ≈ 1e-15 relative from it and from LAPACK's :meth:`open_loop_at`."""
+        if not self.sampled:
+            lo = complex(self.open_loop_at(omega))
+            return lo, lo / (1.0 + lo)
+        y = omega * self.period
+        z = complex(math.cos(y), math.sin(y))
+        lo = self.gain * resolvent_position(*self._resolvent_floats, z) / z**self.delay
+        return lo, lo / (1.0 + lo)
+
     def dc_gain(self) -> float:
         """H(z = 1) = C(I − F)⁻¹G [1] of the sampled closed loop (position first)."""
         f, g = self.closed_loop()
@@ -465,7 +526,7 @@ class ServoModel:
     def radial_error(self, radius: float, feed: float) -> float:
         """r·| |H(jω)| − 1 |, ω = feed/r: |H| − 1 = (|L|² − |1+L|²)/(|1+L|(|L| + |1+L|)),
         whose numerator −1 − 2 Re L does not cancel."""
-        lo = self.open_loop(feed / radius)[0]
+        lo = self.open_loop_at(feed / radius)
         one = abs(1 + lo)
         return float(radius * abs((-1 - 2 * lo.real) / (one * (abs(lo) + one))))
 
@@ -475,7 +536,7 @@ class ServoModel:
         (r − r̄) + r̄·(1 − |H|) with 1 − |H| free of cancellation as in :meth:`radial_error`."""
         omega = feed / radius
         average = average_polygon_radius(radius, omega, reference_interval)
-        lo = self.open_loop(omega)[0]
+        lo = self.open_loop_at(omega)
         one = abs(1 + lo)
         deficit = (1 + 2 * lo.real) / (one * (abs(lo) + one))  # 1 − |H|
         return float(abs(radius - average + average * deficit))
@@ -530,7 +591,7 @@ class ServoModel:
         f, g = self.closed_loop()
         a, b, c = self.drive_matrices()
         m, n, period = a.shape[0], f.shape[0], self.period
-        settle = self._blocks_to_settle(f)
+        settle = self._blocks_to_settle()
         total = settle + math.ceil(revolution / period) + 1
         k = np.arange(total)
         reference = self._circle_reference(radius, omega, k * period)
@@ -606,9 +667,16 @@ class ServoModel:
         """r·| |H(jV_m/r)| − 1 | [m] at each radius r [m]: the radial error of a circle at
         V_m (Koren eqs 30–31 on the loop's own |H|), |H| − 1 without cancellation."""
         radii = np.atleast_1d(np.asarray(radii, dtype=float))
-        lo = self.open_loop(self.max_velocity / radii)
-        one = np.abs(1 + lo)
-        return radii * np.abs((1 + 2 * lo.real) / (one * (np.abs(lo) + one)))
+        return _criterion(radii, self.open_loop(self.max_velocity / radii))
+
+    def criterion_at(self, radius: float) -> float:
+        """:meth:`blu_criterion` at one radius [m] (brentq's and Brent's ≈ 34 calls a spec),
+        its value to the bit: L by :meth:`open_loop_at`, the moduli by numpy's ufunc (its
+        SIMD loop rounds otherwise than Python's abs), the real arithmetic in floats (one
+        correctly rounded operation each, as numpy's)."""
+        lo = self.open_loop_at(self.max_velocity / radius)
+        one = float(np.abs(1 + lo))
+        return radius * abs((1 + 2 * float(lo.real)) / (one * (float(np.abs(lo)) + one)))
 
     def min_radius(self, level: float | None = None) -> float:
         """r_min [m]: the smallest r* such that every circle of radius r ≥ r* traversed at
@@ -643,7 +711,7 @@ class ServoModel:
                 worst = max(worst, where)
         above = grid > worst
         upper = float(grid[above][np.argmax(values[above] <= level)])
-        return float(brentq(lambda r: self.blu_criterion(r)[0] - level, worst, upper,
+        return float(brentq(lambda r: self.criterion_at(r) - level, worst, upper,
                             xtol=1e-15 * worst))
 
     @functools.lru_cache(maxsize=MIN_RADIUS_EXTENSIONS + 1)
@@ -655,16 +723,22 @@ class ServoModel:
             low = self.max_velocity * self.ramp_following_error()  # V_m/C_v
             grid = np.geomspace(low, low * 10.0**MIN_RADIUS_SPAN,
                                 RADII_PER_DECADE * MIN_RADIUS_SPAN + 1)
-            return grid, self.blu_criterion(grid)
+            return grid, self._scan_criterion(grid)
         grid, values = self._criterion_scan(extensions - 1)
         more = grid[1:] * (grid[-1] / grid[0])
-        return np.concatenate([grid, more]), np.concatenate([values, self.blu_criterion(more)])
+        return np.concatenate([grid, more]), np.concatenate([values, self._scan_criterion(more)])
+
+    def _scan_criterion(self, radii: np.ndarray) -> np.ndarray:
+        """:meth:`blu_criterion` on the scan's radii [m], L by :meth:`_grid_open_loop`
+        (0.5 of 0.6 ms a scan were the 1601 LAPACK solves). The scan only brackets: r_min
+        and the peaks are refined on :meth:`criterion_at`."""
+        return _criterion(radii, self._grid_open_loop(self.max_velocity / radii))
 
     @functools.lru_cache(maxsize=64)
     def _criterion_peak(self, lower: float, upper: float) -> tuple[float, float]:
         """(radius [m], :meth:`blu_criterion` [m]) of the criterion's largest value between
         the radii ``lower`` and ``upper`` [m] (bounded Brent on ln r), for any level."""
-        res = minimize_scalar(lambda u: -self.blu_criterion(math.exp(u))[0],
+        res = minimize_scalar(lambda u: -self.criterion_at(math.exp(u)),
                               bounds=(math.log(lower), math.log(upper)),
                               method="bounded", options={"xatol": 1e-12})
         return math.exp(float(res.x)), float(-res.fun)
@@ -732,6 +806,24 @@ class PadeServoModel(ContinuousModel):
         average radius and decrease in radius with this loop's |H|
         (:data:`PADE_MEASUREMENTS`)."""
         return super().measurement_tables() + (Phase(PADE_MEASUREMENTS),)
+
+
+def _criterion(radii: np.ndarray, open_loop: np.ndarray) -> np.ndarray:
+    """r·| |H| − 1 | [m] at radii r [m] from L there: |H| − 1 = (|L|² − |1 + L|²)/(|1 + L|
+    (|L| + |1 + L|)), whose numerator −1 − 2 Re L does not cancel."""
+    one = np.abs(1 + open_loop)
+    return radii * np.abs((1 + 2 * open_loop.real) / (one * (np.abs(open_loop) + one)))
+
+
+def resolvent_position(phi: list, gamma: list, z):
+    """C(zI − Φ)⁻¹Γ [m per (m/s)] of the drive's one or two states, C = [1, 0] (the
+    position first), by Cramer's rule: Γ₀/(z − Φ₀₀), or ((z − Φ₁₁)Γ₀ + Φ₀₁Γ₁)/
+    ((z − Φ₀₀)(z − Φ₁₁) − Φ₀₁Φ₁₀); Φ rows and Γ as floats, z a complex number or an
+    array of them (numpy's arithmetic then, Python's for one)."""
+    if len(gamma) == 1:
+        return gamma[0] / (z - phi[0][0])
+    return (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
+            / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
 
 
 def _pair(s: np.ndarray) -> tuple[float, float]:

@@ -179,20 +179,39 @@ def test_judging_scans_the_criterion_once_for_its_three_levels(monkeypatch):
     ServoModel._criterion_peak.cache_clear()
     model = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M)
     scans = []
-    original = ServoModel.blu_criterion
+    original = ServoModel._scan_criterion  # the scan's criterion on its radii
 
     def counted(self, radii):
         scans.append(np.size(radii))
         return original(self, radii)
 
-    monkeypatch.setattr(ServoModel, "blu_criterion", counted)
+    monkeypatch.setattr(ServoModel, "_scan_criterion", counted)
     value, (gap, _) = model.min_radius_judged(0.1629)
     edge = model.min_radius(BLU / 2 - 1e-3 * BLU)
     assert len([size for size in scans if size > 1]) == 1  # the grid, once
-    monkeypatch.setattr(ServoModel, "blu_criterion", original)
+    monkeypatch.setattr(ServoModel, "_scan_criterion", original)
     for level, radius in [(BLU / 2, value), (BLU / 2 - 1e-3 * BLU, edge)]:
         ServoModel._criterion_scan.cache_clear()  # kept per equal model: start afresh
         ServoModel._criterion_peak.cache_clear()
         fresh = ServoModel(GAIN, TAU, PERIOD, blu=BLU, max_velocity=V_M)
         assert fresh.min_radius(level) == radius
     assert gap == pytest.approx(abs(edge - value), rel=1e-15)
+
+
+@pytest.mark.parametrize("gain, tau, period, delay", [
+    (17.98, 0.02, 1 / 64, 0), (40.0, 0.01, 1 / 128, 1), (20.0, 0.02, 1 / 256, 2),
+    (30.0, None, 1 / 100, 0), (400.0, 0.002, 1 / 2000, 0)])
+def test_the_scans_cramer_open_loop_is_lapacks_to_rounding(gain, tau, period, delay):
+    """The scans (the minimum radius's, the frequency metrics' through frequency_response)
+    take C(zI − Φ)⁻¹Γ by Cramer's rule (resolvent_position) instead of a LAPACK solve a
+    frequency: the same quantity to rounding, 1e-14 of |L| (a relative scale of L itself,
+    never 0 on the unit circle), from 1e-4 rad/s to π/T; and the scan's criterion is
+    blu_criterion's to 1e-15 m."""
+    model = ServoModel(gain, tau, period, delay, blu=1e-6, max_velocity=0.02)
+    omega = np.geomspace(1e-4, math.pi / period, 4000)
+    lapack = model.open_loop(omega)
+    for cramer in (model._grid_open_loop(omega), model.frequency_response(omega)[0]):
+        assert np.max(np.abs(cramer - lapack) / np.abs(lapack)) <= 1e-14
+    grid = model._criterion_scan(0)[0]
+    # the criterion r·||H| − 1| in metres: BLU/1e9 is far below the level BLU/2 it brackets
+    assert np.max(np.abs(model._scan_criterion(grid) - model.blu_criterion(grid))) <= 1e-15

@@ -44,3 +44,68 @@ def test_a_grid_still_solves_every_frequency():
     # each entry the formula at its own ω (a relative scale of the response itself)
     for omega, value in zip(grid, values):
         assert abs(value - _stacked(model, float(omega))[0]) <= 1e-14 * abs(value)
+
+
+#: loops of every branch of ServoModel.open_loop_at: no delay, one and two samples of
+#: computation delay (two takes the array's own power), Sato's ideal drive 1/s, and the
+#: continuous reference-pulse loop
+ONE_FREQUENCY_LOOPS = [
+    (17.98, 0.02, 1 / 64, 0),
+    (40.0, 0.01, 1 / 128, 1),
+    (20.0, 0.02, 1 / 256, 2),
+    (30.0, None, 1 / 100, 0),
+    (30.0, None, 1 / 100, 1),
+    (50.0, 0.01, None, 0),
+]
+
+
+def _frequencies(model: ServoModel, count: int = 400) -> np.ndarray:
+    """ω [rad/s] spread over the band the refinements search: from 1e-3 rad/s to π/T (a
+    continuous loop: to 1e4 rad/s), at random points so that no grid's rounding is special."""
+    top = math.pi / model.period if model.sampled else 1e4
+    rng = np.random.default_rng(15)
+    return np.exp(rng.uniform(math.log(1e-3), math.log(top), count))
+
+
+@pytest.mark.parametrize("gain, tau, period, delay", ONE_FREQUENCY_LOOPS)
+def test_open_loop_at_one_frequency_is_the_arrays_value_to_the_bit(gain, tau, period, delay):
+    """open_loop_at (numpy's scalar type, no arrays) is open_loop(ω)[0] bit for bit: the
+    refinements' values, and so every validated value they give, are those of the
+    array path they replace."""
+    model = ServoModel(gain, tau, period, delay=delay)
+    for omega in _frequencies(model):
+        one = model.open_loop_at(float(omega))
+        assert type(one) is np.complex128
+        assert one.tobytes() == model.open_loop(float(omega))[0].tobytes()
+
+
+@pytest.mark.parametrize("gain, tau, period, delay", ONE_FREQUENCY_LOOPS)
+def test_the_blu_criterion_at_one_radius_is_the_arrays_value_to_the_bit(gain, tau, period,
+                                                                        delay):
+    """criterion_at (the minimum radius's brentq and Brent) is blu_criterion([r])[0] bit for
+    bit, over radii from 1e-5 to 10 m at Koren's V_m = 0.02 m/s."""
+    model = ServoModel(gain, tau, period, delay=delay, blu=1e-6, max_velocity=0.02)
+    radii = 0.02 / _frequencies(model)
+    for radius in radii:
+        assert model.criterion_at(float(radius)) == model.blu_criterion(float(radius))[0]
+
+
+@pytest.mark.parametrize("gain, tau, period, delay", ONE_FREQUENCY_LOOPS)
+def test_the_frequency_metrics_one_frequency_response_is_lapacks_to_rounding(gain, tau, period,
+                                                                             delay):
+    """frequency_response_at (the frequency metrics' refinements: Cramer's rule in Python's
+    complex numbers) is (L, H) of the LAPACK solve to 1e-14 of |L| and of |H| (relative
+    scales of the responses themselves, neither of which vanishes on the unit circle), and
+    |H/H(1)|² at one ω is the grid's formula on an array of that ω to 1e-14 of itself."""
+    from feedtune.validate import sampled_frequency
+
+    model = ServoModel(gain, tau, period, delay=delay)
+    for omega in _frequencies(model):
+        lo, closed = model.frequency_response_at(float(omega))
+        assert type(lo) is complex and type(closed) is complex
+        assert abs(lo - model.open_loop(float(omega))[0]) <= 1e-14 * abs(lo)
+        assert abs(closed - model.complementary(float(omega))[0]) <= 1e-14 * abs(closed)
+        if model.sampled:
+            value = sampled_frequency._gain_squared(model, float(omega))
+            grid = (np.abs(model.complementary(float(omega)) / model.dc_gain()) ** 2)[0]
+            assert abs(value - grid) <= 1e-14 * value
