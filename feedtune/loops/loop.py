@@ -106,18 +106,23 @@ class StepIntegrals:
 
 
 @lru_cache(maxsize=None)
-def _sample_step(order: int, name: str) -> ca.Function:
-    """One sample of a sampled loop with an integrator-lag plant, accumulating one integral.
+def _sample_step(order: int, name: str | tuple[str, ...]) -> ca.Function:
+    """One sample of a sampled loop with an integrator-lag plant, accumulating integrals.
 
     ``step(state, Φ, Γ, k_x, k_r, T, τ)`` with state [plant and buffer states (``order``),
     ∫ so far, t] returns the state one sample later; the integral is ``name`` (iae, ise or
     itae) of the error α + βs + γe^{−s} over the sample (:func:`sample_error_integrals`).
+    ``name`` a tuple of those names: one ∫ so far per name, in its order (a loop of
+    numbers sums all three in one pass: the state's recurrence and the sample's cuts,
+    which IAE and ITAE share, once; each ∫ the same operations on the same numbers as its
+    own step's, so the same bits).
     Built once per process: the same Function serves every loop, so graphs of equal
     structure serialize alike (the tuner's solver cache) and no loop pays for the build.
     """
     n = order
+    names = (name,) if isinstance(name, str) else tuple(name)
     tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
-    state = ca.SX.sym("state", n + 2)  # [x, v, buffer..., integral, t]
+    state = ca.SX.sym("state", n + len(names) + 1)  # [x, v, buffer..., integrals, t]
     phi_s = ca.SX.sym("phi", n, n)
     gamma_s = ca.SX.sym("gamma", n)
     kx_s = ca.SX.sym("kx", 1, n)
@@ -129,11 +134,13 @@ def _sample_step(order: int, name: str) -> ca.Function:
     alpha = 1 - position - (velocity - u) * tau
     beta = -u * tau
     gamma = (velocity - u) * tau
-    pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 1])
-    nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s, state[n] + getattr(pieces, name),
-                     state[n + 1] + period_s)
-    return ca.Function(f"sample_{name}", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
-                       [nxt])
+    t = state[n + len(names)]
+    pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, t)
+    nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s,
+                     *(state[n + i] + getattr(pieces, one) for i, one in enumerate(names)),
+                     t + period_s)
+    return ca.Function(f"sample_{'_'.join(names)}",
+                       [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau], [nxt])
 
 
 @lru_cache(maxsize=512)
@@ -148,7 +155,7 @@ def _buffered(fn: ca.Function):
 
 
 @lru_cache(maxsize=256)
-def _sample_fold(order: int, name: str, samples: int) -> ca.Function:
+def _sample_fold(order: int, name: str | tuple[str, ...], samples: int) -> ca.Function:
     """:func:`_sample_step` folded over ``samples`` samples (2.5 ms to build: kept for the
     loops that follow, of the same structure)."""
     return _sample_step(order, name).fold(samples)
@@ -166,7 +173,7 @@ def _binary_chunks(samples: int) -> list[int]:
 
 
 @lru_cache(maxsize=None)
-def _tail(order: int, name: str) -> ca.Function:
+def _tail(order: int, name: str | tuple[str, ...]) -> ca.Function:
     """∫e, ∫e² or ∫t·e (``name`` iae, ise or itae) of a sampled integrator-lag loop from a
     sample to infinity.
 
@@ -175,8 +182,9 @@ def _tail(order: int, name: str) -> ca.Function:
     (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing over δ(k) = Φ^k δ
     gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov equation. Returns the signed
     ∫e [m·s], ∫e² [m²·s] or the signed ∫t·e [m·s²], only that one: expanding a graph
-    evaluates every output of the Functions it calls. Built once per process, as
-    :func:`_sample_step`.
+    evaluates every output of the Functions it calls. ``name`` a tuple of those names:
+    one output per name, in its order (a loop of numbers, :func:`_sample_step`). Built
+    once per process, as :func:`_sample_step`.
     """
     n = order
     state, start_time = ca.SX.sym("state", n), ca.SX.sym("t")
@@ -199,8 +207,10 @@ def _tail(order: int, name: str) -> ca.Function:
     tails = {"iae": sum_e, "ise": ca.mtimes([delta.T, p, delta]),
              "itae": (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
                       + ca.mtimes([c2, geometric, delta]))}
-    return ca.Function(f"tail_{name}", [state, start_time, phi, gamma_cl, kx, period, tau],
-                       [tails[name]])
+    names = (name,) if isinstance(name, str) else tuple(name)
+    return ca.Function(f"tail_{'_'.join(names)}",
+                       [state, start_time, phi, gamma_cl, kx, period, tau],
+                       [tails[one] for one in names])
 
 
 @lru_cache(maxsize=None)
@@ -822,16 +832,23 @@ class SampledLoop(_SampledLoopBase):
             # a fold of k samples reads each input k times over: the first k of these
             repeated = [np.tile(v, chunks[0]) for v in numbers]
 
+            names = StepIntegrals._NAMES
+            summed = {}
+
             def integral(name):  # the same samples in the same order, by folds of 2^k
-                final = np.zeros(n + 2)  # samples, through their buffers (issue 15)
-                for k in chunks:
-                    (final,) = _buffered(_sample_fold(n, name, k))(
-                        final, *(r[:v.size * k] for r, v in zip(repeated, numbers)))
-                phi_, gamma_, kx_, _, period_, tau_ = numbers
-                (tail,) = _buffered(_tail(n, name))(final[:n], final[n + 1:], phi_, gamma_,
-                                                    kx_, period_, tau_)
-                tail = float(tail[0])
-                return ca.DM(float(final[n]) + (tail if name == "ise" else abs(tail)))
+                if not summed:  # samples, through their buffers (issue 15); all three
+                    final = np.zeros(n + len(names) + 1)  # in one pass, at the first read
+                    for k in chunks:
+                        (final,) = _buffered(_sample_fold(n, names, k))(
+                            final, *(r[:v.size * k] for r, v in zip(repeated, numbers)))
+                    phi_, gamma_, kx_, _, period_, tau_ = numbers
+                    tails = _buffered(_tail(n, names))(final[:n], final[n + len(names):],
+                                                       phi_, gamma_, kx_, period_, tau_)
+                    for i, (one, tail) in enumerate(zip(names, tails)):
+                        tail = float(tail[0])
+                        summed[one] = ca.DM(float(final[n + i])
+                                            + (tail if one == "ise" else abs(tail)))
+                return summed[name]
 
             return StepIntegrals(integral)
 
