@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
-from feedtune.expr import is_symbolic, to_array, to_float
+from feedtune.expr import is_symbolic, to_float
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Capability, DeclaredCapabilities
@@ -250,7 +250,10 @@ def _pole_pair() -> ca.Function:
 
 def _numbers(values: list) -> list | None:
     """``values`` (expressions) as DM numbers, evaluated in one Function; None when any
-    holds a symbol (a loop inside the NLP)."""
+    holds a symbol (a loop inside the NLP). Values that are all DM already are returned
+    as they are (what the Function would return, without building it)."""
+    if all(isinstance(v, ca.DM) for v in values):
+        return list(values)
     try:
         function = ca.Function("numbers", [], [ca.MX(v) for v in values])
     except RuntimeError as exc:
@@ -397,6 +400,20 @@ class _LoopBase(DeclaredCapabilities):
         """Monic closed-loop characteristic polynomial, highest power first."""
         return linalg.characteristic_polynomial(self.state_matrix)
 
+    @cached_property
+    def _state_numbers(self):
+        """The state matrix as a DM, evaluated once per loop; None for a loop of symbols."""
+        numbers = _numbers([self.state_matrix])
+        return None if numbers is None else numbers[0]
+
+    def numeric_state_matrix(self) -> "np.ndarray | None":
+        """The state matrix's numbers as a float array (a copy), or None for a loop of
+        symbols (inside the NLP). Evaluated once per loop (issue 15: the pole metrics, the
+        spectral radius and the stability check each evaluated it); the numbers of
+        ``casadi.evalf`` of the matrix, the same evaluation."""
+        numbers = self._state_numbers
+        return None if numbers is None else np.array(numbers, dtype=float)
+
     def natural_frequency(self):
         """ω_n = √a0 [rad/s] of s² + a1 s + a0 (continuous second-order loops; Koren eq 10)."""
         return ca.sqrt(self.characteristic_polynomial[2])
@@ -428,8 +445,11 @@ class _LoopBase(DeclaredCapabilities):
         """
         poly = self.characteristic_polynomial
         numbers = _numbers(poly)
-        if numbers is not None:  # a loop of numbers: the same operations on DM, no graph
-            poly = numbers
+        if numbers is not None:  # a loop of numbers: the same operations on floats, no
+            # graph (a scalar DM operation is the IEEE operation on doubles that Python's
+            # float does, without ≈ 10-20 µs of CasADi's call a DM operation: the sampled
+            # loop's map to the w-plane cost ≈ 0.5 ms a tuned design on DM)
+            poly = [float(c) for c in numbers]
         if self.discrete:
             poly = linalg.bilinear_to_continuous(poly)
         if numbers is not None:
@@ -549,8 +569,8 @@ class _SampledLoopBase(_LoopBase):
         numbers, so every value keeps its bits. (A continuous loop keeps its graph: there
         ω_n = √c0 squared in natural-time ITAE folds to c0 on the graph, not on numbers.)"""
         matrix = self.state_matrix
-        numbers = _numbers([matrix]) if isinstance(matrix, ca.MX) else None
-        return linalg.characteristic_polynomial(matrix if numbers is None else numbers[0])
+        numbers = self._state_numbers if isinstance(matrix, ca.MX) else None
+        return linalg.characteristic_polynomial(matrix if numbers is None else numbers)
 
     @cached_property
     def _equivalent_poles(self):
@@ -590,9 +610,10 @@ class _SampledLoopBase(_LoopBase):
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:
         """max |pole| when the loop holds numbers only, else None (symbolic)."""
-        if is_symbolic(self.state_matrix, self.period):
+        matrix = self.numeric_state_matrix()
+        if matrix is None or is_symbolic(self.period):
             return None
-        return float(np.max(np.abs(np.linalg.eigvals(to_array(self.state_matrix)))))
+        return float(np.max(np.abs(np.linalg.eigvals(matrix))))
 
     @property
     def horizon_samples(self) -> int:
@@ -767,12 +788,8 @@ class SampledLoop(_SampledLoopBase):
         TypeError
             For a loop of symbols (inside the NLP): these responses are reported only.
         """
-        phi, gamma, kx, kr = self._matrices
-        values = [phi, gamma, kx, kr, self.period]
         tau = self.plant.time_constant
-        if tau is not None:
-            values.append(tau)
-        numbers = _numbers(values)  # all in one Function (issue 15: not an evalf each)
+        numbers = self._hold_numbers
         if numbers is None:
             raise TypeError("the sampled step response is evaluated on a loop of numbers "
                             "only (reported on the tuned design, never in the NLP)")
@@ -780,6 +797,24 @@ class SampledLoop(_SampledLoopBase):
         phi, gamma, kx, kr, period = arrays[:5]
         return (phi, gamma.ravel(), kx.ravel(), float(kr.item()), float(period.item()),
                 float(arrays[5].item()) if tau is not None else None)
+
+    @cached_property
+    def _hold_numbers(self) -> list | None:
+        """[Φ, Γ, k_x, k_r, T] and τ (a drive with a time constant) as DM, all evaluated in
+        one Function once per loop (issue 15: the characteristic polynomial, the held
+        command's response and the step integrals each evaluated Φ); None for a loop of
+        symbols."""
+        phi, gamma, kx, kr = self._matrices
+        values = [phi, gamma, kx, kr, self.period]
+        if self.plant.time_constant is not None:
+            values.append(self.plant.time_constant)
+        return _numbers(values)
+
+    @cached_property
+    def _state_numbers(self):
+        """Φ_cl as a DM, from :attr:`_hold_numbers` (None for a loop of symbols)."""
+        numbers = self._hold_numbers
+        return None if numbers is None else numbers[0]
 
     @at_shared_omega
     def error_response(self, omega):
@@ -826,8 +861,7 @@ class SampledLoop(_SampledLoopBase):
         period, tau = self.period, self.plant.time_constant
         n = self.order
         if radius is not None:  # numbers: the small matrices evaluated once, as flat arrays
-            numbers = [v.full().ravel(order="F") for v in
-                       _numbers([phi, gamma_cl, kx, kr, period, tau])]
+            numbers = [v.full().ravel(order="F") for v in self._hold_numbers]
             chunks = _binary_chunks(samples)
             # a fold of k samples reads each input k times over: the first k of these
             repeated = [np.tile(v, chunks[0]) for v in numbers]

@@ -14,6 +14,10 @@ import numpy as np
 import feedtune.loops.frequency as frequency
 import feedtune.loops.loop as loop_module
 from example_loops import example_loops
+from feedtune.loops import linalg
+from feedtune.loops.timeresponse import SampledStepError
+from feedtune.objectives import METRICS
+from feedtune.problem import Reports
 
 
 def _bits(values) -> list[str]:
@@ -61,3 +65,101 @@ def test_a_sampled_loop_of_numbers_sums_its_three_step_integrals_in_one_pass(mon
         chunks = loop_module._binary_chunks(loop.horizon_samples)
         # main: one fold a chunk and one tail for each integral (3 × (chunks + 1) calls)
         assert len(calls) == len(chunks) + 1, calls
+
+
+def _dm_recursion(matrix) -> list:
+    """Faddeev–LeVerrier on DM operations, as ``linalg.characteristic_polynomial`` ran it
+    on a sampled loop's Φ before h-bev5."""
+    n = matrix.shape[0]
+    coefficients, m_k, c_k = [ca.DM(1.0)], ca.DM.zeros(n, n), ca.DM(1.0)
+    for k in range(1, n + 1):
+        m_k = ca.mtimes(matrix, m_k) + c_k * ca.DM.eye(n)
+        c_k = -ca.trace(ca.mtimes(matrix, m_k)) / k
+        coefficients.append(c_k)
+    return coefficients
+
+
+def test_the_characteristic_polynomial_of_a_dense_dm_on_floats_has_the_dm_recursions_bits():
+    rng = np.random.default_rng(15)
+    for _ in range(400):
+        n = int(rng.integers(1, 6))
+        a = rng.normal(size=(n, n)) * 10.0 ** float(rng.integers(-6, 6))
+        holes = rng.random((n, n)) < 0.3  # exact zeros (signed) and ±1, as a loop's Φ has
+        a[holes] = rng.choice([0.0, -0.0, 1.0, -1.0], size=int(holes.sum()))
+        matrix = ca.densify(ca.DM(a))
+        expected = _dm_recursion(matrix)
+        assert _bits(linalg._characteristic_polynomial_of_floats(matrix.full().tolist())) \
+            == _bits(expected)  # main: no such function
+        got = linalg.characteristic_polynomial(matrix)
+        assert all(isinstance(c, ca.DM) for c in got) and _bits(got) == _bits(expected)
+
+
+def test_a_sampled_loops_stability_conditions_map_floats_to_the_w_plane(monkeypatch):
+    loops = example_loops("sampled", 4, seed=43)
+    expected = []
+    for loop in loops:  # the DM path before h-bev5: the map on DM coefficients
+        poly = linalg.bilinear_to_continuous(list(loop.characteristic_polynomial))
+        expected.append(linalg.hurwitz_conditions_of_numbers(poly))
+    given = []
+    bilinear = linalg.bilinear_to_continuous
+    monkeypatch.setattr(linalg, "bilinear_to_continuous",
+                        lambda poly: given.append(poly) or bilinear(poly))
+    for loop, conditions in zip(example_loops("sampled", 4, seed=43), expected):
+        assert _bits(loop.stability_conditions()) == _bits(conditions)
+    assert given and all(isinstance(c, float) for poly in given for c in poly)  # main: DM
+
+
+def test_a_sampled_loop_of_numbers_evaluates_its_matrices_once_for_every_report(monkeypatch):
+    calls = []
+    numbers = loop_module._numbers
+    monkeypatch.setattr(loop_module, "_numbers",
+                        lambda values: calls.append(len(values)) or numbers(values))
+    checked = 0
+    for loop in example_loops("sampled", 4, seed=47):  # nothing evaluated on them yet
+        calls.clear()
+        if not loop._numeric_spectral_radius < 1:
+            continue
+        checked += 1
+        for name in ("pole_damping", "decay_rate", "iae", "settling_time", "damping_ratio"):
+            metric = METRICS[name]()
+            metric.evaluate(loop, metric.Options())
+        loop.stability_conditions()
+        # Φ, Γ, k_x, k_r, T, τ evaluated together once (main: the polynomial, the held
+        # command, the step integrals and each pole metric each evaluated Φ); the
+        # conditions' coefficients are numbers already (no Function for them)
+        assert calls.count(6) == 1 and len([c for c in calls if c != 3]) == 1, calls
+        expected_matrix = np.array(ca.evalf(ca.MX(loop.state_matrix)), dtype=float)
+        assert _bits(loop.numeric_state_matrix()) == _bits(expected_matrix)
+    assert checked >= 2
+
+
+def test_the_sampled_step_errors_recurrence_keeps_the_bits_of_phi_at_state_plus_gamma():
+    """Not a change of value: the recurrence calls BLAS's product as ``phi @ state`` did
+    (the same gemv), so every state has its bits (this passes before h-bev5 too)."""
+    for loop in _stable_sampled_loops(4, seed=53):
+        phi, gamma, kx, kr, period, tau = loop.numeric_hold()
+        samples = loop.horizon_samples + 1
+        error = SampledStepError(phi, gamma, kx, kr, period, tau, samples)
+        state, states = np.zeros(phi.shape[0]), []
+        for _ in range(samples):
+            states.append(state)
+            state = phi @ state + gamma
+        u = np.array(states) @ kx + kr
+        x, v = np.array(states)[:, 0], np.array(states)[:, 1]
+        assert _bits(error.alpha) == _bits(1 - x - (v - u) * tau)
+        assert _bits(error.gamma) == _bits((v - u) * tau)
+
+
+def test_reports_that_are_dm_numbers_are_kept_as_they_are():
+    class Constant:
+        name = "constant"
+
+        def __init__(self, value):
+            self.value = value
+
+        def evaluate(self, loop, options):
+            return self.value
+
+    value = ca.DM(1.25)
+    values = Reports({"a": (Constant(value), None)})._evaluate_all(object())
+    assert values["a"] is value  # main: a copy (ca.DM(value), ≈ 23 µs a report)

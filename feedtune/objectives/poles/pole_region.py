@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from feedtune.expr import Factors, PoleRegion, is_symbolic
+from feedtune.expr import Factors, PoleRegion, is_symbolic, to_float
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Loop
@@ -55,8 +55,9 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
             return math.nan
         return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
 
-    if not is_symbolic(inputs):
-        exact = ca.MX(of_numbers(ca.evalf(inputs)))
+    numbers = loop.numeric_state_matrix()  # None for a loop of symbols
+    if numbers is not None and not is_symbolic(period):  # each loop's numbers evaluated once
+        exact = ca.MX(of_numbers(np.append(numbers.ravel(order="F"), to_float(period))))
     elif conditions is None:  # reported only: never an expression the NLP would trust
         raise TypeError("this pole measure has no polynomial test on this loop: it is "
                         "evaluated on a loop of numbers only")
