@@ -163,3 +163,16 @@ def test_reports_that_are_dm_numbers_are_kept_as_they_are():
     value = ca.DM(1.25)
     values = Reports({"a": (Constant(value), None)})._evaluate_all(object())
     assert values["a"] is value  # main: a copy (ca.DM(value), ≈ 23 µs a report)
+
+
+def test_a_replayed_peaks_last_operations_on_floats_have_the_dm_operations_bits():
+    rng = np.random.default_rng(61)
+    tops = np.concatenate([rng.uniform(0.5, 3.0, 300), [1.0, 1.0, 2.5]])
+    zeros = np.concatenate([rng.uniform(0.5, 3.0, 300), [1.0, 1.0 + 2e-16, 2.5]])
+    for top, u, at_zero in zip(tops, rng.uniform(-5.0, 12.0, tops.size), zeros):
+        top, u, at_zero = float(top), float(u), float(at_zero)
+        expected = (ca.fmax(ca.DM(top), ca.DM(at_zero)),  # peak()'s DM operations before
+                    ca.if_else(ca.DM(at_zero) >= ca.DM(top), 0.0, ca.exp(ca.DM(u))))
+        got = frequency._peak_numbers(top, u, at_zero)  # main: no such function
+        assert all(isinstance(v, ca.DM) for v in got)
+        assert _bits(got) == _bits(expected)
