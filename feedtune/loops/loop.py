@@ -533,7 +533,8 @@ class ContinuousLoop(_LoopBase):
         if self.order != 2:
             raise NotImplementedError("exact step-error integrals need a second-order loop")
         _, a1, a0 = self.characteristic_polynomial
-        if not is_symbolic(a1, a0) and not (to_float(a1) > 0 and to_float(a0) > 0):
+        numbers = None if is_symbolic(a1, a0) else _numbers([a1, a0])  # in one Function
+        if numbers is not None and not (float(numbers[0]) > 0 and float(numbers[1]) > 0):
             return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
         de0 = -ca.mtimes(self.position_row, self.input_matrix)
