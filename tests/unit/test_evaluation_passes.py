@@ -18,23 +18,13 @@ from feedtune.loops import linalg
 from feedtune.loops.timeresponse import SampledStepError
 from feedtune.objectives import METRICS
 from feedtune.problem import Reports
+from test_design_numbers import _integral_by_dm_calls  # the integral summed alone
+from test_report_numbers import _Constant
 
 
 def _bits(values) -> list[str]:
     """Each number's hex form: equal bits, signed zeros told apart."""
     return [float(v).hex() for v in np.asarray(values, dtype=float).ravel()]
-
-
-def _one_integral(loop, name: str):
-    """The step integral ``name`` summed alone, by its own folds (as before h-bev5)."""
-    n = loop.order
-    phi, gamma, kx, kr, period, tau = (ca.evalf(ca.MX(m)) for m in (
-        *loop._matrices, loop.period, loop.plant.time_constant))
-    final = ca.DM.zeros(n + 2)
-    for k in loop_module._binary_chunks(loop.horizon_samples):
-        final = loop_module._sample_fold(n, name, k)(final, phi, gamma, kx, kr, period, tau)
-    tail = loop_module._tail(n, name)(final[:n], final[n + 1], phi, gamma, kx, period, tau)
-    return final[n] + (tail if name == "ise" else ca.fabs(tail))
 
 
 def _stable_sampled_loops(count: int, seed: int) -> list:
@@ -47,7 +37,7 @@ def _stable_sampled_loops(count: int, seed: int) -> list:
 def test_a_sampled_loop_of_numbers_sums_its_three_step_integrals_in_one_pass(monkeypatch):
     loops = _stable_sampled_loops(6, seed=41)
     assert len(loops) >= 3
-    expected = [[_one_integral(loop, name) for name in ("iae", "ise", "itae")]
+    expected = [[_integral_by_dm_calls(loop, name) for name in ("iae", "ise", "itae")]
                 for loop in loops]
     calls = []
     original = frequency.Buffered.__call__
@@ -151,17 +141,8 @@ def test_the_sampled_step_errors_recurrence_keeps_the_bits_of_phi_at_state_plus_
 
 
 def test_reports_that_are_dm_numbers_are_kept_as_they_are():
-    class Constant:
-        name = "constant"
-
-        def __init__(self, value):
-            self.value = value
-
-        def evaluate(self, loop, options):
-            return self.value
-
     value = ca.DM(1.25)
-    values = Reports({"a": (Constant(value), None)})._evaluate_all(object())
+    values = Reports({"a": (_Constant(value), None)})._evaluate_all(object())
     assert values["a"] is value  # main: a copy (ca.DM(value), ≈ 23 µs a report)
 
 
