@@ -345,9 +345,7 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
         (f, slope, curvature), at_zero = replay
         best = _peak_of_numbers(f, slope, curvature, logs, h)
         if best is not None:  # numbers (DM): the same operations as the MX below, done now
-            top, u = (ca.DM(v) for v in best)
-            at_zero = ca.DM(at_zero)
-            return ca.fmax(top, at_zero), ca.if_else(at_zero >= top, 0.0, ca.exp(u))
+            return _peak_numbers(*best, at_zero)
     numbers, symbolic = _number_functions(name, fn, 2), None
     if numbers is None:
         symbolic = _functions(name, fn, 2)
@@ -364,6 +362,16 @@ def peak(fn, band: tuple[float, float], name: str = "peak"):
                        ca.horzcat(u, grid))
     at_zero = fn(0.0)
     return ca.fmax(top, at_zero), ca.if_else(at_zero >= top, 0.0, ca.exp(u))
+
+
+def _peak_numbers(top: float, u: float, at_zero: float) -> tuple:
+    """(fmax(top, at_zero), 0 where at_zero ≥ top else e^u) as DM numbers: :func:`peak`'s
+    last operations on the floats of a replayed refinement, each the IEEE operation (or
+    the C library's ``exp``) that CasADi's DM operation performs, so the same bits without
+    ≈ 10-20 µs of CasADi's call an operation. NaN never reaches here (the refinement
+    returns None), so fmax is the larger of the two (``top`` where they are equal)."""
+    value = top if top >= at_zero else at_zero
+    return ca.DM(value), ca.DM(0.0 if at_zero >= top else math.exp(u))
 
 
 def _expanded(fn):

@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 
-from feedtune.expr import is_symbolic, to_array, to_float
+from feedtune.expr import is_symbolic, to_float
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Capability, DeclaredCapabilities
@@ -106,18 +106,23 @@ class StepIntegrals:
 
 
 @lru_cache(maxsize=None)
-def _sample_step(order: int, name: str) -> ca.Function:
-    """One sample of a sampled loop with an integrator-lag plant, accumulating one integral.
+def _sample_step(order: int, name: str | tuple[str, ...]) -> ca.Function:
+    """One sample of a sampled loop with an integrator-lag plant, accumulating integrals.
 
     ``step(state, Φ, Γ, k_x, k_r, T, τ)`` with state [plant and buffer states (``order``),
     ∫ so far, t] returns the state one sample later; the integral is ``name`` (iae, ise or
     itae) of the error α + βs + γe^{−s} over the sample (:func:`sample_error_integrals`).
+    ``name`` a tuple of those names: one ∫ so far per name, in its order (a loop of
+    numbers sums all three in one pass: the state's recurrence and the sample's cuts,
+    which IAE and ITAE share, once; each ∫ the same operations on the same numbers as its
+    own step's, so the same bits).
     Built once per process: the same Function serves every loop, so graphs of equal
     structure serialize alike (the tuner's solver cache) and no loop pays for the build.
     """
     n = order
+    names = (name,) if isinstance(name, str) else tuple(name)
     tau = ca.SX.sym("tau")  # an input, so τ may be a number or an expression
-    state = ca.SX.sym("state", n + 2)  # [x, v, buffer..., integral, t]
+    state = ca.SX.sym("state", n + len(names) + 1)  # [x, v, buffer..., integrals, t]
     phi_s = ca.SX.sym("phi", n, n)
     gamma_s = ca.SX.sym("gamma", n)
     kx_s = ca.SX.sym("kx", 1, n)
@@ -129,11 +134,13 @@ def _sample_step(order: int, name: str) -> ca.Function:
     alpha = 1 - position - (velocity - u) * tau
     beta = -u * tau
     gamma = (velocity - u) * tau
-    pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, state[n + 1])
-    nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s, state[n] + getattr(pieces, name),
-                     state[n + 1] + period_s)
-    return ca.Function(f"sample_{name}", [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau],
-                       [nxt])
+    t = state[n + len(names)]
+    pieces = sample_error_integrals(alpha, beta, gamma, period_s / tau, tau, t)
+    nxt = ca.vertcat(ca.mtimes(phi_s, xi) + gamma_s,
+                     *(state[n + i] + getattr(pieces, one) for i, one in enumerate(names)),
+                     t + period_s)
+    return ca.Function(f"sample_{'_'.join(names)}",
+                       [state, phi_s, gamma_s, kx_s, kr_s, period_s, tau], [nxt])
 
 
 @lru_cache(maxsize=512)
@@ -148,7 +155,7 @@ def _buffered(fn: ca.Function):
 
 
 @lru_cache(maxsize=256)
-def _sample_fold(order: int, name: str, samples: int) -> ca.Function:
+def _sample_fold(order: int, name: str | tuple[str, ...], samples: int) -> ca.Function:
     """:func:`_sample_step` folded over ``samples`` samples (2.5 ms to build: kept for the
     loops that follow, of the same structure)."""
     return _sample_step(order, name).fold(samples)
@@ -166,7 +173,7 @@ def _binary_chunks(samples: int) -> list[int]:
 
 
 @lru_cache(maxsize=None)
-def _tail(order: int, name: str) -> ca.Function:
+def _tail(order: int, name: str | tuple[str, ...]) -> ca.Function:
     """∫e, ∫e² or ∫t·e (``name`` iae, ise or itae) of a sampled integrator-lag loop from a
     sample to infinity.
 
@@ -175,8 +182,9 @@ def _tail(order: int, name: str) -> ca.Function:
     (rows c1, c2) and ∫e² dt is δᵀQδ (:func:`sample_moments`); summing over δ(k) = Φ^k δ
     gives (I − Φ)^{-1}, Φ(I − Φ)^{-2} and a discrete Lyapunov equation. Returns the signed
     ∫e [m·s], ∫e² [m²·s] or the signed ∫t·e [m·s²], only that one: expanding a graph
-    evaluates every output of the Functions it calls. Built once per process, as
-    :func:`_sample_step`.
+    evaluates every output of the Functions it calls. ``name`` a tuple of those names:
+    one output per name, in its order (a loop of numbers, :func:`_sample_step`). Built
+    once per process, as :func:`_sample_step`.
     """
     n = order
     state, start_time = ca.SX.sym("state", n), ca.SX.sym("t")
@@ -199,8 +207,10 @@ def _tail(order: int, name: str) -> ca.Function:
     tails = {"iae": sum_e, "ise": ca.mtimes([delta.T, p, delta]),
              "itae": (start_time * sum_e + period * ca.mtimes([c1, weighted, delta])
                       + ca.mtimes([c2, geometric, delta]))}
-    return ca.Function(f"tail_{name}", [state, start_time, phi, gamma_cl, kx, period, tau],
-                       [tails[name]])
+    names = (name,) if isinstance(name, str) else tuple(name)
+    return ca.Function(f"tail_{'_'.join(names)}",
+                       [state, start_time, phi, gamma_cl, kx, period, tau],
+                       [tails[one] for one in names])
 
 
 @lru_cache(maxsize=None)
@@ -240,7 +250,10 @@ def _pole_pair() -> ca.Function:
 
 def _numbers(values: list) -> list | None:
     """``values`` (expressions) as DM numbers, evaluated in one Function; None when any
-    holds a symbol (a loop inside the NLP)."""
+    holds a symbol (a loop inside the NLP). Values that are all DM already are returned
+    as they are (what the Function would return, without building it)."""
+    if all(isinstance(v, ca.DM) for v in values):
+        return list(values)
     try:
         function = ca.Function("numbers", [], [ca.MX(v) for v in values])
     except RuntimeError as exc:
@@ -387,6 +400,20 @@ class _LoopBase(DeclaredCapabilities):
         """Monic closed-loop characteristic polynomial, highest power first."""
         return linalg.characteristic_polynomial(self.state_matrix)
 
+    @cached_property
+    def _state_numbers(self):
+        """The state matrix as a DM, evaluated once per loop; None for a loop of symbols."""
+        numbers = _numbers([self.state_matrix])
+        return None if numbers is None else numbers[0]
+
+    def numeric_state_matrix(self) -> "np.ndarray | None":
+        """The state matrix's numbers as a float array (a copy), or None for a loop of
+        symbols (inside the NLP). Evaluated once per loop (issue 15: the pole metrics, the
+        spectral radius and the stability check each evaluated it); the numbers of
+        ``casadi.evalf`` of the matrix, the same evaluation."""
+        numbers = self._state_numbers
+        return None if numbers is None else np.array(numbers, dtype=float)
+
     def natural_frequency(self):
         """ω_n = √a0 [rad/s] of s² + a1 s + a0 (continuous second-order loops; Koren eq 10)."""
         return ca.sqrt(self.characteristic_polynomial[2])
@@ -418,8 +445,11 @@ class _LoopBase(DeclaredCapabilities):
         """
         poly = self.characteristic_polynomial
         numbers = _numbers(poly)
-        if numbers is not None:  # a loop of numbers: the same operations on DM, no graph
-            poly = numbers
+        if numbers is not None:  # a loop of numbers: the same operations on floats, no
+            # graph (a scalar DM operation is the IEEE operation on doubles that Python's
+            # float does, without ≈ 10-20 µs of CasADi's call a DM operation: the sampled
+            # loop's map to the w-plane cost ≈ 0.5 ms a tuned design on DM)
+            poly = [float(c) for c in numbers]
         if self.discrete:
             poly = linalg.bilinear_to_continuous(poly)
         if numbers is not None:
@@ -503,7 +533,8 @@ class ContinuousLoop(_LoopBase):
         if self.order != 2:
             raise NotImplementedError("exact step-error integrals need a second-order loop")
         _, a1, a0 = self.characteristic_polynomial
-        if not is_symbolic(a1, a0) and not (to_float(a1) > 0 and to_float(a0) > 0):
+        numbers = None if is_symbolic(a1, a0) else _numbers([a1, a0])  # in one Function
+        if numbers is not None and not (float(numbers[0]) > 0 and float(numbers[1]) > 0):
             return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
         de0 = -ca.mtimes(self.position_row, self.input_matrix)
@@ -539,8 +570,8 @@ class _SampledLoopBase(_LoopBase):
         numbers, so every value keeps its bits. (A continuous loop keeps its graph: there
         ω_n = √c0 squared in natural-time ITAE folds to c0 on the graph, not on numbers.)"""
         matrix = self.state_matrix
-        numbers = _numbers([matrix]) if isinstance(matrix, ca.MX) else None
-        return linalg.characteristic_polynomial(matrix if numbers is None else numbers[0])
+        numbers = self._state_numbers if isinstance(matrix, ca.MX) else None
+        return linalg.characteristic_polynomial(matrix if numbers is None else numbers)
 
     @cached_property
     def _equivalent_poles(self):
@@ -580,9 +611,10 @@ class _SampledLoopBase(_LoopBase):
     @cached_property
     def _numeric_spectral_radius(self) -> float | None:
         """max |pole| when the loop holds numbers only, else None (symbolic)."""
-        if is_symbolic(self.state_matrix, self.period):
+        matrix = self.numeric_state_matrix()
+        if matrix is None or is_symbolic(self.period):
             return None
-        return float(np.max(np.abs(np.linalg.eigvals(to_array(self.state_matrix)))))
+        return float(np.max(np.abs(np.linalg.eigvals(matrix))))
 
     @property
     def horizon_samples(self) -> int:
@@ -757,12 +789,8 @@ class SampledLoop(_SampledLoopBase):
         TypeError
             For a loop of symbols (inside the NLP): these responses are reported only.
         """
-        phi, gamma, kx, kr = self._matrices
-        values = [phi, gamma, kx, kr, self.period]
         tau = self.plant.time_constant
-        if tau is not None:
-            values.append(tau)
-        numbers = _numbers(values)  # all in one Function (issue 15: not an evalf each)
+        numbers = self._hold_numbers
         if numbers is None:
             raise TypeError("the sampled step response is evaluated on a loop of numbers "
                             "only (reported on the tuned design, never in the NLP)")
@@ -770,6 +798,24 @@ class SampledLoop(_SampledLoopBase):
         phi, gamma, kx, kr, period = arrays[:5]
         return (phi, gamma.ravel(), kx.ravel(), float(kr.item()), float(period.item()),
                 float(arrays[5].item()) if tau is not None else None)
+
+    @cached_property
+    def _hold_numbers(self) -> list | None:
+        """[Φ, Γ, k_x, k_r, T] and τ (a drive with a time constant) as DM, all evaluated in
+        one Function once per loop (issue 15: the characteristic polynomial, the held
+        command's response and the step integrals each evaluated Φ); None for a loop of
+        symbols."""
+        phi, gamma, kx, kr = self._matrices
+        values = [phi, gamma, kx, kr, self.period]
+        if self.plant.time_constant is not None:
+            values.append(self.plant.time_constant)
+        return _numbers(values)
+
+    @cached_property
+    def _state_numbers(self):
+        """Φ_cl as a DM, from :attr:`_hold_numbers` (None for a loop of symbols)."""
+        numbers = self._hold_numbers
+        return None if numbers is None else numbers[0]
 
     @at_shared_omega
     def error_response(self, omega):
@@ -816,22 +862,28 @@ class SampledLoop(_SampledLoopBase):
         period, tau = self.period, self.plant.time_constant
         n = self.order
         if radius is not None:  # numbers: the small matrices evaluated once, as flat arrays
-            numbers = [v.full().ravel(order="F") for v in
-                       _numbers([phi, gamma_cl, kx, kr, period, tau])]
+            numbers = [v.full().ravel(order="F") for v in self._hold_numbers]
             chunks = _binary_chunks(samples)
             # a fold of k samples reads each input k times over: the first k of these
             repeated = [np.tile(v, chunks[0]) for v in numbers]
 
+            names = StepIntegrals._NAMES
+            summed = {}
+
             def integral(name):  # the same samples in the same order, by folds of 2^k
-                final = np.zeros(n + 2)  # samples, through their buffers (issue 15)
-                for k in chunks:
-                    (final,) = _buffered(_sample_fold(n, name, k))(
-                        final, *(r[:v.size * k] for r, v in zip(repeated, numbers)))
-                phi_, gamma_, kx_, _, period_, tau_ = numbers
-                (tail,) = _buffered(_tail(n, name))(final[:n], final[n + 1:], phi_, gamma_,
-                                                    kx_, period_, tau_)
-                tail = float(tail[0])
-                return ca.DM(float(final[n]) + (tail if name == "ise" else abs(tail)))
+                if not summed:  # samples, through their buffers (issue 15); all three
+                    final = np.zeros(n + len(names) + 1)  # in one pass, at the first read
+                    for k in chunks:
+                        (final,) = _buffered(_sample_fold(n, names, k))(
+                            final, *(r[:v.size * k] for r, v in zip(repeated, numbers)))
+                    phi_, gamma_, kx_, _, period_, tau_ = numbers
+                    tails = _buffered(_tail(n, names))(final[:n], final[n + len(names):],
+                                                       phi_, gamma_, kx_, period_, tau_)
+                    for i, (one, tail) in enumerate(zip(names, tails)):
+                        tail = float(tail[0])
+                        summed[one] = ca.DM(float(final[n + i])
+                                            + (tail if one == "ise" else abs(tail)))
+                return summed[name]
 
             return StepIntegrals(integral)
 

@@ -139,6 +139,10 @@ class LinearDynamics(Loop, Protocol):
     def stability_matrices(self) -> dict:
         """Matrices whose eigenvalues must all be stable, by name; the closed loop first."""
 
+    def numeric_state_matrix(self) -> "np.ndarray | None":
+        """The state matrix's numbers as a float array, or None for a loop of symbols
+        (evaluated once per loop: the pole metrics and the spectral radius read it)."""
+
 
 class FrequencyLoop(Protocol):
     """:attr:`Capability.FREQUENCY_RESPONSE`: responses of the closed loop over frequency,

@@ -656,9 +656,11 @@ class SampledStepError:
             raise UnstableResponseError("the sampled loop is not stable: no response settles")
         states = np.empty((samples, phi.shape[0]))
         state = np.zeros(phi.shape[0])
-        for n in range(samples):
-            states[n] = state
-            state = phi @ state + gamma
+        step = np.asarray(phi).dot  # phi @ state by the same BLAS call (gemv, the same
+        for n in range(samples):  # layout), so the same bits; ≈ 1/3 less a sample than @
+            states[n] = state  # and a new array for the sum
+            state = step(state)
+            state += gamma
         u = states @ kx + kr
         self.period, self.tau, self.samples = period, tau, samples
         x = states[:, 0]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from feedtune.expr import Factors, PoleRegion, is_symbolic
+from feedtune.expr import Factors, PoleRegion, is_symbolic, to_float
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Loop
@@ -40,7 +40,13 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
     n = matrix.shape[0]
     discrete = bool(loop.discrete)
     period = loop.period if discrete else 0.0
-    inputs = ca.veccat(ca.vec(ca.MX(matrix)), ca.MX(period))
+    numbers = loop.numeric_state_matrix()  # None for a loop of symbols
+    if numbers is not None and not is_symbolic(period):  # each loop's numbers evaluated once
+        numbers = np.append(numbers.ravel(order="F"), to_float(period))
+        inputs = ca.DM(numbers)  # the column of numbers itself: no MX graph of constants
+    else:
+        numbers = None
+        inputs = ca.veccat(ca.vec(ca.MX(matrix)), ca.MX(period))
 
     def state(numbers):
         """The state matrix of the inputs' numbers (None if an entry is not finite)."""
@@ -55,8 +61,8 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
             return math.nan
         return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
 
-    if not is_symbolic(inputs):
-        exact = ca.MX(of_numbers(ca.evalf(inputs)))
+    if numbers is not None:
+        exact = ca.MX(of_numbers(numbers))
     elif conditions is None:  # reported only: never an expression the NLP would trust
         raise TypeError("this pole measure has no polynomial test on this loop: it is "
                         "evaluated on a loop of numbers only")
