@@ -81,6 +81,13 @@ def _wrap(owner, name: str, kind: str, key_of) -> None:
                     "cpu": time.process_time() - start})
 
     setattr(owner, name, wrapper)
+    # modules imported before this plugin's configure (the initial conftests, e.g.
+    # tests/reference/conftest.py's ``from feedtune.problem import tune``) bound the
+    # original by name: rebind theirs too
+    for module in list(sys.modules.values()):
+        for attribute, value in list(getattr(module, "__dict__", {}).items()):
+            if value is original and module is not owner:
+                setattr(module, attribute, wrapper)
 
 
 def _argv_key(args) -> tuple[str, str]:
