@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from feedtune.report import _png, build_figures, write_report
