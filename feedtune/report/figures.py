@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from scipy.optimize import brentq
 
@@ -54,8 +55,23 @@ def metric(result: dict, name: str, **options) -> float | None:
     return None
 
 
+def new_figure(width: float, height: float) -> Figure:
+    """A Figure of ``width`` × ``height`` [in] at DPI on an Agg canvas of its own.
+
+    With its canvas, the figure's ``tight_layout`` and the report's ``savefig`` draw with
+    one renderer, whose caches of text extents and parsed mathtext (matplotlib keeps them
+    per renderer) the second pass reuses. A Figure without one got a fresh renderer for
+    each pass, so every tick label was measured, and every log-axis label parsed, twice
+    (benchmarks/report_figures.py: the same PNG bytes; benchmarks/README.md "Branch
+    h-tdup").
+    """
+    figure = Figure(figsize=(width, height), dpi=DPI)
+    FigureCanvasAgg(figure)
+    return figure
+
+
 def _figure(rows: int = 1, cols: int = 1, height: float | None = None):
-    figure = Figure(figsize=(SIZE[0], height or SIZE[1]), dpi=DPI)
+    figure = new_figure(SIZE[0], height or SIZE[1])
     axes = figure.subplots(rows, cols, squeeze=False)
     return figure, axes
 
@@ -400,7 +416,7 @@ def circle_figure(model, result: dict) -> Figure:
     r_min, r_max = min(shown) - 0.15 * span, max(shown) + 0.15 * span
     interval = getattr(model, "reference_interval", None)
     wedge = ZOOM_SIDES * interval * feed / radius if interval else math.radians(ZOOM_DEGREES)
-    figure = Figure(figsize=(6.5, 9.5), dpi=DPI)
+    figure = new_figure(6.5, 9.5)
     grid = figure.add_gridspec(3, 1, height_ratios=[4.0, 1.6, 0.7])
     ax = figure.add_subplot(grid[0], projection="polar")
     ax.set_rorigin(r_min - (r_max - r_min))  # a ring: the centre is not r = 0

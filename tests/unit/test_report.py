@@ -9,8 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-from feedtune.report import build_figures, write_report
+from feedtune.report import _png, build_figures, write_report
 from feedtune.report.figures import bode_figure, bode_range, characteristic_frequencies, metric
 from feedtune.validate.models import model_for
 from feedtune.validate.software_servo import ServoModel
@@ -26,6 +27,20 @@ def test_metric_picks_the_entry_whose_options_match():
     assert metric(result, "iae", input="ramp") == 2.0
     assert metric(result, "iae", input="step", time="absolute") == 1.0
     assert metric(result, "overshoot") is None and metric(result, "m_peak") is None
+
+
+def test_a_figure_is_laid_out_and_saved_by_one_renderer():
+    """Each figure is on an Agg canvas of its own: its ``tight_layout`` and the PNG the
+    report saves draw with one renderer, so the tick labels measured (and the log axes'
+    mathtext parsed) for the layout are not measured again for the PNG. A Figure without
+    a canvas lays out and saves on two fresh renderers."""
+    result = json.loads((DATA / "bhatia-1971-hydraulic.result.json").read_text())
+    tuned = {name: t["value"] for name, t in result["tuned"].items()}
+    figure = bode_figure(model_for(result["spec"]["plant"], tuned, result["stability"]), result)
+    assert isinstance(figure.canvas, FigureCanvasAgg)
+    laid_out = figure.canvas.get_renderer()
+    assert _png(figure).startswith(b"\x89PNG")
+    assert figure.canvas.get_renderer() is laid_out
 
 
 def test_a_sampled_bode_ends_at_the_nyquist_frequency():

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import feedtune
+from feedtune.api import Result
 from feedtune.report.figures import bode_figure, metric
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
@@ -44,13 +44,16 @@ GAIN_TOL = 1e-6
 PHASE_TOL_DEG = 1e-6
 
 
-def evaluated(spec: dict) -> tuple[dict, object]:
+def evaluated(spec: dict, tuned) -> tuple[dict, object]:
     """The result at the spec's initial point (every tunable fixed) and its validator
-    model, or skip when the validator has no linear model of the plant."""
+    model, or skip when the validator has no linear model of the plant. The result is the
+    session's ``tuned`` one (tests/conftest.py), as ``feedtune.tune`` writes it: the same
+    fixed specs are evaluated by tests/reference/test_export_control.py (the sampled user
+    drive, ≈ 1 s) when they run in this process."""
     fixed = copy.deepcopy(spec)
     fixed["tunables"] = {name: {"value": t.get("initial", t.get("value", math.sqrt(
         t.get("min", 1.0) * t.get("max", 1.0))))} for name, t in spec["tunables"].items()}
-    result = json.loads(feedtune.tune(fixed).to_json())
+    result = json.loads(Result(tuned(fixed)).to_json())
     tuned = {name: t["value"] for name, t in result["tuned"].items()}
     try:
         model = model_for(result["spec"]["plant"], tuned, result.get("stability"))
@@ -77,8 +80,8 @@ def arrows(figure) -> dict[str, float]:
 
 
 @pytest.mark.parametrize("name", sorted(SPECS))
-def test_bode_figure_marks_both_margins(name):
-    result, model = evaluated(SPECS[name])
+def test_bode_figure_marks_both_margins(name, tuned):
+    result, model = evaluated(SPECS[name], tuned)
     marked = arrows(bode_figure(model, result))
     assert metric(result, "phase_margin") is not None, "a linear loop reports its PM"
     assert "PM" in marked
@@ -93,12 +96,12 @@ def test_bode_figure_marks_both_margins(name):
     assert abs(math.degrees(math.atan2(loop.imag, -loop.real))) < PHASE_TOL_DEG
 
 
-def test_an_infinite_gain_margin_draws_no_arrow_and_says_so():
+def test_an_infinite_gain_margin_draws_no_arrow_and_says_so(tuned):
     """Koren's reference-pulse loop K/(s(1 + sτ)) has no phase crossover: its gain margin
     is +∞ (the result's JSON "Infinity"), so the Bode figure carries no GM arrow and no GM
     line, and its note says ∞ (before: a line at −20·log10(1/|L|) of the band's top, −110 dB,
     labelled as a finite margin)."""
-    result, model = evaluated(SPECS["koren-1979-reference-pulse.json"])
+    result, model = evaluated(SPECS["koren-1979-reference-pulse.json"], tuned)
     assert metric(result, "gain_margin") == math.inf
     figure = bode_figure(model, result)
     assert "GM" not in arrows(figure) and "PM" in arrows(figure)
