@@ -50,7 +50,8 @@ def main() -> None:
 def run(args: list[str] | None = None):
     """Load the command line and run it on ``args`` (None: ``sys.argv[1:]``); its exit code
     (as ``SystemExit.code``: None, a number or a message). An interrupt while it loads is
-    exit status 130."""
+    exit status 130; the cyclic garbage collector is off while it loads
+    (:mod:`feedtune.collector`) and as it was before once ``run`` returns."""
     interrupts.hold()  # released by the command about to run (feedtune.cli.main)
     collector.hold()  # likewise
     pin_blas_threads()
