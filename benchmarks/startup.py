@@ -23,8 +23,12 @@ With ``--instructions`` each command but ``tune`` also runs once under valgrind'
 are printed: a count that the machine's load does not change (CPU times on 2 shared cores
 vary by ±15 % between runs), ≈ 10 s of CPU a run.
 
+With ``--floor`` (and ``--instructions``) it also counts what feedtune's code cannot go
+below: a bare interpreter, pydantic imported and one one-field model built, and that with
+click imported too (the collector off and no teardown, as ``validate`` runs).
+
 Run: ``.venv/bin/python benchmarks/startup.py [--repeat N] [--baseline DIR] [--instructions]
-[--all-examples]``
+[--all-examples] [--floor]``
 """
 
 from __future__ import annotations
@@ -52,6 +56,13 @@ CASES = {  # name: (arguments after `python -m feedtune`, issue 15's target [s] 
     "validate (sampled user)": (["validate", SAMPLED_USER], 0.3),
     "tune (Koren's example)": (["tune", EXAMPLE, "-q"], None),
 }
+#: ``--floor``: the dependencies alone, as ``feedtune validate`` loads them (collector off,
+#: no interpreter teardown)
+_PYDANTIC_MODEL = ("import gc, os; gc.disable(); from pydantic import BaseModel; "
+                   "M = type('M', (BaseModel,), {'__annotations__': {'x': float}}); ")
+FLOOR = {"a bare interpreter": "pass",
+         "pydantic, one model": _PYDANTIC_MODEL + "os._exit(0)",
+         "pydantic, one model, click": _PYDANTIC_MODEL + "import click; os._exit(0)"}
 #: ``--all-examples``: ``--help`` and ``validate`` of every bundled example
 ALL_EXAMPLES = {"--help": CASES["--help"],
                 **{f"validate {path.stem}": (["validate", str(path)], 0.3)
@@ -71,10 +82,12 @@ def wall(command: list[str], cwd: Path = REPO) -> tuple[float, float]:
 
 
 def instructions(command: list[str], cwd: Path = REPO) -> int:
-    """Instructions one run of ``command`` in ``cwd`` executes (valgrind's callgrind)."""
+    """Instructions one run of ``command`` in ``cwd`` executes (valgrind's callgrind), with
+    pydantic's plugins off as the ``feedtune`` command has them."""
     proc = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
                            *command], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                          text=True, check=True, cwd=cwd, env={**ENV, "PYTHONHASHSEED": "0"})
+                          text=True, check=True, cwd=cwd,
+                          env={"PYDANTIC_DISABLE_PLUGINS": "__all__", **ENV, "PYTHONHASHSEED": "0"})
     return int(re.search(r"refs:\s+([\d,]+)", proc.stderr).group(1).replace(",", ""))
 
 
@@ -100,6 +113,8 @@ def main() -> None:
                         help="also count each command's instructions (valgrind)")
     parser.add_argument("--all-examples", action="store_true",
                         help="validate every bundled example (and --help), not tune")
+    parser.add_argument("--floor", action="store_true",
+                        help="with --instructions: also count pydantic's and click's floor")
     args = parser.parse_args()
     cases = ALL_EXAMPLES if args.all_examples else CASES
     width = max(len(name) for name in cases)
@@ -142,6 +157,11 @@ def main() -> None:
                 tree = instructions(command, args.baseline)
                 line += f" {tree:>14,} {count / tree:>6.3f}"
             print(line)
+    if args.instructions and args.floor:
+        print("\nthe floor (the dependencies alone, PYDANTIC_DISABLE_PLUGINS=__all__):")
+        for name, code in FLOOR.items():
+            count = instructions([sys.executable, "-c", code])
+            print(f"  {name:<{width - 2}} {count:>14,}")
     print("\nslowest imports under feedtune.schema.spec (cumulative, one run):")
     for seconds, module in heaviest_imports("feedtune.schema.spec"):
         print(f"  {seconds:6.3f} s  {module.strip()}")

@@ -11,7 +11,7 @@ import os
 import sys
 import threading
 
-from feedtune import interrupts
+from feedtune import collector, interrupts
 
 #: thread-count variables of the BLAS libraries numpy and scipy may load
 BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
@@ -50,8 +50,10 @@ def main() -> None:
 def run(args: list[str] | None = None):
     """Load the command line and run it on ``args`` (None: ``sys.argv[1:]``); its exit code
     (as ``SystemExit.code``: None, a number or a message). An interrupt while it loads is
-    exit status 130."""
+    exit status 130; the cyclic garbage collector is off while it loads
+    (:mod:`feedtune.collector`) and as it was before once ``run`` returns."""
     interrupts.hold()  # released by the command about to run (feedtune.cli.main)
+    collector.hold()  # likewise
     pin_blas_threads()
     skip_pydantic_plugins()
     from feedtune.cli import main as command_line
@@ -62,6 +64,7 @@ def run(args: list[str] | None = None):
         return stop.code
     finally:
         interrupts.release()  # if no command ran (--help, a usage error)
+        collector.release()
     return 0
 
 

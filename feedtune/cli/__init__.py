@@ -20,7 +20,7 @@ import sys
 
 import click
 
-from feedtune import __version__, interrupts
+from feedtune import __version__, collector, interrupts
 from feedtune.cli.common import EPILOG
 from feedtune.lazy import Loaded
 
@@ -55,6 +55,7 @@ def main() -> None:
     """
     with contextlib.suppress(AttributeError, ValueError):
         sys.stderr.reconfigure(errors="backslashreplace")
+    collector.release()
     if click.get_current_context().invoked_subcommand != "batch":  # batch: its _Stop does
         interrupts.release()
 

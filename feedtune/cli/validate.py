@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from feedtune import collector
 from feedtune.cli.common import EPILOG, err, parse
 
 
@@ -18,5 +19,6 @@ def validate(spec: str) -> None:
     what `tune` refuses. Prints `ok: NAME` to stderr, or one
     `error: SPEC: /json/pointer: message` line per problem.
     """
-    parsed = parse(spec)
+    with collector.paused():  # one spec's models, kept until the process ends
+        parsed = parse(spec)
     err(f"ok: {parsed.name}")  # a name holds printable characters only
