@@ -71,12 +71,14 @@ TEST_GC_THRESHOLD = 10_000
 #: the libraries the test processes and their subprocesses import, whose bytecode the
 #: process that starts the run writes (tests/bytecode_cache.py), in two groups imported side
 #: by side that take about as long each (≈ 4 and ≈ 6 s of CPU when compiling, load 5); the
-#: second ends with what a Dask scheduler and worker import as they start their HTTP
-#: servers (distributed's ``http.routes``, but its proxy, which logs at import)
+#: second ends with the backend the reports draw with and what a Dask scheduler and worker
+#: import as they start their HTTP servers (distributed's ``http.routes``, but its proxy,
+#: which logs at import)
 LIBRARIES = (
     ("feedtune.problem", "casadi", "scipy.signal", "scipy.optimize", "scipy.stats", "control",
      "cvxpy"),
     ("feedtune.cli", "pydantic", "distributed", "dask", "hypothesis", "matplotlib.pyplot",
+     "matplotlib.backends.backend_agg",
      "distributed.http.scheduler.info", "distributed.http.scheduler.json",
      "distributed.http.scheduler.prometheus", "distributed.http.worker.prometheus",
      "distributed.http.health", "distributed.http.statics", "tornado.platform.asyncio",
