@@ -2,7 +2,7 @@
 starts the run, before the workers start.
 
 The README's test command installs without ``--compile-bytecode``: uv would compile all
-≈ 5 300 modules of the environment (≈ 22 s of CPU, ≈ 12 s of a fresh clone's wall on 2
+≈ 5 300 modules of the environment (16–22 s of CPU, ≈ 12 s of wall on 2 quiet
 cores), of which the suite's processes import ≈ 1 700. With ``PYTHONDONTWRITEBYTECODE`` set (this
 suite's CI, and the tests' own subprocesses) nothing would then write the bytecode of what
 is imported, and every xdist worker, ``python -m feedtune`` and batch or Dask worker would
@@ -17,9 +17,10 @@ them before any conftest). The source files whose bytecode is then on disk are r
 pytest's cache (``.pytest_cache``); a later run whose recorded files all have their bytecode
 does nothing (≈ 2 000 ``stat`` calls, 0.01 s of CPU). Without pytest's cache
 (``-p no:cacheprovider``) or when a process's own setting already writes bytecode, nothing
-is done. The cost, fresh environment, load 10–22: 10.4–11.2 s of CPU in the two forked
-processes (≈ 4 s of it the imports themselves), against uv's ≈ 22 s (benchmarks/README.md,
-"Branch h-tinst"). Bytecode that cannot
+is done. The cost in a fresh environment: 6.9–7.2 s of CPU in the two forked processes,
+≈ 4.2 s of wall, at load 2.5 (10.4–11.2 s of CPU at load 10–22; ≈ 3–4 s of it the imports
+themselves), against uv's 16–17 s of CPU and ≈ 12 s of wall (benchmarks/README.md, "Branch
+h-tinst"). Bytecode that cannot
 be written (a read-only installation) is left as it is: the modules are compiled in memory
 at each import, as before.
 
