@@ -9,9 +9,12 @@ feedtune's bytecode is written once, before the tests start (:func:`pytest_confi
 suite starts many ``python -m feedtune`` processes and batch workers, and with
 ``pip install -e`` nothing else writes it when ``PYTHONDONTWRITEBYTECODE`` is set (as the
 tests set it for their subprocesses, and as many CI images do), so each of them compiled
-feedtune's sources again (≈ 0.1 s of CPU a process; issue 15). So is pytest's
-assertion-rewritten code of the test modules and the plugins' modules (tests/rewrite_cache.py), which every xdist
-worker rewrote for itself.
+feedtune's sources again (≈ 0.1 s of CPU a process; issue 15). So is the bytecode of the
+libraries the tests import (LIBRARIES, tests/bytecode_cache.py): the README's test command
+installs without ``--compile-bytecode``, which compiled all ≈ 5 300 modules of the
+environment (≈ 22 s of CPU) for the ≈ 1 700 that the tests import. So is pytest's
+assertion-rewritten code of the test modules and the plugins' modules
+(tests/rewrite_cache.py), which every xdist worker rewrote for itself.
 
 The cyclic garbage collector is off while a process imports the test modules and collects
 their tests, and runs the tests with a larger first generation (TEST_GC_THRESHOLD): both
@@ -39,6 +42,7 @@ from pathlib import Path
 
 import pytest
 
+import bytecode_cache
 import feedtune
 import rewrite_cache
 from feedtune.__main__ import pin_blas_threads
@@ -64,15 +68,35 @@ gc.disable()
 TEST_GC_THRESHOLD = 10_000
 
 
+#: the libraries the test processes and their subprocesses import, whose bytecode the
+#: process that starts the run writes (tests/bytecode_cache.py), in two groups imported side
+#: by side that take about as long each (≈ 4 and ≈ 6 s of CPU when compiling, load 5); the
+#: second ends with the backend the reports draw with and what a Dask scheduler and worker
+#: import as they start their HTTP servers (distributed's ``http.routes``, but its proxy,
+#: which logs at import)
+LIBRARIES = (
+    ("feedtune.problem", "casadi", "scipy.signal", "scipy.optimize", "scipy.stats", "control",
+     "cvxpy"),
+    ("feedtune.cli", "pydantic", "distributed", "dask", "hypothesis", "matplotlib.pyplot",
+     "matplotlib.backends.backend_agg",
+     "distributed.http.scheduler.info", "distributed.http.scheduler.json",
+     "distributed.http.scheduler.prometheus", "distributed.http.worker.prometheus",
+     "distributed.http.health", "distributed.http.statics", "tornado.platform.asyncio",
+     "importlib_metadata._adapters"),
+)
+
+
 def pytest_configure(config):
     """Byte-compile the feedtune package in place (its ``__pycache__``, as an import or
-    ``pip install`` would), and write pytest's rewritten code of the run's test modules
+    ``pip install`` would), the libraries the tests import (LIBRARIES,
+    tests/bytecode_cache.py) and write pytest's rewritten code of the run's test modules
     (tests/rewrite_cache.py), once: in the process that starts the run, not in each xdist
     worker. A read-only installation is left as it is."""
     if hasattr(config, "workerinput"):  # an xdist worker: the controller did it
         return
-    compileall.compile_dir(Path(feedtune.__file__).parent, quiet=2)
-    rewrite_cache.prewrite(config, plugins=True)
+    with bytecode_cache.writing(config, LIBRARIES):
+        compileall.compile_dir(Path(feedtune.__file__).parent, quiet=2)
+        rewrite_cache.prewrite(config, plugins=True)
 
 
 #: files whose tests take far more CPU than their number suggests (≈ 50–100 s each on one
