@@ -597,9 +597,10 @@ def summary_lines(result: TuneResult) -> list[str]:
         text += f" by the Nyquist count on the measured {_g(low)}–{_g(high)} [rad/s]"
     lines.append(f"stability: {text}")
     s = result.solver
-    method = {"ipopt": "IPOPT", "brent": "Brent"}.get(s.method, s.method.replace("_", " "))
-    unit = {"differential_evolution": "generations", "convex": "linearisations"}.get(
-        s.method, "iterations")
+    method = {"ipopt": "IPOPT", "brent": "Brent", "root": "root search"}.get(
+        s.method, s.method.replace("_", " "))
+    unit = {"differential_evolution": "generations", "convex": "linearisations",
+            "root": "evaluations of e"}.get(s.method, "iterations")
     starts = "" if s.method == "convex" else f", {len(s.starts)} start(s)"  # one path, no starts
     lines.append(f"solver: {method} {s.return_status}, {s.iterations} {unit}{starts}; "
                  f"build {s.build_time:.3f} s, solve {s.solve_time:.3f} s")

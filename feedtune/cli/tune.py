@@ -24,7 +24,9 @@ def _start_text(start) -> str:
         return "nothing to solve (every tunable fixed); evaluated"
     objective = "-" if start.objective is None else fmt(start.objective)
     feasible = "" if start.feasible else " but violates a constraint or stability"
-    return (f"{start.status}{feasible}, objective {objective}, {start.iterations} iterations, "
+    # a root search counts its evaluations of the signed e, not iterations
+    unit = "evaluations of e" if start.method == "root" else "iterations"
+    return (f"{start.status}{feasible}, objective {objective}, {start.iterations} {unit}, "
             f"{start.solve_time:.3f} s")
 
 

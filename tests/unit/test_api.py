@@ -355,3 +355,20 @@ def test_a_callers_own_frozen_objects_stay_frozen():
         assert not any(o is kept for o in gc.get_objects())  # still frozen: not listed
     finally:
         gc.unfreeze()
+
+
+def test_a_root_search_is_summarised_by_its_evaluations_of_e(tuned):
+    """Koren's reference-pulse example (one gain, one |e| minimised) is solved by the root
+    search (feedtune/tuner/roots.py): the summary and each start's line name it and count
+    evaluations of the signed e, which are not IPOPT iterations."""
+    from feedtune.api import summary_lines
+    from feedtune.cli.tune import _start_text
+
+    spec = json.loads((REPO / "examples" / "koren-1979-reference-pulse.json").read_text(encoding="utf-8"))
+    result = tuned(spec)
+    assert result.solver.method == "root"
+    line = summary_lines(result)[-1]
+    assert line.startswith("solver: root search ")
+    assert f"{result.solver.iterations} evaluations of e" in line
+    root_start = next(s for s in result.solver.starts if s.method == "root")
+    assert f"{root_start.iterations} evaluations of e" in _start_text(root_start)
