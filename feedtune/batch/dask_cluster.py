@@ -44,6 +44,9 @@ WORKER_TIMEOUT = 60.0
 #: how long a failed fetch waits for the client to notice a lost scheduler [s] (a killed
 #: scheduler's connection closes at once; the client's state follows in milliseconds)
 SCHEDULER_LOSS_WAIT = 2.0
+#: Dask's ``Client.status`` while it is connected to its scheduler (Dask's word, not one of
+#: feedtune's statuses, feedtune/schema/status.py)
+DASK_CLIENT_RUNNING = "running"
 
 
 def scheduler_lost(client, wait: float = SCHEDULER_LOSS_WAIT) -> bool:
@@ -53,7 +56,7 @@ def scheduler_lost(client, wait: float = SCHEDULER_LOSS_WAIT) -> bool:
     scheduler killed as a batch fetched a result, 1 of ≈ 10 runs got that error instead of
     ``CancelledError``, and the spec was charged ``error``)."""
     deadline = time.monotonic() + wait
-    while client.status == "running":
+    while client.status == DASK_CLIENT_RUNNING:
         if time.monotonic() >= deadline:
             return False
         time.sleep(0.01)
