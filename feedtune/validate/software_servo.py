@@ -39,7 +39,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numpy.linalg import _umath_linalg
 from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
@@ -69,21 +68,6 @@ MAX_BLOCKS = 200_000
 #: at most this many Newton steps for a zero of the error inside a sample (it converges
 #: monotonically, quadratically near the zero: ≈ 5 steps)
 NEWTON_STEPS = 60
-
-
-def _raise_singular(err, flag):
-    raise np.linalg.LinAlgError("Singular matrix")
-
-
-def _solve_one(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.linalg.solve(a, b)`` for one complex square ``a`` and a real column ``b`` (2-D):
-    the gufunc it calls (LAPACK's ``zgesv``, numpy's ``_umath_linalg.solve`` with the
-    signature and error state ``solve`` sets: a singular ``a`` raises LinAlgError), so the
-    same bits, without ≈ 3.5 µs of ``solve``'s argument checks and type promotion a call
-    (the one-ω calls of brentq and bounded Brent: ≈ 35 a sampled batch spec)."""
-    with np.errstate(call=_raise_singular, invalid="call", over="ignore", divide="ignore",
-                     under="ignore"):
-        return _umath_linalg.solve(a, b, signature="DD->D")
 
 
 @dataclass(frozen=True)
@@ -473,7 +457,7 @@ class ServoModel:
         phi, gamma, _, eye = self._resolvent_parts
         y = omega * self.period
         z = complex(math.cos(y), math.sin(y))
-        position = complex(_solve_one(z * eye - phi, gamma)[0, 0])
+        position = complex(np.linalg.solve(z * eye - phi, gamma)[0, 0])
         if self.delay == 0:
             return np.complex128(self.gain * position)
         return np.multiply(self.gain * (1 / z), position)

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from feedtune.validate.software_servo import ServoModel, _solve_one
+from feedtune.validate.software_servo import ServoModel
 
 
 def _stacked(model: ServoModel, omega: float) -> np.ndarray:
@@ -109,37 +109,3 @@ def test_the_frequency_metrics_one_frequency_response_is_lapacks_to_rounding(gai
             value = sampled_frequency._gain_squared(model, float(omega))
             grid = (np.abs(model.complementary(float(omega)) / model.dc_gain()) ** 2)[0]
             assert abs(value - grid) <= 1e-14 * value
-
-
-def test_the_one_system_solve_is_numpys_solve_to_the_bit():
-    """_solve_one (numpy's gufunc without ``np.linalg.solve``'s checks) gives
-    ``np.linalg.solve``'s bits on 400 random complex systems zI − Φ (2 and 3 states, z on
-    the unit circle as the one-ω calls build them) with a real column Γ."""
-    rng = np.random.default_rng(2026)
-    for n in (2, 3):
-        for _ in range(200):
-            phi, gamma = rng.normal(size=(n, n)), rng.normal(size=(n, 1))
-            theta = rng.uniform(0.0, math.pi)
-            a = complex(math.cos(theta), math.sin(theta)) * np.eye(n) - phi
-            got = _solve_one(a, gamma)
-            assert got.dtype == np.complex128 and got.shape == (n, 1)
-            assert got.tobytes() == np.linalg.solve(a, gamma).tobytes()
-
-
-def test_the_one_system_solve_raises_on_a_singular_matrix_as_numpy_does():
-    with pytest.raises(np.linalg.LinAlgError):
-        _solve_one(np.zeros((2, 2), dtype=complex), np.ones((2, 1)))
-
-
-def test_open_loop_at_does_not_go_through_numpys_solve(monkeypatch):
-    """The one-ω calls (≈ 35 a sampled batch spec) skip ``np.linalg.solve``'s Python
-    checks (≈ 3.5 µs a call, benchmarks/README.md, h-bx2); the value is the array path's
-    to the bit (above)."""
-    model = ServoModel(40.0, 0.01, 1 / 128, delay=1)
-    expected = model.open_loop(3.0)[0]
-
-    def refused(*args, **kwargs):
-        raise AssertionError("np.linalg.solve called")
-
-    monkeypatch.setattr(np.linalg, "solve", refused)
-    assert model.open_loop_at(3.0).tobytes() == expected.tobytes()
