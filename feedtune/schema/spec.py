@@ -427,16 +427,19 @@ class Spec(SpecModel):
     def sha256(self) -> str:
         """SHA-256 of :meth:`canonical_json`, hex. The last spec's is kept (a frozen model's
         hash does not change): a batch spec is hashed by the batch, to skip a solved one,
-        and again for its result's provenance (≈ 35 µs each)."""
-        if _last_hashed[0] is self:
-            return _last_hashed[1]
+        and again for its result's provenance (≈ 35 µs each). The pair is one tuple, read
+        and replaced whole: threads (a Dask worker's) never see one spec's hash with another."""
+        global _last_hashed
+        spec, digest = _last_hashed
+        if spec is self:
+            return digest
         digest = hashlib.sha256(self.canonical_json().encode()).hexdigest()
-        _last_hashed[:] = [self, digest]
+        _last_hashed = (self, digest)
         return digest
 
 
 #: (the last Spec whose :meth:`Spec.sha256` was computed, its hash)
-_last_hashed: list = [None, None]
+_last_hashed: tuple = (None, None)
 
 
 # -- strict JSON -------------------------------------------------------------------------

@@ -442,3 +442,26 @@ def test_a_spec_hashed_again_is_not_dumped_again_and_a_changed_copy_has_its_own_
     renamed = spec.model_copy(update={"name": "servo-2"})
     assert renamed.sha256() != first and dumped == [renamed]
     assert spec.sha256() == first and dumped == [renamed, spec]
+
+
+def test_specs_hashed_in_threads_each_get_their_own_hash():
+    """A Dask worker solves specs in threads: the kept hash never answers for another spec."""
+    import threading
+
+    specs = [parse_spec({**json.loads(EXAMPLE.read_text()), "name": f"axis-{i}"})
+             for i in range(4)]
+    expected = [spec.canonical_json() for spec in specs]
+    wrong = []
+
+    def hash_often(spec, canonical):
+        import hashlib
+
+        digest = hashlib.sha256(canonical.encode()).hexdigest()
+        wrong.extend(spec.name for _ in range(300) if spec.sha256() != digest)
+
+    threads = [threading.Thread(target=hash_often, args=pair) for pair in zip(specs, expected)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert wrong == []
