@@ -40,6 +40,14 @@ def tuner_loaded(data: bytes, existing):
                             f", warmed up: {job._warmed}")
 
 
+def frozen_objects(data: bytes, existing):
+    """Say whether the worker's objects from before its first spec (the imports, the
+    warm-up's) were out of the garbage collector's scans (``gc.freeze``) when it started."""
+    import gc
+
+    return Outcome("error", f"objects frozen before the spec: {gc.get_freeze_count() > 10_000}")
+
+
 #: set by a test in its own process; a worker forked from it sees the value, a spawned one
 #: imports this module afresh and sees None
 PARENT_MARK = None

@@ -489,6 +489,18 @@ def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(tmp_
         "tuner loaded before the spec: True, warmed up: True"] * 2
 
 
+@pytest.mark.parametrize("start", ["fork", "spawn"])
+def test_a_worker_freezes_what_it_loaded_before_its_first_spec(tmp_path, start):
+    """Issue 15: the imports and the warm-up's objects (≈ 74 000) are left out of a worker's
+    garbage collections, which walked them at every full collection and, forked, copied the
+    pages it shares with the batch (benchmarks/README.md, "Branch h-bx1")."""
+    write_specs(tmp_path / "specs", 2)
+    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
+                        LocalExecutor(1, job=batch_jobs.frozen_objects, start=start))
+    assert [row["message"] for row in outcome.document["rows"]] == [
+        "objects frozen before the spec: True"] * 2
+
+
 def test_workers_are_forked_from_this_process_with_what_it_loaded(tmp_path, monkeypatch):
     """Issue 15: a worker starts as a copy of the batch's process (the tuner imported once,
     here), not as a fresh interpreter importing CasADi and scipy again (≈ 0.9 s CPU each)."""

@@ -107,3 +107,31 @@ def test_a_remembered_value_serves_only_its_own_loop_and_options():
     assert float(ca.evalf(fns["radial_error"](loop))) == pytest.approx(
         _one_by_one(metric.evaluate(plant.loop(point, box), options)), rel=0, abs=0)
     assert float(ca.evalf(fns["radial_error"](seen))) == 123.0
+
+
+def test_the_default_option_variants_are_built_once_and_equal_a_fresh_build(monkeypatch):
+    """Every metric's default options and their single-choice variants are the same for
+    every spec: built once per options class (``_default_variants``), equal to a fresh
+    ``_variants(Options())``, and the same objects in two specs' report sets."""
+    import feedtune.problem as problem
+    from feedtune.objectives import METRICS
+
+    _, _, sampled = _setup("koren-1979-sampled-data.json")
+    built = []
+    monkeypatch.setattr(problem, "_variants", lambda default: built.append(default) or [default])
+    _, _, pulse = _setup("koren-1979-reference-pulse.json")
+    assert built == []  # nothing rebuilt for the second spec
+    monkeypatch.undo()
+    shared = [key for key in sampled if key in pulse and key in METRICS
+              and problem._default_variants(METRICS[key].Options) is not None]
+    assert len(shared) > 10
+    for key in shared:
+        assert sampled[key][1] is pulse[key][1]
+        assert sampled[key][1] == problem._variants(METRICS[key].Options())[0]
+    for cls in {type(metric) for metric, _ in sampled.values()}:
+        try:
+            fresh = problem._variants(cls.Options())
+        except ValueError:  # options without defaults (a circle)
+            fresh = None
+        cached = problem._default_variants(cls.Options)
+        assert (cached is None) if fresh is None else list(cached) == fresh

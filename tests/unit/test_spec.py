@@ -422,3 +422,46 @@ def test_a_term_builds_only_its_metrics_model_and_validates_as_the_whole_union(b
             expected = _errors(whole.validate_python, item, strict)
             assert _errors(terms.validate_python, item, strict) == expected, (item, strict)
     assert sorted(built) == sorted(METRICS)  # the unknown tags built the whole union
+
+
+def test_a_spec_hashed_again_is_not_dumped_again_and_a_changed_copy_has_its_own_hash(
+        monkeypatch):
+    """A batch spec is hashed to skip a solved one and again for its result's provenance:
+    the second time is the kept hash; a copy (``model_copy(update=...)``) is another spec."""
+    import hashlib
+
+    from feedtune.schema.spec import Spec
+
+    spec = parse_spec(json.loads(EXAMPLE.read_text()))
+    first = spec.sha256()
+    assert first == hashlib.sha256(spec.canonical_json().encode()).hexdigest()
+    dumped = []
+    canonical = Spec.canonical_json
+    monkeypatch.setattr(Spec, "canonical_json", lambda self: dumped.append(self) or canonical(self))
+    assert spec.sha256() == first and dumped == []
+    renamed = spec.model_copy(update={"name": "servo-2"})
+    assert renamed.sha256() != first and dumped == [renamed]
+    assert spec.sha256() == first and dumped == [renamed, spec]
+
+
+def test_specs_hashed_in_threads_each_get_their_own_hash():
+    """A Dask worker solves specs in threads: the kept hash never answers for another spec."""
+    import threading
+
+    specs = [parse_spec({**json.loads(EXAMPLE.read_text()), "name": f"axis-{i}"})
+             for i in range(4)]
+    expected = [spec.canonical_json() for spec in specs]
+    wrong = []
+
+    def hash_often(spec, canonical):
+        import hashlib
+
+        digest = hashlib.sha256(canonical.encode()).hexdigest()
+        wrong.extend(spec.name for _ in range(300) if spec.sha256() != digest)
+
+    threads = [threading.Thread(target=hash_often, args=pair) for pair in zip(specs, expected)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert wrong == []
