@@ -131,19 +131,6 @@ class _Run(NamedTuple):
     method: str = "ipopt"
 
 
-def matrix_numbers(loop, matrix) -> np.ndarray:
-    """The numbers of one of ``loop``'s stability matrices (a loop of numbers) as a float
-    array of its shape: the state matrix's from :meth:`numeric_state_matrix` (evaluated
-    once per loop, and read by the pole metrics and the spectral radius too: the numbers
-    of ``casadi.evalf``, the same evaluation), any other by :func:`feedtune.expr.to_array`.
-    Saves a Function built for one ``evalf`` (≈ 60-100 µs) a tuned design."""
-    if hasattr(loop, "numeric_state_matrix") and matrix is getattr(loop, "state_matrix", None):
-        numbers = loop.numeric_state_matrix()
-        if numbers is not None:
-            return numbers
-    return to_array(matrix)
-
-
 class Problem:
     """The NLP, built once (or taken from the caches); :meth:`solve` runs the multistart.
 
@@ -355,7 +342,7 @@ class Problem:
                                     [t.group for t in self.objective_terms])
         bounds = [value_of(b.value(loop)) for b in self.bounds]
         conditions = np.array([to_float(c) for c in loop.stability_conditions()])
-        matrices = {name: matrix_numbers(loop, m)
+        matrices = {name: to_array(m)
                     for name, m in loop.stability_matrices().items()}
         reports = {key: value_of(fn(loop)) for key, fn in self.reports.items()}
         return objective, bounds, conditions, matrices, reports

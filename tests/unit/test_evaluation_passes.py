@@ -157,27 +157,3 @@ def test_a_replayed_peaks_last_operations_on_floats_have_the_dm_operations_bits(
         got = frequency._peak_numbers(top, u, at_zero)  # main: no such function
         assert all(isinstance(v, ca.DM) for v in got)
         assert _bits(got) == _bits(expected)
-
-
-def test_a_tuned_designs_state_matrix_is_read_from_the_loops_numbers_not_a_second_evalf(
-        monkeypatch):
-    """``matrix_numbers`` (the result's stability matrices) takes the state matrix from the
-    loop's numbers (``numeric_state_matrix``, evaluated once for the pole metrics too)
-    with ``casadi.evalf``'s bits, and builds no Function of its own for it."""
-    from feedtune.tuner import nlp
-
-    checked = 0
-    for kind in ("sampled", "pulse"):
-        for loop in example_loops(kind, 3, seed=61):
-            for name, matrix in loop.stability_matrices().items():
-                expected = np.array(ca.evalf(ca.MX(matrix)), dtype=float)
-                evaluated = []
-                monkeypatch.setattr(nlp, "to_array",
-                                    lambda m: evaluated.append(m) or np.array(ca.evalf(m)))
-                got = nlp.matrix_numbers(loop, matrix)
-                monkeypatch.undo()
-                assert got.shape == expected.shape and _bits(got) == _bits(expected)
-                if name == "closed_loop":
-                    assert evaluated == []  # no evalf: the loop's own numbers
-                    checked += 1
-    assert checked == 6
