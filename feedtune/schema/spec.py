@@ -425,21 +425,7 @@ class Spec(SpecModel):
         return json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
 
     def sha256(self) -> str:
-        """SHA-256 of :meth:`canonical_json`, hex. The last spec's is kept (a frozen model's
-        hash does not change): a batch spec is hashed by the batch, to skip a solved one,
-        and again for its result's provenance (≈ 35 µs each). The pair is one tuple, read
-        and replaced whole: threads (a Dask worker's) never see one spec's hash with another."""
-        global _last_hashed
-        spec, digest = _last_hashed
-        if spec is self:
-            return digest
-        digest = hashlib.sha256(self.canonical_json().encode()).hexdigest()
-        _last_hashed = (self, digest)
-        return digest
-
-
-#: (the last Spec whose :meth:`Spec.sha256` was computed, its hash)
-_last_hashed: tuple = (None, None)
+        return hashlib.sha256(self.canonical_json().encode()).hexdigest()
 
 
 # -- strict JSON -------------------------------------------------------------------------
@@ -522,28 +508,12 @@ def load_json(data: bytes | str) -> Any:
         raise SpecError([("", f"JSON nested deeper than {MAX_JSON_DEPTH} levels")]) from None
     except ValueError as exc:  # e.g. an integer of more digits than Python converts
         raise SpecError([("", f"invalid JSON: {exc}")]) from None
-    if _plain(value, MAX_JSON_DEPTH):  # the usual spec: no pointers to build
-        return value
     if _depth(value, MAX_JSON_DEPTH) > MAX_JSON_DEPTH:
         raise SpecError([("", f"JSON nested deeper than {MAX_JSON_DEPTH} levels")])
     errors = _strictness_errors(value)
     if errors:
         raise SpecError(errors)
     return value
-
-
-def _plain(value: Any, limit: int, level: int = 0) -> bool:
-    """Whether a parsed document is within ``limit`` levels (:func:`_depth`) and holds no
-    NaN/Infinity and no duplicate key (:func:`_strictness_errors`): one walk without the
-    pointers those build for their messages (≈ 27 a spec)."""
-    if level >= limit:
-        return not isinstance(value, (dict, list, _NonFinite))
-    if isinstance(value, dict):
-        return (not getattr(value, "duplicates", ())
-                and all(_plain(item, limit, level + 1) for item in value.values()))
-    if isinstance(value, list):
-        return all(_plain(item, limit, level + 1) for item in value)
-    return not isinstance(value, _NonFinite)
 
 
 def _escape(token) -> str:

@@ -46,6 +46,10 @@ from typing import Callable
 
 import numpy as np
 
+# a boundary's bisection width and the step into a run from its end [1] in z: the scalar
+# search's (a relative 1e-10 and 1e-8 of the tunable)
+from feedtune.tuner.scalar import BOUNDARY_XTOL, EDGE_STEP
+
 #: points evenly spaced in z over the box, besides the starts and the box's ends: h-bst5
 #: measured 17 (benchmarks/README.md): with the starts and ends alone the scalar search
 #: missed a sign change on 11 of 40 specs, with 17 more none of the 60
@@ -54,16 +58,9 @@ GRID_POINTS = 17
 #: spread of ln x between starts reaching one optimum (median 3e-12, 90 % 3e-10,
 #: benchmarks/README.md, h-bst5) and above rounding of z ≈ 5 (≈ 1e-15)
 ROOT_XTOL = 1e-14
-#: bisection of a boundary that a stability or settling condition shares with a bound
-#: stops at this width [1] in z (a relative 1e-10 of the tunable), as the scalar search's
-#: BOUNDARY_XTOL
-BOUNDARY_XTOL = 1e-10
 #: step [1] in z from a start that decides which way is downhill (a relative 1e-6 of the
 #: tunable: |e| changes over it by |e'|·1e-6, far above its rounding)
 SLOPE_STEP = 1e-6
-#: step [1] in z (a relative 1e-8 of the tunable) into the run from an end whose |e| is the
-#: run's smallest: |e| must rise over it (as feedtune.tuner.scalar.EDGE_STEP)
-EDGE_STEP = 1e-8
 
 
 def applies(problem) -> bool:

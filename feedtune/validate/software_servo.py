@@ -822,6 +822,8 @@ def resolvent_position(phi: list, gamma: list, z):
     array of them (numpy's arithmetic then, Python's for one)."""
     if len(gamma) == 1:
         return gamma[0] / (z - phi[0][0])
+    if len(gamma) != 2:
+        raise ValueError(f"Cramer's rule here is written for 1 or 2 drive states, not {len(gamma)}")
     return (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
             / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
 

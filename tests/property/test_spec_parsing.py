@@ -464,31 +464,3 @@ def test_a_utf8_byte_order_mark_is_accepted():
     """Windows editors start UTF-8 files with a BOM; the spec is the same without it."""
     assert parse_spec(b"\xef\xbb\xbf" + EXAMPLE_BYTES) == parse_spec(EXAMPLE_BYTES)
     assert parse_spec("\ufeff" + EXAMPLE_BYTES.decode()) == parse_spec(EXAMPLE_BYTES)
-
-
-_JSON_TEXT = st.recursive(
-    st.sampled_from(["1", "NaN", "-Infinity", "\"a\"", "null", "[]", "{}"]),
-    lambda inner: st.one_of(
-        st.lists(inner, max_size=3).map(lambda items: "[" + ",".join(items) + "]"),
-        st.lists(st.tuples(st.sampled_from("abc"), inner), max_size=3).map(
-            lambda pairs: "{" + ",".join(f'"{k}":{v}' for k, v in pairs) + "}")),
-    max_leaves=12)
-
-
-@settings(max_examples=300, deadline=None)
-@given(text=_JSON_TEXT, wrap=st.integers(0, MAX_JSON_DEPTH + 1))
-@example(text="1", wrap=MAX_JSON_DEPTH)
-@example(text="[]", wrap=MAX_JSON_DEPTH - 1)
-@example(text="[]", wrap=MAX_JSON_DEPTH)
-@example(text="{\"a\":1,\"a\":2}", wrap=0)
-def test_the_one_walk_of_a_plain_document_agrees_with_the_depth_and_strictness_checks(text, wrap):
-    """``_plain`` (one walk, no pointers: a usual spec's path through ``load_json``) is true
-    exactly when ``_depth`` is within the limit and ``_strictness_errors`` finds nothing, so
-    a document it passes is one the full checks pass, at the depth limit's either side."""
-    from feedtune.schema import spec as module
-
-    value = json.loads("[" * wrap + text + "]" * wrap,
-                       parse_constant=module._NonFinite, object_pairs_hook=module._object)
-    full = (module._depth(value, MAX_JSON_DEPTH) <= MAX_JSON_DEPTH
-            and not module._strictness_errors(value))
-    assert module._plain(value, MAX_JSON_DEPTH) == full

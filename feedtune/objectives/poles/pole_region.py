@@ -9,6 +9,7 @@ limits neither measure. The tests are the Hurwitz (Liénard–Chipart) condition
 
 from __future__ import annotations
 
+import functools
 import math
 
 from feedtune.expr import Factors, PoleRegion, is_symbolic, to_float
@@ -86,21 +87,6 @@ def damping_of(poles) -> float:
     return float(np.min(zeta))
 
 
-def _once(build):
-    """``build()`` at the first call, the same result at every later one: the balanced
-    polynomial the conditions and factor rows share, built when the NLP first asks for a
-    row (issue 15: the region of a tuned design's report reads its poles only; ≈ 0.3 ms of
-    MX graph a report otherwise). The same expressions as built at once."""
-    kept = []
-
-    def get():
-        if not kept:
-            kept.append(build())
-        return kept[0]
-
-    return get
-
-
 def _balanced(poly: list) -> tuple[list, object]:
     """(p(ω0·x)/ω0^n, ω0) for a monic p (highest power first), ω0 = |p(0)|^(1/n) [rad/s]:
     roots of geometric mean size 1, so the tests' minors stay O(1)…O(10⁴) for loops whose
@@ -151,7 +137,9 @@ def decay_conditions(loop: Loop):
             return routh_column(linalg.bilinear_to_continuous(scaled))
 
         return conditions
-    basis = _once(lambda: _balanced(poly))
+    # built when the NLP first asks for a row (issue 15: a tuned design's report reads only
+    # its poles; ≈ 0.3 ms of MX graph a report otherwise)
+    basis = functools.cache(lambda: _balanced(poly))
 
     def conditions(level):
         balanced, omega0 = basis()
@@ -194,7 +182,7 @@ def damping_conditions(loop: Loop):
     if loop.discrete:
         return None
     poly = loop.characteristic_polynomial
-    basis = _once(lambda: _balanced(poly))
+    basis = functools.cache(lambda: _balanced(poly))  # as decay_conditions'
 
     def conditions(level):
         # ζ ≥ 1 holds nowhere but on real poles: α = π/2 turns them onto the jω axis
@@ -273,7 +261,7 @@ def factors(loop: Loop, state, conditions) -> Factors:
     if discrete:
         basis, period = (lambda: (poly, 1.0)), loop.period
     else:
-        basis, period = _once(lambda: _balanced(poly)), None
+        basis, period = functools.cache(lambda: _balanced(poly)), None
 
     def start(numbers):
         a = state(numbers)
