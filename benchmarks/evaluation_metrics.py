@@ -48,13 +48,16 @@ import feedtune.batch.job as job  # noqa: E402
 import feedtune.problem as problem  # noqa: E402
 import feedtune.tuner.nlp as nlp  # noqa: E402
 
+KIND = bool(os.environ.get("EVALUATION_BY_KIND"))  # each report's time per loop class too
 TOTALS: dict[str, float] = defaultdict(float)
 CALLS: dict[str, int] = defaultdict(int)
 
 
-def _timed(label, fn):
+def _timed(label, fn, by_kind=False):
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        if by_kind and args:  # a report's callable: its loop's class beside the name
+            return _timed(f"{label} [{type(args[0]).__name__}]", fn)(*args, **kwargs)
         started = time.process_time()
         try:
             return fn(*args, **kwargs)
@@ -115,7 +118,7 @@ def _instrument(captured):
             continue
         seen.add(id(reports))
         for key, fn in list(reports.fns.items()):
-            reports.fns[key] = _timed(f"report {key.split('(')[0]}", fn)
+            reports.fns[key] = _timed(f"report {key.split('(')[0]}", fn, KIND)
     problem.Reports._evaluate_all = _timed("reports together (_evaluate_all)",
                                            problem.Reports._evaluate_all)
     nlp.Problem._evaluate_numeric = _timed("_evaluate_numeric (the phase)",
