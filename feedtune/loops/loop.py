@@ -401,6 +401,14 @@ class _LoopBase(DeclaredCapabilities):
         return linalg.characteristic_polynomial(self.state_matrix)
 
     @cached_property
+    def _polynomial_numbers(self) -> list | None:
+        """The characteristic polynomial's coefficients as DM numbers, evaluated once per
+        loop (in one Function: the same operations, the same bits; read by the stability
+        conditions, the damping ratio and the step integrals' check, issue 15); None for a
+        loop of symbols."""
+        return _numbers(self.characteristic_polynomial)
+
+    @cached_property
     def _state_numbers(self):
         """The state matrix as a DM, evaluated once per loop; None for a loop of symbols."""
         numbers = _numbers([self.state_matrix])
@@ -419,8 +427,11 @@ class _LoopBase(DeclaredCapabilities):
         return ca.sqrt(self.characteristic_polynomial[2])
 
     def damping_ratio(self):
-        """ζ = a1 / (2√a0) of s² + a1 s + a0 (continuous second-order loops; Koren eq 9)."""
-        _, a1, a0 = self.characteristic_polynomial
+        """ζ = a1 / (2√a0) of s² + a1 s + a0 (continuous second-order loops; Koren eq 9).
+        On a loop of numbers the same operations on the coefficients' numbers (a DM: no
+        graph to evaluate a second time)."""
+        numbers = self._polynomial_numbers
+        _, a1, a0 = self.characteristic_polynomial if numbers is None else numbers
         return a1 / (2 * ca.sqrt(a0))
 
     def settling_conditions(self) -> list:
@@ -433,9 +444,13 @@ class _LoopBase(DeclaredCapabilities):
     def stability_matrices(self) -> dict:
         """Matrices whose eigenvalues must all be stable, by name; the closed loop first.
 
-        Loops with an inner loop that must be stable on its own add it here.
+        Loops with an inner loop that must be stable on its own add it here. A loop of
+        numbers gives the closed loop's numbers (a DM: the evaluation
+        :meth:`numeric_state_matrix` reads, once per loop), so a tuned design's check does
+        not evaluate the matrix a second time (issue 15).
         """
-        return {"closed_loop": self.state_matrix}
+        numbers = self._state_numbers
+        return {"closed_loop": self.state_matrix if numbers is None else numbers}
 
     def stability_conditions(self) -> list:
         """Expressions all positive iff the closed loop is asymptotically stable.
@@ -444,7 +459,7 @@ class _LoopBase(DeclaredCapabilities):
         by z = (1 + w)/(1 − w), so the same test reads the unit circle.
         """
         poly = self.characteristic_polynomial
-        numbers = _numbers(poly)
+        numbers = self._polynomial_numbers
         if numbers is not None:  # a loop of numbers: the same operations on floats, no
             # graph (a scalar DM operation is the IEEE operation on doubles that Python's
             # float does, without ≈ 10-20 µs of CasADi's call a DM operation: the sampled
@@ -533,8 +548,8 @@ class ContinuousLoop(_LoopBase):
         if self.order != 2:
             raise NotImplementedError("exact step-error integrals need a second-order loop")
         _, a1, a0 = self.characteristic_polynomial
-        numbers = None if is_symbolic(a1, a0) else _numbers([a1, a0])  # in one Function
-        if numbers is not None and not (float(numbers[0]) > 0 and float(numbers[1]) > 0):
+        numbers = self._polynomial_numbers  # evaluated once per loop
+        if numbers is not None and not (float(numbers[1]) > 0 and float(numbers[2]) > 0):
             return ErrorIntegrals(math.inf, math.inf, math.inf)  # unstable: never settles
         # e = 1 − C x, x(0) = 0: e(0) = 1, ė(0) = −C B
         de0 = -ca.mtimes(self.position_row, self.input_matrix)
