@@ -12,6 +12,7 @@ from example_loops import example_loops
 
 import feedtune.loops.loop as loop_module
 from feedtune.loops import linalg
+from feedtune.objectives import METRICS
 
 
 def _bits(values) -> list[str]:
@@ -57,3 +58,16 @@ def test_a_loop_of_symbols_keeps_its_graphs():
     assert isinstance(symbolic.stability_matrices()["closed_loop"], ca.MX)
     assert isinstance(symbolic.damping_ratio(), ca.MX)
     assert all(isinstance(c, ca.MX) for c in symbolic.stability_conditions())
+
+
+@pytest.mark.parametrize("kind", ["pulse", "sampled"])
+def test_the_pole_metrics_of_a_loop_of_numbers_are_numbers(kind):
+    """Their exact values are DMs (main: MX constants, for which the reports' one Function
+    was built on a sampled loop, whose other reports are all numbers), the same numbers."""
+    for loop in example_loops(kind, 3, seed=13):
+        for name in ("pole_damping", "decay_rate"):
+            region = METRICS[name]().evaluate(loop, None)
+            assert isinstance(region.exact, ca.DM)
+            numbers = np.append(loop.numeric_state_matrix().ravel(order="F"),
+                                float(loop.period) if loop.discrete else 0.0)
+            assert _bits(region.exact) == _bits([region.measure(numbers)])

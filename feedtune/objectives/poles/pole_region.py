@@ -62,8 +62,8 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
             return math.nan
         return float(measure(s_plane_poles(a, discrete, float(numbers[-1]))))
 
-    if numbers is not None:
-        exact = ca.MX(of_numbers(numbers))
+    if numbers is not None:  # a DM, not an MX constant: read without building a Function
+        exact = ca.DM(of_numbers(numbers))
     elif conditions is None:  # reported only: never an expression the NLP would trust
         raise TypeError("this pole measure has no polynomial test on this loop: it is "
                         "evaluated on a loop of numbers only")
