@@ -401,17 +401,23 @@ class _LoopBase(DeclaredCapabilities):
         return linalg.characteristic_polynomial(self.state_matrix)
 
     @cached_property
+    def _matrix_and_polynomial_numbers(self) -> list | None:
+        """[state matrix, c_n, …, c_0] as DM numbers, evaluated together once per loop (one
+        Function: the same operations, the same bits); None for a loop of symbols."""
+        return _numbers([self.state_matrix, *self.characteristic_polynomial])
+
+    @cached_property
     def _polynomial_numbers(self) -> list | None:
-        """The characteristic polynomial's coefficients as DM numbers, evaluated once per
-        loop (in one Function: the same operations, the same bits; read by the stability
-        conditions, the damping ratio and the step integrals' check, issue 15); None for a
-        loop of symbols."""
-        return _numbers(self.characteristic_polynomial)
+        """The characteristic polynomial's coefficients as DM numbers (read by the stability
+        conditions, the damping ratio and the step integrals' check: evaluated once, issue
+        15); None for a loop of symbols."""
+        numbers = self._matrix_and_polynomial_numbers
+        return None if numbers is None else numbers[1:]
 
     @cached_property
     def _state_numbers(self):
         """The state matrix as a DM, evaluated once per loop; None for a loop of symbols."""
-        numbers = _numbers([self.state_matrix])
+        numbers = self._matrix_and_polynomial_numbers
         return None if numbers is None else numbers[0]
 
     def numeric_state_matrix(self) -> "np.ndarray | None":
@@ -587,6 +593,19 @@ class _SampledLoopBase(_LoopBase):
         matrix = self.state_matrix
         numbers = self._state_numbers if isinstance(matrix, ca.MX) else None
         return linalg.characteristic_polynomial(matrix if numbers is None else numbers)
+
+    @cached_property
+    def _state_numbers(self):
+        """Φ_cl as a DM, evaluated once per loop (its polynomial is computed from it); None
+        for a loop of symbols."""
+        numbers = _numbers([self.state_matrix])
+        return None if numbers is None else numbers[0]
+
+    @cached_property
+    def _polynomial_numbers(self) -> list | None:
+        """The characteristic polynomial's coefficients as DM numbers: computed from Φ_cl's
+        numbers already (:attr:`characteristic_polynomial`); None for a loop of symbols."""
+        return _numbers(self.characteristic_polynomial)
 
     @cached_property
     def _equivalent_poles(self):

@@ -29,7 +29,7 @@ def test_the_closed_loops_stability_matrix_is_its_numbers_with_evalfs_bits(kind)
         assert _bits(matrix) == _bits(loop.numeric_state_matrix())
 
 
-def test_a_continuous_loop_of_numbers_evaluates_its_polynomial_once(monkeypatch):
+def test_a_continuous_loop_of_numbers_evaluates_its_matrix_and_polynomial_once(monkeypatch):
     loops = example_loops("pulse", 4, seed=9)
     expected = []
     for loop in loops:  # what main computed: the MX graphs, each evaluated on its own
@@ -47,7 +47,8 @@ def test_a_continuous_loop_of_numbers_evaluates_its_polynomial_once(monkeypatch)
         assert isinstance(damping, ca.DM) and _bits(damping) == _bits([zeta])
         assert _bits(loop.stability_conditions()) == _bits(conditions)
         assert loop.step_error_integrals.iae is not None
-        assert built == [3]  # one evaluation of the three coefficients for all three
+        assert _bits(loop.numeric_state_matrix()) == _bits(ca.evalf(ca.MX(loop.state_matrix)))
+        assert built == [4]  # one evaluation of the matrix and the three coefficients
 
 
 def test_a_loop_of_symbols_keeps_its_graphs():
