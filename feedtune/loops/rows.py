@@ -5,8 +5,9 @@ instruction: a scan of 1 601 points of a 155–230-instruction function (min_rad
 ≈ 0.7–1 ms. numpy runs each instruction over the whole row at once. Only operations that
 IEEE 754 rounds correctly (+, −, ×, ÷, √, |x|, −x, x², 2x, 1/x) are numpy's: both give the
 one correctly rounded double, so the same bits. Every other operation (exp, sin, cos, log,
-comparisons, …) is CasADi's own, one mapped call of it over the row
-(:class:`~feedtune.loops.frequency.Buffered`), so its bits are CasADi's too.
+comparisons, …) is CasADi's own: one call of an SX Function of it over the row
+(:class:`~feedtune.loops.frequency.Buffered`), so its bits are CasADi's too (numpy's
+SIMD exp differs from glibc's by an ulp in a few per cent of arguments).
 """
 
 from __future__ import annotations
