@@ -127,9 +127,9 @@ def _scan(loop: Loop, excess):
 def _exact(excess, low: float, scan=None) -> float:
     """r_min [m] of a loop of numbers: ``excess(ln r)`` (vectorised) > 0 where a circle of
     radius r fails; ``low`` = ln(V_m/C_v); ``scan`` (or None: ``excess``) the same values
-    for the scan's long rows (:func:`_scan`). The scan grows by SPAN decades while its last radius fails (a slow loop), up to
-    _EXTENSIONS times, then +∞; NaN (reported as null) when even V_m/C_v passes (f_m/C_v
-    of a few units: not a CNC axis)."""
+    for the scan's long rows (:func:`_scan`). The scan grows by SPAN decades while its
+    last radius fails (a slow loop), up to _EXTENSIONS times, then +∞; NaN (reported as
+    null) when even V_m/C_v passes (f_m/C_v of a few units: not a CNC axis)."""
     from scipy.optimize import brentq, minimize_scalar  # 0.11 s: only for a number
 
     scan = excess if scan is None else scan
