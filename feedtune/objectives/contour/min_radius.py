@@ -8,8 +8,7 @@ from feedtune.expr import to_float
 from feedtune.lazy import ca, np
 from feedtune.loops.frequency import replayed
 from feedtune.loops.protocols import Loop
-from feedtune.loops.rows import row_of
-from feedtune.loops.twin import OfLoop, parametric_twin
+from feedtune.loops.twin import OfLoop
 from feedtune.objectives.base import Metric
 from feedtune.objectives.contour.circle import radius_gain_excess
 
@@ -63,8 +62,7 @@ class MinRadius(Metric):
         low = ca.log(loop.drive.max_velocity / loop.velocity_constant)
         replay = replayed("min_radius_excess", OfLoop(_excess, loop), 0, log_omega=False)
         if replay is not None:  # a loop of numbers whose structure's Function is built
-            excess = _vectorised(replay[0][0])
-            return ca.DM(_exact(excess, to_float(low), _scan(loop, excess)))
+            return ca.DM(_exact(_vectorised(replay[0][0]), to_float(low)))
         log_r = ca.MX.sym("log_r")
         excess = _excess(loop)(log_r)
         free = [s for s in ca.symvar(ca.veccat(excess, ca.MX(low))) if not ca.is_equal(s, log_r)]
@@ -111,35 +109,20 @@ def _vectorised(fn: ca.Function):
     return fn if isinstance(fn, Mapped) else Mapped(fn)
 
 
-def _scan(loop: Loop, excess):
-    """``excess`` (a :class:`~feedtune.loops.frequency.Mapped` replayed on ``loop``'s
-    twin) over the scan's long rows by :class:`feedtune.loops.rows.Row` (numpy's rows, the
-    same bits; ≈ half the CPU of CasADi's map over 1 601 points), kept per loop structure;
-    None where there is none (the map serves)."""
-    from feedtune.loops.frequency import Mapped
-
-    if not isinstance(excess, Mapped):
-        return None
-    row = row_of(("min_radius_excess", parametric_twin(loop).structure), excess.fn)
-    return None if row is None else (lambda u: row(u, *excess.fixed))
-
-
-def _exact(excess, low: float, scan=None) -> float:
+def _exact(excess, low: float) -> float:
     """r_min [m] of a loop of numbers: ``excess(ln r)`` (vectorised) > 0 where a circle of
-    radius r fails; ``low`` = ln(V_m/C_v); ``scan`` (or None: ``excess``) the same values
-    for the scan's long rows (:func:`_scan`). The scan grows by SPAN decades while its
-    last radius fails (a slow loop), up to _EXTENSIONS times, then +∞; NaN (reported as
-    null) when even V_m/C_v passes (f_m/C_v of a few units: not a CNC axis)."""
+    radius r fails; ``low`` = ln(V_m/C_v). The scan grows by SPAN decades while its last
+    radius fails (a slow loop), up to _EXTENSIONS times, then +∞; NaN
+    (reported as null) when even V_m/C_v passes (f_m/C_v of a few units: not a CNC axis)."""
     from scipy.optimize import brentq, minimize_scalar  # 0.11 s: only for a number
 
-    scan = excess if scan is None else scan
     u = low + np.arange(PER_DECADE_EXACT * SPAN + 1) * math.log(10) / PER_DECADE_EXACT
-    values = scan(u)
+    values = excess(u)
     for _ in range(_EXTENSIONS):  # a slow loop: SPAN more decades, until a circle passes
         if values[-1] <= 0:
             break
         u = np.concatenate([u, u[-1] + (u[1:] - u[0])])
-        values = np.concatenate([values, scan(u[values.size:])])
+        values = np.concatenate([values, excess(u[values.size:])])
     if values[-1] > 0:
         return math.inf
     if values[0] <= 0:
