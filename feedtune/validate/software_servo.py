@@ -404,6 +404,12 @@ class ServoModel:
 
     def ramp_following_error(self) -> float:
         """Steady error after a unit ramp r = t [m] at the samples (continuous: any time)."""
+        return self._ramp_following_error()
+
+    @functools.lru_cache(maxsize=8)
+    def _ramp_following_error(self) -> float:
+        """:meth:`ramp_following_error`, once per model (C_v's entry and the minimum
+        radius's scan, from V_m/C_v, both ask)."""
         # steady state of a type-1 loop under a ramp: the drive moves at 1 m/s, the error is
         # constant at the samples; the command is K·e and must equal the velocity 1
         f, g = self.closed_loop()
@@ -493,8 +499,12 @@ class ServoModel:
         :meth:`frequency_response_at`."""
         if not self.sampled:
             return self.open_loop(omega)
-        z = np.exp(1j * np.atleast_1d(np.asarray(omega, dtype=float)) * self.period)
-        return self.gain * z ** (-self.delay) * resolvent_position(*self._resolvent_floats, z)
+        y = np.atleast_1d(np.asarray(omega, dtype=float)) * self.period
+        z = np.empty(y.shape, dtype=complex)  # e^{jωT}: numpy's complex exp of jωT is the
+        z.real, z.imag = np.cos(y), np.sin(y)  # C library's cos and sin, computed alone
+        position = resolvent_position(*self._resolvent_floats, z)
+        # without delay the product with z⁰ = 1 + 0j, exactly, is left out
+        return self.gain * (z ** (-self.delay) if self.delay else 1) * position
 
     def sensitivity(self, omega) -> np.ndarray:
         """S = 1/(1 + L) = error/reference."""
@@ -824,8 +834,9 @@ def resolvent_position(phi: list, gamma: list, z):
         return gamma[0] / (z - phi[0][0])
     if len(gamma) != 2:
         raise ValueError(f"Cramer's rule here is written for 1 or 2 drive states, not {len(gamma)}")
-    return (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
-            / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
+    second = z - phi[1][1]
+    return ((second * gamma[0] + phi[0][1] * gamma[1])
+            / ((z - phi[0][0]) * second - phi[0][1] * phi[1][0]))
 
 
 def _pair(s: np.ndarray) -> tuple[float, float]:
