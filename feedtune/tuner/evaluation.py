@@ -9,7 +9,6 @@ of numbers instead (Problem._evaluate_numeric); the model gap compares the two.
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass
 
@@ -82,8 +81,8 @@ class Evaluator:
     def with_weights(self, weights: list[float]) -> "Evaluator":
         """This evaluator (its Function and scans shared) summing the terms with ``weights``
         (another spec of the same structure: its weights are NLP parameters)."""
-        other = copy.copy(self)
-        other.weights = list(weights)
+        other = object.__new__(Evaluator)  # a shallow copy (copy.copy's reduce: ≈ 10×)
+        other.__dict__.update(self.__dict__, weights=list(weights))
         return other
 
     def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
