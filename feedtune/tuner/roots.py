@@ -372,4 +372,4 @@ def _brentq(f: Callable, a: float, b: float) -> float | None:
 
 def _feasible(point) -> bool:
     e, rows, other = point
-    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or np.all(rows <= 0)))
+    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or (rows <= 0).all()))
