@@ -460,10 +460,13 @@ class ServoModel:
             return np.divide(self.gain, s * (1 + s * self.time_constant))
         if self.delay > 1:  # numpy's z**(−d) by repeated products: the array's own
             return self.open_loop(omega)[0]
-        phi, gamma, _, eye = self._resolvent_parts
+        negated, gamma = self._one_frequency_parts
         y = omega * self.period
         z = complex(math.cos(y), math.sin(y))
-        position = complex(np.linalg.solve(z * eye - phi, gamma)[0, 0])
+        resolvent = negated.copy()  # zI − Φ: z added on the diagonal of −Φ, the same
+        for i in range(len(resolvent)):  # numbers as z·I − Φ (z·1 and z·0 are exact)
+            resolvent[i, i] += z
+        position = complex(np.linalg.solve(resolvent, gamma)[0, 0])
         if self.delay == 0:
             return np.complex128(self.gain * position)
         return np.multiply(self.gain * (1 / z), position)
@@ -474,6 +477,14 @@ class ServoModel:
         (:func:`resolvent_position`)."""
         phi, gamma, _, _ = self._resolvent_parts
         return phi.tolist(), gamma[:, 0].tolist()
+
+    @functools.cached_property
+    def _one_frequency_parts(self) -> tuple[np.ndarray, np.ndarray]:
+        """(−Φ, Γ) of :meth:`_resolvent_parts` as complex arrays, for :meth:`open_loop_at`:
+        LAPACK solves zI − Φ and Γ as complex numbers either way (numpy casts a real Γ),
+        built here once instead of by two array operations and a cast a call."""
+        phi, gamma, _, _ = self._resolvent_parts
+        return (-phi).astype(complex), gamma.astype(complex)
 
     @functools.cached_property
     def _resolvent_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
