@@ -9,7 +9,7 @@ of numbers instead (Problem._evaluate_numeric); the model gap compares the two.
 
 from __future__ import annotations
 
-import copy
+import math
 from dataclasses import dataclass
 
 import casadi as ca
@@ -74,34 +74,42 @@ class Evaluator:
              ca.vertcat(ca.MX(0, 1), *stability), ca.vertcat(ca.MX(0, 1), *settling),
              *matrices.values()],
             ["z", "p"], ["terms", "bounds", "stability", "settling", *self.matrix_names])
+        # its numeric call, looked up once (held weakly by feedtune.tuner.calls; the
+        # Function is this evaluator's)
+        self._check = numeric(self.function)
 
     def with_weights(self, weights: list[float]) -> "Evaluator":
         """This evaluator (its Function and scans shared) summing the terms with ``weights``
         (another spec of the same structure: its weights are NLP parameters)."""
-        other = copy.copy(self)
-        other.weights = list(weights)
+        other = object.__new__(Evaluator)  # a shallow copy (copy.copy's reduce: ≈ 10×)
+        other.__dict__.update(self.__dict__, weights=list(weights))
         return other
 
     def __call__(self, z: np.ndarray, p: np.ndarray) -> Seen:
-        out = numeric(self.function).named(z=z, p=p[:self.n_params])
+        # the outputs in the Function's order: terms, bounds, stability, settling, matrices
+        out = self._check.outputs(z, p[:self.n_params])
 
         def values(row, magnitudes, scans, read=finite):
-            row = np.asarray(row, dtype=float).ravel()
             result = []
-            for v, magnitude, scan in zip(row, magnitudes, scans):
+            for v, magnitude, scan in zip(row.ravel().tolist(), magnitudes, scans):
                 v = scan.exact(z, p) if scan is not None else v
                 result.append(read(abs(v) if magnitude else v))
             return result
 
-        terms = values(out["terms"], self.term_magnitude, self.term_scans)
+        terms = values(out[0], self.term_magnitude, self.term_scans)
         objective = objective_value(self.weights, terms, self.groups)
         return Seen(objective=finite(objective) if objective is not None else None,
                     terms=terms,
-                    bounds=values(out["bounds"], self.bound_magnitude, self.bound_scans, number),
-                    stability=np.asarray(out["stability"], dtype=float).ravel(),
-                    settling=np.asarray(out["settling"], dtype=float).ravel(),
-                    matrices={name: np.asarray(out[name], dtype=float)
-                              for name in self.matrix_names})
+                    bounds=values(out[1], self.bound_magnitude, self.bound_scans, number),
+                    stability=out[2].ravel(), settling=out[3].ravel(),
+                    matrices=dict(zip(self.matrix_names, out[4:])))
+
+
+def _least(values) -> float | None:
+    """The smallest magnitude among ``values`` that are finite and non-zero (None and NaN
+    skipped), as a float; None when there is none."""
+    magnitudes = [abs(float(v)) for v in values if v is not None]
+    return min((m for m in magnitudes if 0 < m < math.inf), default=None)
 
 
 @dataclass(frozen=True)
@@ -124,16 +132,11 @@ def smallest_magnitudes(seen: list[Seen]) -> Scales:
     anywhere (too small a scale is harmless: IPOPT's gradient-based scaling shrinks large
     gradients). Conditions count everywhere.
     """
-    def smallest(rows, stable_only):
-        table = np.array([[np.nan if v is None else v for v in row] for row in rows],
-                         dtype=float).reshape(len(rows), -1)
-        table = np.abs(table)
-        table[~np.isfinite(table) | (table == 0)] = np.inf
-        if stable_only:
-            table[~stable] = np.inf
-        return [float(v) if np.isfinite(v) else None for v in table.min(axis=0)]
+    def smallest(rows, stable_only):  # per column: min |v| over its finite, non-zero values
+        counted = [row for row, ok in zip(rows, stable) if ok or not stable_only]
+        return [_least(row[j] for row in counted) for j in range(len(rows[0]))]
 
-    stable = np.array([bool(np.all(s.stability > 0)) for s in seen])
+    stable = [bool(np.all(s.stability > 0)) for s in seen]
     return Scales(objective=smallest([[s.objective] for s in seen], True)[0],
                   terms=smallest([s.terms for s in seen], True),
                   bounds=smallest([s.bounds for s in seen], True),

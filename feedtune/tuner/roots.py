@@ -140,11 +140,24 @@ class RootSearch:
             terms, bounds, stability, settling = check.outputs(np.array([z]), p)[:4]
             return point(terms, bounds, np.vstack([stability, settling]))
 
+        # the sides as columns, for every point at once: the same operations, element by
+        # element, as point's
+        rows_of = np.array([i for i, *_ in sides], dtype=int)
+        magnitudes = np.array([magnitude for _, magnitude, *_ in sides], dtype=bool)[:, None]
+        bounds_of, signs, sizes = (np.array([side[k] for side in sides], dtype=float)[:, None]
+                                   for k in (2, 3, 4))
+
         def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
             terms, bounds, stability, settling = mapped(check.function, len(zs)).outputs(
                 zs, np.tile(p, len(zs)))[:4]
             conditions = np.vstack([stability, settling])
-            return [point(terms, bounds, conditions, j) for j in range(len(zs))]
+            values = bounds[rows_of]
+            rows = signs * (bounds_of - np.where(magnitudes, np.abs(values), values)) / sizes
+            other = (-conditions.min(axis=0) if conditions.size else
+                     np.full(len(zs), -math.inf))
+            other[np.isnan(other)] = math.inf
+            return [(e, rows[:, j], o) for j, (e, o) in enumerate(zip(terms[0].tolist(),
+                                                                       other.tolist()))]
 
         return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
                    np.asarray(problem.starts, dtype=float)[:, 0], evaluate_all=evaluate_all)
@@ -359,4 +372,4 @@ def _brentq(f: Callable, a: float, b: float) -> float | None:
 
 def _feasible(point) -> bool:
     e, rows, other = point
-    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or np.all(rows <= 0)))
+    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or (rows <= 0).all()))

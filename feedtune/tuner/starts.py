@@ -21,18 +21,21 @@ def starting_points(variables: list[Variable], count: int) -> np.ndarray:
     (count, len(variables))."""
     if not variables:
         return np.zeros((1, 0))
-    lower = np.log([v.lower for v in variables])
-    upper = np.log([v.upper for v in variables])
-    first = np.array([math.log(v.initial) if v.initial else (lo + hi) / 2
-                      for v, lo, hi in zip(variables, lower, upper)])
+    lower = np.log([v.lower for v in variables]).tolist()
+    upper = np.log([v.upper for v in variables]).tolist()
+    width = [hi - lo for lo, hi in zip(lower, upper)]
+    first = [math.log(v.initial) if v.initial else (lo + hi) / 2
+             for v, lo, hi in zip(variables, lower, upper)]
     points = [first]
     if count > 1:
         # one point more than needed: a Halton point at the first start (in one dimension
         # the sequence's first point after the corner, 1/2, is the box's middle) is skipped,
-        # as a start repeated is no further evidence of where the optimum lies
-        halton = lower + _halton(len(variables), count + 1) * (upper - lower)
-        same = np.all(np.abs(halton - first) <= SAME_POINT * (upper - lower), axis=1)
-        points.extend(halton[~same])
+        # as a start repeated is no further evidence of where the optimum lies; in floats,
+        # lower + unit·(upper − lower) rounded as numpy's arrays round it
+        for unit in _halton(len(variables), count + 1).tolist():
+            point = [lo + u * w for lo, u, w in zip(lower, unit, width)]
+            if not all(abs(x - f) <= SAME_POINT * w for x, f, w in zip(point, first, width)):
+                points.append(point)
     return np.array(points[:count])
 
 

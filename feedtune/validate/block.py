@@ -22,6 +22,11 @@ from feedtune.validate.models import model_for
 from feedtune.validate.poles import POLE_MEASUREMENTS, pole_entries
 
 
+#: the fields of a result that no validator reads, left out of its dump: the solver's
+#: record of every start is most of a batch result (a dump without them takes a third of
+#: the time, and the fields read are the same)
+UNREAD = frozenset({"solver", "optimum", "provenance", "warnings", "validation"})
+
 #: plants known only by measured data: plant type → (validator, its entries from a result)
 MEASURED = {"frequency_response_data": (
     "numpy/scipy re-evaluation on every measured frequency (feedtune.validate.frequency_data)",
@@ -72,7 +77,8 @@ def validate_result(result) -> dict:
     nothing was validated (a plant not covered, a failed tuning), else whether every entry
     is within its tolerance. A validator failure is a block with ``error``.
     """
-    data = result.model_dump(mode="json") if hasattr(result, "model_dump") else result
+    data = (result.model_dump(mode="json", exclude=UNREAD) if hasattr(result, "model_dump")
+            else result)
     block = {"validator": "numpy/scipy re-simulation (feedtune.validate)", "covered": False,
              "reason": None, "ok": None, "entries": []}
     try:

@@ -15,9 +15,9 @@ discretised by ``expm``, Van Loan), never on :mod:`feedtune.loops.loop`:
   first reaches −180°, or at π/T when L(−1) is real negative (the phase of a ZOH loop
   often reaches −180° exactly at Nyquist), else +∞;
 * ``overshoot`` and ``settling_time`` (step, continuous time): the position between
-  samples from expm of the drive with the held command as a state, on SUBSTEPS points per
-  sample, then refined by bounded Brent (the peak) and brentq (the last exit from the band)
-  on the drive's closed-form motion between samples.
+  samples from the drive's closed-form free motion under the held command, on SUBSTEPS
+  points per sample, then refined by bounded Brent (the peak) and brentq (the last exit
+  from the band) on the same motion at any time.
 
 Declared in :data:`MEASUREMENTS` (metric → measurement), which a sampled
 ``ServoModel`` adds to its table (:mod:`feedtune.validate.measurements`).
@@ -29,7 +29,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.linalg import expm
 from scipy.optimize import brentq, minimize_scalar
 
 from feedtune.validate.measurements import Measurement
@@ -38,7 +37,7 @@ from feedtune.validate.model import NotCovered
 #: grid [points per decade] and its low end: the slowest s-plane pole / GRID_SPAN
 POINTS_PER_DECADE, GRID_SPAN = 200, 1e3
 #: sub-steps per sample of the dense step response (the peak and the last exit are then
-#: refined on the exact expm expression)
+#: refined on the exact closed-form motion)
 SUBSTEPS = 64
 
 
@@ -170,17 +169,15 @@ def gain_margin(model, integrators: int = 0) -> float:
 class StepPosition:
     """The position x(t) after a unit step, exact at any t [s]: the state at each sample
     from the closed loop (F, G), and between samples the drive's free motion under the
-    held command: the dense grid by expm([[A, B], [0, 0]]·T/SUBSTEPS) applied to [drive
-    state, held command], any other t (the refinements' calls) by its closed form
-    x + u·σ + (ẋ − u)·τ(1 − e^{−σ/τ}), x + u·σ without τ (Koren eq 3's drive)."""
+    held command in closed form, x + u·σ + (ẋ − u)·τ(1 − e^{−σ/τ}), x + u·σ without τ
+    (Koren eq 3's drive): on the dense grid as rows applied to [drive state, held command]
+    (:func:`_free_rows`), at any other t (the refinements' calls) in floats."""
 
     def __init__(self, model):
-        a, b, c = model.drive_matrices()
+        _, _, c = model.drive_matrices()
         f, g = model.closed_loop()
-        m, n = a.shape[0], f.shape[0]
+        m, n = c.shape[1], f.shape[0]
         self.period = model.period
-        self.big = np.zeros((m + 1, m + 1))
-        self.big[:m, :m], self.big[:m, m:] = a, b
         radius = float(np.max(np.abs(model.poles())))  # eigenvalues of F, kept by the model
         if radius >= 1:
             raise NotCovered("unstable loop: no step response settles")
@@ -197,12 +194,8 @@ class StepPosition:
         held = (model.gain * (1.0 - states[:, :m] @ c[0]) if model.delay == 0
                 else states[:, n - 1])
         self.starts = np.column_stack([states[:, :m], held])
-        rows = [np.eye(m + 1)[0]]
-        step = expm(self.big * model.period / SUBSTEPS)
-        for _ in range(SUBSTEPS - 1):
-            rows.append(rows[-1] @ step)
-        self.dense = self.starts @ np.array(rows).T  # (samples, SUBSTEPS)
         self.tau = model.time_constant
+        self.dense = self.starts @ _free_rows(self.tau, self.times[0]).T  # (samples, SUBSTEPS)
         self.rows = self.starts.tolist()  # floats for __call__
 
     @functools.cached_property
@@ -220,6 +213,17 @@ class StepPosition:
             return x + u * sigma
         x, v, u = self.rows[i]
         return x + u * sigma - (v - u) * self.tau * math.expm1(-sigma / self.tau)
+
+
+def _free_rows(tau: float | None, sigma: np.ndarray) -> np.ndarray:
+    """The drive's free motion as rows: x(σ) = [x, ẋ, u]·row(σ) for the times ``sigma`` [s]
+    into a sample, row(σ) = [1, −τ·expm1(−σ/τ), σ + τ·expm1(−σ/τ)] (x + u·σ + (ẋ − u)·τ(1 −
+    e^{−σ/τ}), :meth:`StepPosition.__call__`'s motion); [1, σ] without τ (state [x, u]).
+    One row per time, (len(sigma), 3) or (len(sigma), 2)."""
+    if tau is None:
+        return np.column_stack([np.ones_like(sigma), sigma])
+    decay = np.expm1(-sigma / tau)
+    return np.column_stack([np.ones_like(sigma), -tau * decay, sigma + tau * decay])
 
 
 @functools.lru_cache(maxsize=8)

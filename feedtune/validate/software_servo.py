@@ -404,6 +404,12 @@ class ServoModel:
 
     def ramp_following_error(self) -> float:
         """Steady error after a unit ramp r = t [m] at the samples (continuous: any time)."""
+        return self._ramp_following_error()
+
+    @functools.lru_cache(maxsize=8)
+    def _ramp_following_error(self) -> float:
+        """:meth:`ramp_following_error`, once per model (C_v's entry and the minimum
+        radius's scan, from V_m/C_v, both ask)."""
         # steady state of a type-1 loop under a ramp: the drive moves at 1 m/s, the error is
         # constant at the samples; the command is K·e and must equal the velocity 1
         f, g = self.closed_loop()
@@ -454,10 +460,13 @@ class ServoModel:
             return np.divide(self.gain, s * (1 + s * self.time_constant))
         if self.delay > 1:  # numpy's z**(−d) by repeated products: the array's own
             return self.open_loop(omega)[0]
-        phi, gamma, _, eye = self._resolvent_parts
+        negated, gamma = self._one_frequency_parts
         y = omega * self.period
         z = complex(math.cos(y), math.sin(y))
-        position = complex(np.linalg.solve(z * eye - phi, gamma)[0, 0])
+        resolvent = negated.copy()  # zI − Φ: z added on the diagonal of −Φ, the same
+        for i in range(len(resolvent)):  # numbers as z·I − Φ (z·1 and z·0 are exact)
+            resolvent[i, i] += z
+        position = complex(np.linalg.solve(resolvent, gamma)[0, 0])
         if self.delay == 0:
             return np.complex128(self.gain * position)
         return np.multiply(self.gain * (1 / z), position)
@@ -468,6 +477,14 @@ class ServoModel:
         (:func:`resolvent_position`)."""
         phi, gamma, _, _ = self._resolvent_parts
         return phi.tolist(), gamma[:, 0].tolist()
+
+    @functools.cached_property
+    def _one_frequency_parts(self) -> tuple[np.ndarray, np.ndarray]:
+        """(−Φ, Γ) of :meth:`_resolvent_parts` as complex arrays, for :meth:`open_loop_at`:
+        LAPACK solves zI − Φ and Γ as complex numbers either way (numpy casts a real Γ),
+        built here once instead of by two array operations and a cast a call."""
+        phi, gamma, _, _ = self._resolvent_parts
+        return (-phi).astype(complex), gamma.astype(complex)
 
     @functools.cached_property
     def _resolvent_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -493,8 +510,12 @@ class ServoModel:
         :meth:`frequency_response_at`."""
         if not self.sampled:
             return self.open_loop(omega)
-        z = np.exp(1j * np.atleast_1d(np.asarray(omega, dtype=float)) * self.period)
-        return self.gain * z ** (-self.delay) * resolvent_position(*self._resolvent_floats, z)
+        y = np.atleast_1d(np.asarray(omega, dtype=float)) * self.period
+        z = np.empty(y.shape, dtype=complex)  # e^{jωT}: numpy's complex exp of jωT is the
+        z.real, z.imag = np.cos(y), np.sin(y)  # C library's cos and sin, computed alone
+        position = resolvent_position(*self._resolvent_floats, z)
+        # without delay the product with z⁰ = 1 + 0j, exactly, is left out
+        return self.gain * (z ** (-self.delay) if self.delay else 1) * position
 
     def sensitivity(self, omega) -> np.ndarray:
         """S = 1/(1 + L) = error/reference."""
@@ -824,8 +845,9 @@ def resolvent_position(phi: list, gamma: list, z):
         return gamma[0] / (z - phi[0][0])
     if len(gamma) != 2:
         raise ValueError(f"Cramer's rule here is written for 1 or 2 drive states, not {len(gamma)}")
-    return (((z - phi[1][1]) * gamma[0] + phi[0][1] * gamma[1])
-            / ((z - phi[0][0]) * (z - phi[1][1]) - phi[0][1] * phi[1][0]))
+    second = z - phi[1][1]
+    return ((second * gamma[0] + phi[0][1] * gamma[1])
+            / ((z - phi[0][0]) * second - phi[0][1] * phi[1][0]))
 
 
 def _pair(s: np.ndarray) -> tuple[float, float]:

@@ -15,6 +15,7 @@ docs/validation.md; :func:`judge` is the only place an entry's ``ok`` is decided
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -194,6 +195,7 @@ def _need(value: float | None, kind: str) -> float:
     return value
 
 
+@functools.cache
 def _label(fraction: float, label: str) -> str:
     """``BLU/1000``, ``1e-06`` (of 1), ``1e-06·180°``: the absolute tolerance's name."""
     if label == "relative" or fraction == 1:
