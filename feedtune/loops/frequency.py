@@ -25,7 +25,11 @@ from feedtune.loops.twin import OfLoop, parametric_twin
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
 _BISECTIONS = 32  # the bracket shrinks to 2^-32 of a grid step before Newton's method
-_GOLDEN_STEPS = 48  # golden-section steps: the bracket of two grid steps shrinks to 1e-10
+#: golden-section steps: the bracket of two grid steps (0.115 in ln ω) shrinks to 0.618²⁰ =
+#: 6.6e-5 of it (7.6e-6 in ln ω), well inside a peak of ζ ≳ 0.002 (width ≈ ζ in ln ω), where
+#: the two Newton steps converge (error ≲ e²/ζ a step: ≲ 1e-8, then rounding); the 28 more
+#: steps of 48 only met f's rounding (values equal to ≤ 3e-12 relative on 180 batch peaks)
+_GOLDEN_STEPS = 20
 #: golden steps in every window of a loop of numbers before only the windows that can
 #: hold the peak go on (:func:`_peak_of_numbers`); the bracket is then 5.6 % of a window
 _SCREEN_STEPS = 6
@@ -391,8 +395,8 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     elementwise operation the IEEE operation CasADi's graph performs (golden-section
     points, comparisons, fmin/fmax, Newton steps), and ``f``, ``f′``, ``f″`` the same
     CasADi Functions (SX-expanded) mapped over the row (:class:`Mapped`, of the loop's
-    own graph or replayed on its twin: :func:`replayed`). Building that graph (48 golden
-    steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
+    own graph or replayed on its twin: :func:`replayed`). Building that graph (then 48
+    golden steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
 
     Only the windows that can hold the largest value are refined to the end (issue 15):
     a window takes the golden steps only if :func:`_window_bound` (what its refinement can
