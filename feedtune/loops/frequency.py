@@ -417,7 +417,11 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    f_grid = f(grid)
+    jet = f.derived(("jet",), _jet_function, (slope.fn, curvature.fn))
+    if jet is None:
+        f_grid, at_grid = f(grid), None
+    else:  # f, f′, f″ on the grid in one call: f's bits (the jet's), and the whole
+        f_grid, *at_grid = jet.columns(grid)  # windows' bound read at their grid points
     if np.isnan(f_grid).any():
         return None
     lower, upper = grid[0], grid[-1]
@@ -430,7 +434,10 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     # and their neighbours (a peak near a window's edge lies in its neighbour too, where
     # the bound on the whole window, read at its centre, can fall short of it)
     if _SCREEN_STEPS < _GOLDEN_STEPS:  # screening on (tests switch it off)
-        passed = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+        if at_grid is None:
+            passed = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+        else:  # centred on its grid point, the window reaches r either side of it
+            passed = _bound(f_grid, *at_grid, np.fmax(grid - a, b - grid), seen) >= f_grid.max()
         keep = passed.copy()
         keep[1:] |= passed[:-1]
         keep[:-1] |= passed[1:]
@@ -746,7 +753,15 @@ def _window_bound(f, slope, curvature, a, b, seen):
     10⁴): a window whose refinement could reach the top is never dropped.
     """
     m, r = (a + b) / 2, (b - a) / 2
-    f_m, slope_m, curvature_m = _jet_columns(f, slope, curvature, m)
+    return _bound(*_jet_columns(f, slope, curvature, m), r, seen)
+
+
+def _bound(f_m, slope_m, curvature_m, r, seen):
+    """:func:`_window_bound` from f, f′, f″ at the windows' centres m and the distance r
+    [ln(rad/s)] each window reaches from its centre: max(seen, f(m)) + 2(|f′(m)|·r +
+    ½|f″(m)|·r²) + 1e-12·max|seen| [units of f]. The screen of whole windows reads it at
+    their grid points (f, f′, f″ there from the jet that gives the grid's values, issue 15),
+    r the larger side of a window clipped at the band's end (2h inside)."""
     rise = 2 * (np.abs(slope_m) * r + 0.5 * np.abs(curvature_m) * r**2)
     return np.fmax(seen, f_m) + rise + 1e-12 * np.max(np.abs(seen))
 
