@@ -286,6 +286,10 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     if below.size == 0:
         return math.exp(grid[-1]), False
     k = int(below[0]) + 1
+    refined = f.derived(("crossing", _BISECTIONS), _crossing_function, (slope.fn,))
+    if refined is not None:  # bisections and Newton steps in one call (issue 15)
+        (u,) = refined.columns(np.array([[grid[k - 1]], [grid[k]]]))
+        return math.exp(float(u[0])), True
     low, high = _bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
     u = (low + high) / 2
     for _ in range(2):
@@ -320,6 +324,25 @@ def _bisection_function(f, steps: int):
     expanded to SX and folded, instead of one Python round and one call a step."""
     fixed = _inputs_after_first(f)
     return _folded(_bisection_step(f, fixed), steps, f"bisection_{steps}", fixed)
+
+
+def _crossing_function(f, slope):
+    """:func:`_first_crossing_of_numbers`' refinement of a bracket as one SX Function of
+    the bracket [low, high] [ln(rad/s)] and ``f``'s fixed inputs → u [ln(rad/s)]: the
+    :data:`_BISECTIONS` folded bisection steps (:func:`_bisection_function`), then the two
+    Newton steps of :func:`crossing_if_any` kept inside the bracket. The same IEEE
+    operations as the float steps (a division where f′ ≠ 0, fmin/fmax as C's), so the
+    same bits, in one call instead of five."""
+    fixed = _inputs_after_first(f)
+    bracket = ca.MX.sym("bracket", 2)
+    state = _bisection_function(f, _BISECTIONS)(bracket, *fixed)
+    low, high = state[0], state[1]
+    u = (low + high) / 2
+    for _ in range(2):
+        g = slope(u, *fixed)
+        step = ca.if_else(g != 0, f(u, *fixed) / ca.if_else(g != 0, g, 1), 0)
+        u = u - ca.fmin(ca.fmax(step, low - u), high - u)
+    return ca.Function(f"crossing_{_BISECTIONS}", [bracket, *fixed], [u]).expand()
 
 
 def _folded(step, steps: int, name: str, fixed: list):
@@ -788,6 +811,14 @@ def _relative_points(ratio: float) -> int:
 
 
 def relative_grid(band: tuple[float, float]) -> np.ndarray:
-    """Points x in (0, 1) so that b·x covers [band low, b) logarithmically."""
-    lo, hi = band
-    return np.geomspace(lo / hi, 1.0, _relative_points(hi / lo))[:-1]
+    """Points x in (0, 1) so that b·x covers [band low, b) logarithmically; read-only,
+    computed once per band (``np.geomspace`` ≈ 50 µs, once a tuned design's bandwidth
+    before; issue 15)."""
+    return _relative_grid(float(band[0]), float(band[1]))
+
+
+@functools.lru_cache(maxsize=256)
+def _relative_grid(lo: float, hi: float) -> np.ndarray:
+    grid = np.geomspace(lo / hi, 1.0, _relative_points(hi / lo))[:-1]
+    grid.flags.writeable = False
+    return grid
