@@ -469,23 +469,65 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     a, b, seen, nans = _golden_steps_of_numbers(f, screen, a, b, seen)
     if nans:
         return None
-    if screen < _GOLDEN_STEPS:
+    rest = _GOLDEN_STEPS - screen
+    if rest:
         keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
-        a, b, outer_a, outer_b = a[keep], b[keep], outer_a[keep], outer_b[keep]
-        a, b, _, nans = _golden_steps_of_numbers(f, _GOLDEN_STEPS - screen, a, b, seen[keep])
-        if nans:
-            return None
+        a, b, outer_a, outer_b, seen = a[keep], b[keep], outer_a[keep], outer_b[keep], seen[keep]
+    finished = _finish_of_numbers(f, slope, curvature, rest, (a, b, seen), (outer_a, outer_b))
+    if finished is None:
+        return None
+    values = np.concatenate([finished[0], f_grid])
+    where = np.concatenate([finished[1], grid])
+    if np.isnan(values).any() or np.isnan(where).any():
+        return None
+    top = values.max()
+    return float(top), float(where[values == top].max())
+
+
+def _finish_of_numbers(f, slope, curvature, steps: int, brackets: tuple, windows: tuple):
+    """The last ``steps`` golden-section steps in every kept window (``brackets``: rows a,
+    b, seen), then :data:`_NEWTON_STEPS` Newton steps on f′ = 0 from the brackets'
+    midpoints kept inside the ``windows`` (rows of their ends): (f(u), u) rows [units of
+    f, ln(rad/s)], or None where f was NaN at a golden point.
+
+    Through :func:`_finish_function` kept with ``f`` where :meth:`Mapped.derived` gives
+    it (one call instead of four, issue 15), else in numpy floats: the same IEEE
+    operations on the same numbers, so the same bits."""
+    a, b, seen = brackets
+    outer_a, outer_b = windows
+    finish = f.derived(("finish", steps), lambda fn, s, c: _finish_function(fn, s, c, steps),
+                       (slope.fn, curvature.fn))
+    if finish is not None and a.size:
+        f_u, u, nans = finish.columns(np.stack([a, b, seen, np.zeros_like(a), outer_a, outer_b]))
+        return None if np.any(nans) else (f_u, u)
+    a, b, _, nans = _golden_steps_of_numbers(f, steps, a, b, seen)
+    if nans:
+        return None
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
         _, g, c = _jet_columns(f, slope, curvature, u)
         step = np.where(c < 0, -g / np.where(c < 0, c, -1.0), 0.0)
         u = np.fmin(np.fmax(u + step, outer_a), outer_b)
-    values = np.concatenate([f(u), f_grid])
-    where = np.concatenate([u, grid])
-    if np.isnan(values).any() or np.isnan(where).any():
-        return None
-    top = values.max()
-    return float(top), float(where[values == top].max())
+    return f(u), u
+
+
+def _finish_function(f, slope, curvature, steps: int):
+    """:func:`_finish_of_numbers`' steps as one SX Function of a window's state [a, b,
+    seen, NaNs met, its ends] and ``f``'s fixed inputs → (f(u), u, NaNs met): the golden
+    steps of :func:`_golden_function`, then the Newton steps of :func:`_refine_windows`
+    (the same operations as the float steps)."""
+    fixed = _inputs_after_first(f)
+    window = ca.MX.sym("window", 6)
+    a, b, seen, nans, outer_a, outer_b = ca.vertsplit(window)
+    if steps:
+        a, b, _, nans = ca.vertsplit(_golden_function(f, steps)(ca.vertcat(a, b, seen, nans),
+                                                                *fixed))
+    u = (a + b) / 2
+    for _ in range(_NEWTON_STEPS):
+        g, c = slope(u, *fixed), curvature(u, *fixed)
+        step = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), 0)
+        u = ca.fmin(ca.fmax(u + step, outer_a), outer_b)
+    return ca.Function(f"finish_{steps}", [window, *fixed], [f(u, *fixed), u, nans]).expand()
 
 
 def _golden_steps_of_numbers(f, steps: int, a, b, seen) -> tuple:
