@@ -7,7 +7,9 @@ Runs ``--specs`` specs of ``benchmarks/batch_throughput.py``'s generated set thr
 inputs (f, f′, f″ of the loop's twin with its numbers bound, the ln ω grid, the half
 step); then refines each captured peak with both modules, each with its own maps of the
 same Functions (the baseline's folds and jet built by its own code), alternating per
-round, and checks that both give the same (top, ln ω) on every peak.
+round, and compares their (top, ln ω) on every peak: the tops must agree to 1e-9 of their
+value (h-bev6: 20 golden steps instead of 48 moved them by ≤ 3e-12); it prints how many are
+bit-equal and the largest difference.
 
     .venv/bin/python benchmarks/report_peaks.py [--baseline main] [--specs 40] [--rounds 5]
 """
@@ -59,8 +61,11 @@ def main() -> None:
     baseline = [([maps.setdefault(m.fn, old.Mapped(m.fn, expand=False)).bound(*m.fixed)
                   for m in (f, s, c)], grid, h) for f, s, c, grid, h in captured]
     for _ in range(2):  # each side builds its folds and jet (at a Function's second request)
-        for (f, s, c, grid, h), (rows, _, _) in zip(captured, baseline):
-            assert refine(f, s, c, grid, h) == old._peak_of_numbers(*rows, grid, h)
+        pairs = [(refine(f, s, c, grid, h), old._peak_of_numbers(*rows, grid, h))
+                 for (f, s, c, grid, h), (rows, _, _) in zip(captured, baseline)]
+    equal = sum(new_top == old_top for new_top, old_top in pairs)
+    moved = max(abs(n[0] - o[0]) / abs(o[0]) for n, o in pairs)
+    assert moved <= 1e-9, moved
     cpu = {"old": 0.0, "new": 0.0}
     load = os.getloadavg()[0]
     for _ in range(args.rounds):
@@ -73,8 +78,8 @@ def main() -> None:
             refine(f, s, c, grid, h)
         cpu["new"] += time.process_time() - started
     count = len(captured) * args.rounds
-    print(f"{len(captured)} peaks of {args.specs} specs × {args.rounds} rounds, the same "
-          f"(top, ln ω) on every peak; CPU ms a peak: baseline {cpu['old'] / count * 1e3:.3f}, "
+    print(f"{len(captured)} peaks of {args.specs} specs × {args.rounds} rounds, (top, ln ω) "
+          f"bit-equal on {equal}, tops within {moved:.1e} relative; CPU ms a peak: baseline {cpu['old'] / count * 1e3:.3f}, "
           f"new {cpu['new'] / count * 1e3:.3f}, new/baseline {cpu['new'] / cpu['old']:.2f}; "
           f"load {load:.1f} → {os.getloadavg()[0]:.1f}")
 

@@ -25,7 +25,11 @@ from feedtune.loops.twin import OfLoop, parametric_twin
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
 _BISECTIONS = 32  # the bracket shrinks to 2^-32 of a grid step before Newton's method
-_GOLDEN_STEPS = 48  # golden-section steps: the bracket of two grid steps shrinks to 1e-10
+#: golden-section steps: the bracket of two grid steps (0.115 in ln ω) shrinks to 0.618²⁰ =
+#: 6.6e-5 of it (7.6e-6 in ln ω), well inside a peak of ζ ≳ 0.002 (width ≈ ζ in ln ω), where
+#: the two Newton steps converge (error ≲ e²/ζ a step: ≲ 1e-8, then rounding); the 28 more
+#: steps of 48 only met f's rounding (values equal to ≤ 3e-12 relative on 180 batch peaks)
+_GOLDEN_STEPS = 20
 #: golden steps in every window of a loop of numbers before only the windows that can
 #: hold the peak go on (:func:`_peak_of_numbers`); the bracket is then 5.6 % of a window
 _SCREEN_STEPS = 6
@@ -282,6 +286,10 @@ def _first_crossing_of_numbers(f, slope, grid: np.ndarray, values: np.ndarray) -
     if below.size == 0:
         return math.exp(grid[-1]), False
     k = int(below[0]) + 1
+    refined = f.derived(("crossing", _BISECTIONS), _crossing_function, (slope.fn,))
+    if refined is not None:  # bisections and Newton steps in one call (issue 15)
+        (u,) = refined.columns(np.array([[grid[k - 1]], [grid[k]]]))
+        return math.exp(float(u[0])), True
     low, high = _bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
     u = (low + high) / 2
     for _ in range(2):
@@ -316,6 +324,25 @@ def _bisection_function(f, steps: int):
     expanded to SX and folded, instead of one Python round and one call a step."""
     fixed = _inputs_after_first(f)
     return _folded(_bisection_step(f, fixed), steps, f"bisection_{steps}", fixed)
+
+
+def _crossing_function(f, slope):
+    """:func:`_first_crossing_of_numbers`' refinement of a bracket as one SX Function of
+    the bracket [low, high] [ln(rad/s)] and ``f``'s fixed inputs → u [ln(rad/s)]: the
+    :data:`_BISECTIONS` folded bisection steps (:func:`_bisection_function`), then the two
+    Newton steps of :func:`crossing_if_any` kept inside the bracket. The same IEEE
+    operations as the float steps (a division where f′ ≠ 0, fmin/fmax as C's), so the
+    same bits, in one call instead of five."""
+    fixed = _inputs_after_first(f)
+    bracket = ca.MX.sym("bracket", 2)
+    state = _bisection_function(f, _BISECTIONS)(bracket, *fixed)
+    low, high = state[0], state[1]
+    u = (low + high) / 2
+    for _ in range(2):
+        g = slope(u, *fixed)
+        step = ca.if_else(g != 0, f(u, *fixed) / ca.if_else(g != 0, g, 1), 0)
+        u = u - ca.fmin(ca.fmax(step, low - u), high - u)
+    return ca.Function(f"crossing_{_BISECTIONS}", [bracket, *fixed], [u]).expand()
 
 
 def _folded(step, steps: int, name: str, fixed: list):
@@ -391,8 +418,8 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     elementwise operation the IEEE operation CasADi's graph performs (golden-section
     points, comparisons, fmin/fmax, Newton steps), and ``f``, ``f′``, ``f″`` the same
     CasADi Functions (SX-expanded) mapped over the row (:class:`Mapped`, of the loop's
-    own graph or replayed on its twin: :func:`replayed`). Building that graph (48 golden
-    steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
+    own graph or replayed on its twin: :func:`replayed`). Building that graph (then 48
+    golden steps, ≈ 10 nodes each, over the whole grid) cost ≈ 70 ms a call on Bhatia's loop.
 
     Only the windows that can hold the largest value are refined to the end (issue 15):
     a window takes the golden steps only if :func:`_window_bound` (what its refinement can
@@ -413,7 +440,11 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    f_grid = f(grid)
+    jet = f.derived(("jet",), _jet_function, (slope.fn, curvature.fn))
+    if jet is None:
+        f_grid, at_grid = f(grid), None
+    else:  # f, f′, f″ on the grid in one call: f's bits (the jet's), and the whole
+        f_grid, *at_grid = jet.columns(grid)  # windows' bound read at their grid points
     if np.isnan(f_grid).any():
         return None
     lower, upper = grid[0], grid[-1]
@@ -426,7 +457,10 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     # and their neighbours (a peak near a window's edge lies in its neighbour too, where
     # the bound on the whole window, read at its centre, can fall short of it)
     if _SCREEN_STEPS < _GOLDEN_STEPS:  # screening on (tests switch it off)
-        passed = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+        if at_grid is None:
+            passed = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
+        else:  # centred on its grid point, the window reaches r either side of it
+            passed = _bound(f_grid, *at_grid, np.fmax(grid - a, b - grid), seen) >= f_grid.max()
         keep = passed.copy()
         keep[1:] |= passed[:-1]
         keep[:-1] |= passed[1:]
@@ -435,23 +469,65 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     a, b, seen, nans = _golden_steps_of_numbers(f, screen, a, b, seen)
     if nans:
         return None
-    if screen < _GOLDEN_STEPS:
+    rest = _GOLDEN_STEPS - screen
+    if rest:
         keep = _window_bound(f, slope, curvature, a, b, seen) >= f_grid.max()
-        a, b, outer_a, outer_b = a[keep], b[keep], outer_a[keep], outer_b[keep]
-        a, b, _, nans = _golden_steps_of_numbers(f, _GOLDEN_STEPS - screen, a, b, seen[keep])
-        if nans:
-            return None
+        a, b, outer_a, outer_b, seen = a[keep], b[keep], outer_a[keep], outer_b[keep], seen[keep]
+    finished = _finish_of_numbers(f, slope, curvature, rest, (a, b, seen), (outer_a, outer_b))
+    if finished is None:
+        return None
+    values = np.concatenate([finished[0], f_grid])
+    where = np.concatenate([finished[1], grid])
+    if np.isnan(values).any() or np.isnan(where).any():
+        return None
+    top = values.max()
+    return float(top), float(where[values == top].max())
+
+
+def _finish_of_numbers(f, slope, curvature, steps: int, brackets: tuple, windows: tuple):
+    """The last ``steps`` golden-section steps in every kept window (``brackets``: rows a,
+    b, seen), then :data:`_NEWTON_STEPS` Newton steps on f′ = 0 from the brackets'
+    midpoints kept inside the ``windows`` (rows of their ends): (f(u), u) rows [units of
+    f, ln(rad/s)], or None where f was NaN at a golden point.
+
+    Through :func:`_finish_function` kept with ``f`` where :meth:`Mapped.derived` gives
+    it (one call instead of four, issue 15), else in numpy floats: the same IEEE
+    operations on the same numbers, so the same bits."""
+    a, b, seen = brackets
+    outer_a, outer_b = windows
+    finish = f.derived(("finish", steps), lambda fn, s, c: _finish_function(fn, s, c, steps),
+                       (slope.fn, curvature.fn))
+    if finish is not None and a.size:
+        f_u, u, nans = finish.columns(np.stack([a, b, seen, np.zeros_like(a), outer_a, outer_b]))
+        return None if np.any(nans) else (f_u, u)
+    a, b, _, nans = _golden_steps_of_numbers(f, steps, a, b, seen)
+    if nans:
+        return None
     u = (a + b) / 2
     for _ in range(_NEWTON_STEPS):
         _, g, c = _jet_columns(f, slope, curvature, u)
         step = np.where(c < 0, -g / np.where(c < 0, c, -1.0), 0.0)
         u = np.fmin(np.fmax(u + step, outer_a), outer_b)
-    values = np.concatenate([f(u), f_grid])
-    where = np.concatenate([u, grid])
-    if np.isnan(values).any() or np.isnan(where).any():
-        return None
-    top = values.max()
-    return float(top), float(where[values == top].max())
+    return f(u), u
+
+
+def _finish_function(f, slope, curvature, steps: int):
+    """:func:`_finish_of_numbers`' steps as one SX Function of a window's state [a, b,
+    seen, NaNs met, its ends] and ``f``'s fixed inputs → (f(u), u, NaNs met): the golden
+    steps of :func:`_golden_function`, then the Newton steps of :func:`_refine_windows`
+    (the same operations as the float steps)."""
+    fixed = _inputs_after_first(f)
+    window = ca.MX.sym("window", 6)
+    a, b, seen, nans, outer_a, outer_b = ca.vertsplit(window)
+    if steps:
+        a, b, _, nans = ca.vertsplit(_golden_function(f, steps)(ca.vertcat(a, b, seen, nans),
+                                                                *fixed))
+    u = (a + b) / 2
+    for _ in range(_NEWTON_STEPS):
+        g, c = slope(u, *fixed), curvature(u, *fixed)
+        step = ca.if_else(c < 0, -g / ca.if_else(c < 0, c, -1), 0)
+        u = ca.fmin(ca.fmax(u + step, outer_a), outer_b)
+    return ca.Function(f"finish_{steps}", [window, *fixed], [f(u, *fixed), u, nans]).expand()
 
 
 def _golden_steps_of_numbers(f, steps: int, a, b, seen) -> tuple:
@@ -742,7 +818,15 @@ def _window_bound(f, slope, curvature, a, b, seen):
     10⁴): a window whose refinement could reach the top is never dropped.
     """
     m, r = (a + b) / 2, (b - a) / 2
-    f_m, slope_m, curvature_m = _jet_columns(f, slope, curvature, m)
+    return _bound(*_jet_columns(f, slope, curvature, m), r, seen)
+
+
+def _bound(f_m, slope_m, curvature_m, r, seen):
+    """:func:`_window_bound` from f, f′, f″ at the windows' centres m and the distance r
+    [ln(rad/s)] each window reaches from its centre: max(seen, f(m)) + 2(|f′(m)|·r +
+    ½|f″(m)|·r²) + 1e-12·max|seen| [units of f]. The screen of whole windows reads it at
+    their grid points (f, f′, f″ there from the jet that gives the grid's values, issue 15),
+    r the larger side of a window clipped at the band's end (2h inside)."""
     rise = 2 * (np.abs(slope_m) * r + 0.5 * np.abs(curvature_m) * r**2)
     return np.fmax(seen, f_m) + rise + 1e-12 * np.max(np.abs(seen))
 
@@ -769,6 +853,14 @@ def _relative_points(ratio: float) -> int:
 
 
 def relative_grid(band: tuple[float, float]) -> np.ndarray:
-    """Points x in (0, 1) so that b·x covers [band low, b) logarithmically."""
-    lo, hi = band
-    return np.geomspace(lo / hi, 1.0, _relative_points(hi / lo))[:-1]
+    """Points x in (0, 1) so that b·x covers [band low, b) logarithmically; read-only,
+    computed once per band (``np.geomspace`` ≈ 50 µs, once a tuned design's bandwidth
+    before; issue 15)."""
+    return _relative_grid(float(band[0]), float(band[1]))
+
+
+@functools.lru_cache(maxsize=256)
+def _relative_grid(lo: float, hi: float) -> np.ndarray:
+    grid = np.geomspace(lo / hi, 1.0, _relative_points(hi / lo))[:-1]
+    grid.flags.writeable = False
+    return grid

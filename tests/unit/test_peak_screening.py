@@ -117,14 +117,14 @@ def test_the_screen_drops_most_windows(monkeypatch):
     after them)."""
     loop = _loops("bhatia-1971-hydraulic", 0)[0]
     kept = []
-    bound = frequency._window_bound
+    bound = frequency._bound  # both screens' bound (the whole windows' read on the grid)
 
-    def counting(f, slope, curvature, a, b, seen):
-        values = bound(f, slope, curvature, a, b, seen)
-        kept.append((int(np.count_nonzero(values >= seen.max())), a.size))
+    def counting(f_m, slope_m, curvature_m, r, seen):
+        values = bound(f_m, slope_m, curvature_m, r, seen)
+        kept.append((int(np.count_nonzero(values >= seen.max())), r.size))
         return values
 
-    monkeypatch.setattr(frequency, "_window_bound", counting)
+    monkeypatch.setattr(frequency, "_bound", counting)
     frequency.peak(frequency_domain.normalised_gain_squared(loop), loop.frequency_band)
     (passed, windows), (refined, screened) = kept  # whole windows, then narrowed brackets
     assert passed <= screened <= 3 * passed and screened <= windows // 10, kept  # neighbours too
