@@ -66,10 +66,21 @@ SLOPE_STEP = 1e-6
 def applies(problem) -> bool:
     """One free tunable, no exchange point, no numeric scan, and an objective of one
     magnitude term minimised (weight > 0): the NLP's epigraph of |e|."""
-    if not (problem.has_nlp and problem.n_z == 1 and not problem.exchange_groups):
-        return False
+    return problem.has_nlp and problem.n_z == 1 and _one_magnitude(problem)
+
+
+def applies_along(problem) -> bool:
+    """As :func:`applies`, with more than one free tunable: a search along one of them, the
+    others held (:meth:`RootSearch.for_problem`)."""
+    return problem.has_nlp and problem.n_z > 1 and _one_magnitude(problem)
+
+
+def _one_magnitude(problem) -> bool:
+    """No exchange point, no numeric scan, and an objective of one magnitude term
+    minimised (weight > 0)."""
     ev = problem.evaluator
-    return bool(ev.term_magnitude == [True] and len(ev.weights) == 1 and ev.weights[0] > 0
+    return bool(not problem.exchange_groups and ev.term_magnitude == [True]
+                and len(ev.weights) == 1 and ev.weights[0] > 0
                 and ev.term_scans == [None] and all(s is None for s in ev.bound_scans))
 
 
@@ -112,11 +123,17 @@ class RootSearch:
         self.feasible = np.array([_feasible(p) for p in points])
 
     @classmethod
-    def for_problem(cls, problem) -> "RootSearch | None":
+    def for_problem(cls, problem, held: np.ndarray | None = None,
+                    axis: int = 0) -> "RootSearch | None":
         """The search on ``problem``'s NLP check Function (the expressions IPOPT sees), or
-        None where :func:`applies` says it does not."""
-        if not applies(problem):
+        None where :func:`applies` says it does not. ``held``: a start of a problem of
+        several free tunables, searched along tunable ``axis`` with the others held at
+        the start's values (a grid of that start alone); the search's z is that tunable's."""
+        if not (applies(problem) if held is None else applies_along(problem)):
             return None
+        at = np.asarray(held if held is not None else [0.0], dtype=float)
+        starts = (np.asarray(problem.starts, dtype=float)[:, 0] if held is None else
+                  at[axis:axis + 1])
         from feedtune.tuner.calls import numeric
 
         check = numeric(problem.evaluator.function)
@@ -137,17 +154,20 @@ class RootSearch:
             return (float(terms[0, column]), rows, math.inf if math.isnan(other) else other)
 
         def evaluate(z):
-            terms, bounds, stability, settling = check.outputs(np.array([z]), p)[:4]
+            terms, bounds, stability, settling = check.outputs(
+                np.concatenate([at[:axis], [z], at[axis + 1:]]), p)[:4]
             return point(terms, bounds, np.vstack([stability, settling]))
 
         def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
+            points = np.repeat(at[:, None], len(zs), axis=1)
+            points[axis] = zs
             terms, bounds, stability, settling = mapped(check.function, len(zs)).outputs(
-                zs, np.tile(p, len(zs)))[:4]
+                points, np.tile(p, len(zs)))[:4]
             conditions = np.vstack([stability, settling])
             return [point(terms, bounds, conditions, j) for j in range(len(zs))]
 
-        return cls(evaluate, float(problem.lbw[0]), float(problem.ubw[0]),
-                   np.asarray(problem.starts, dtype=float)[:, 0], evaluate_all=evaluate_all)
+        return cls(evaluate, float(problem.lbw[axis]), float(problem.ubw[axis]), starts,
+                   evaluate_all=evaluate_all)
 
     @property
     def solvable(self) -> bool:
