@@ -495,10 +495,16 @@ class Problem:
         (:meth:`RootSearch.for_problem <feedtune.tuner.roots.RootSearch.for_problem>`), a
         line's end that is not a root (a bound of the box, or a constraint's crossing,
         where |e| is least on that line) the point the next line searches from, for
-        :data:`ALONG_ROUNDS` rounds."""
+        :data:`ALONG_ROUNDS` rounds; a line searched already (the same tunable, the others
+        held where they were) is not searched again."""
         z, evaluations = np.array(z0, dtype=float), 0
+        searched: dict[int, bytes] = {}  # tunable → the other tunables' values its line held
         for _ in range(ALONG_ROUNDS):
             for axis in range(self.n_z):
+                line = np.delete(z, axis).tobytes()
+                if searched.get(axis) == line:
+                    continue
+                searched[axis] = line
                 search = RootSearch.for_problem(self, held=z, axis=axis)
                 found = search.solve_from(float(z[axis])) if search.solvable else None
                 evaluations += search.evaluations  # its own grid's too

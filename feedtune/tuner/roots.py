@@ -138,33 +138,38 @@ class RootSearch:
 
         check = numeric(problem.evaluator.function)
         p = problem.param_values[:problem.evaluator.n_params]
-        # each bound's sides as (bound, sign, size): sign·(bound − v)/size ≤ 0 where it holds
-        sides = []
-        for index, (b, magnitude) in enumerate(zip(problem.bounds,
-                                                   problem.evaluator.bound_magnitude)):
-            size = max(1.0, abs(b.lower or 0), abs(b.upper or 0))
-            sides += [(index, magnitude, bound, sign, size)
-                      for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
+        # each bound's sides: sign·(bound − v)/size ≤ 0 where it holds, v the bound row's
+        # value (its magnitude for a Magnitude)
+        sides = [(index, magnitude, bound, sign, max(1.0, abs(b.lower or 0), abs(b.upper or 0)))
+                 for index, (b, magnitude) in enumerate(zip(problem.bounds,
+                                                            problem.evaluator.bound_magnitude))
+                 for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
+        columns = list(zip(*sides)) or [()] * 5
+        row = np.array(columns[0], dtype=int)
+        magnitude, bound, sign, size = (np.array(column, dtype=dtype).reshape(-1, 1) for
+                                        column, dtype in zip(columns[1:], (bool, float, float,
+                                                                           float)))
 
-        def point(terms, bounds, conditions, column=0):
-            values = bounds[:, column]
-            rows = np.array([sign * (bound - (abs(values[i]) if magnitude else values[i])) / size
-                             for i, magnitude, bound, sign, size in sides])
-            other = -float(conditions[:, column].min()) if conditions.size else -math.inf
-            return (float(terms[0, column]), rows, math.inf if math.isnan(other) else other)
+        def points(terms, bounds, conditions):  # (e, bound rows, other) of every column
+            values = bounds[row]
+            rows = sign * (bound - np.where(magnitude, np.abs(values), values)) / size
+            other = (-conditions.min(axis=0) if conditions.size else
+                     np.full(terms.shape[1], -math.inf))
+            other = np.where(np.isnan(other), math.inf, other)
+            return [(float(terms[0, j]), rows[:, j], float(other[j]))
+                    for j in range(terms.shape[1])]
 
         def evaluate(z):
             terms, bounds, stability, settling = check.outputs(
                 np.concatenate([at[:axis], [z], at[axis + 1:]]), p)[:4]
-            return point(terms, bounds, np.vstack([stability, settling]))
+            return points(terms, bounds, np.vstack([stability, settling]))[0]
 
         def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
-            points = np.repeat(at[:, None], len(zs), axis=1)
-            points[axis] = zs
+            grid = np.repeat(at[:, None], len(zs), axis=1)
+            grid[axis] = zs
             terms, bounds, stability, settling = mapped(check.function, len(zs)).outputs(
-                points, np.tile(p, len(zs)))[:4]
-            conditions = np.vstack([stability, settling])
-            return [point(terms, bounds, conditions, j) for j in range(len(zs))]
+                grid, np.tile(p, len(zs)))[:4]
+            return points(terms, bounds, np.vstack([stability, settling]))
 
         return cls(evaluate, float(problem.lbw[axis]), float(problem.ubw[axis]), starts,
                    evaluate_all=evaluate_all)
