@@ -17,7 +17,9 @@ own module:
   evaluation buffers;
 * feedtune.tuner.optimum — whether the optimum is unique;
 * feedtune.tuner.scalar, feedtune.tuner.roots — one free tunable without IPOPT: the
-  scalar search, or a root of the signed e where the objective is one |e|;
+  scalar search, or a root of the signed e where the objective is one |e|; with several
+  free tunables and one |e|, a start after the chosen one can no longer change (it
+  reached |e| = 0) is solved by a root of e one tunable at a time where one is found;
 * feedtune.tuner.types — what the tuner takes and returns.
 
 Solver reuse: every number of a problem that does not shape its graph is an NLP
@@ -212,8 +214,9 @@ class Problem:
         # built when a start first needs it) for the starts the root search declines
         roots = searched and root_search_applies(self)
         # several free tunables and one |e|: a start after the chosen one can no longer
-        # change (:meth:`_settled`) is solved by a root of e along the first tunable, the
-        # others held at the start's values, where one is found
+        # change (:meth:`_settled`) only says whether it reaches that optimum, e = 0, too:
+        # solved by a root of e one tunable at a time (:meth:`_root_along`), where one is
+        # found; IPOPT otherwise. The chosen start, and so the tuned point, stays IPOPT's
         self._along = searched and root_search_applies_along(self)
         entry = self._entry(self.hessians[0], with_solver=not (scalar or roots))
         # called with numbers through their evaluation buffers (feedtune.tuner.calls), which
