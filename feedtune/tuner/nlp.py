@@ -17,7 +17,9 @@ own module:
   evaluation buffers;
 * feedtune.tuner.optimum — whether the optimum is unique;
 * feedtune.tuner.scalar, feedtune.tuner.roots — one free tunable without IPOPT: the
-  scalar search, or a root of the signed e where the objective is one |e|;
+  scalar search, or a root of the signed e where the objective is one |e|; with several
+  free tunables and one |e|, a start after the chosen one can no longer change (it
+  reached |e| = 0) is solved by a root of e one tunable at a time where one is found;
 * feedtune.tuner.types — what the tuner takes and returns.
 
 Solver reuse: every number of a problem that does not shape its graph is an NLP
@@ -45,6 +47,7 @@ from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scenarios import objective_value, worst_group
 from feedtune.tuner.roots import RootSearch
 from feedtune.tuner.roots import applies as root_search_applies
+from feedtune.tuner.roots import applies_along as root_search_applies_along
 from feedtune.tuner.scalar import ScalarSearch
 from feedtune.tuner.scalar import applies as scalar_search_applies
 from feedtune.tuner.stability import (add_stability_rows, feasibility, nan_where_unstable,
@@ -107,6 +110,8 @@ WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mu_init": 1e-6,
 #: Ward-Leonard spec, built with every solver and called after every round); measured on
 #: that spec: the cold solver's construction 0.63-0.85 → 0.47-0.52 s CPU (load 13-15)
 NO_PARAMETER_MULTIPLIERS = {"calc_lam_p": False, "no_nlp_grad": True}
+#: rounds of line searches over every free tunable (:meth:`Problem._root_along`)
+ALONG_ROUNDS = 2
 FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
                        "output_file": "", "file_print_level": 0}
 
@@ -208,6 +213,11 @@ class Problem:
         # one free tunable and one |e| minimised: a root of e per start, IPOPT (its solver
         # built when a start first needs it) for the starts the root search declines
         roots = searched and root_search_applies(self)
+        # several free tunables and one |e|: a start after the chosen one can no longer
+        # change (:meth:`_settled`) only says whether it reaches that optimum, e = 0, too:
+        # solved by a root of e one tunable at a time (:meth:`_root_along`), where one is
+        # found; IPOPT otherwise. The chosen start, and so the tuned point, stays IPOPT's
+        self._along = searched and root_search_applies_along(self)
         entry = self._entry(self.hessians[0], with_solver=not (scalar or roots))
         # called with numbers through their evaluation buffers (feedtune.tuner.calls), which
         # hold their Functions weakly: kept here while this problem is
@@ -359,7 +369,7 @@ class Problem:
         solutions: dict[int, tuple] = {}  # each start's solver and last NLP round
         for index, z0 in enumerate(self.starts):
             started = time.perf_counter()
-            run = self._run_start(z0, started)
+            run = self._run_start(z0, started, self._along and self._settled(best))
             if run.solution is not None:
                 solutions[index] = run.solution
             status, return_status, objective = run.status, run.return_status, run.objective
@@ -430,20 +440,26 @@ class Problem:
             flat_tunables=flat if success else None,
             method=starts[index].method)
 
-    def _run_start(self, z0: np.ndarray, started: float) -> "_Run":
+    def _run_start(self, z0: np.ndarray, started: float, along: bool = False) -> "_Run":
         """Every attempt of the start from ``z0`` (the scalar search, or IPOPT with each
         Hessian in turn until one ends solved and feasible), ``started`` its clock [s,
-        perf_counter]."""
+        perf_counter]; ``along``: first a root of e one tunable at a time
+        (:meth:`_root_along`)."""
         iterations = exchanged = 0
         solution = None
-        found = self.roots.solve_from(float(z0[0])) if self.roots is not None else None
-        if found is not None:
-            z_opt = np.array([found.z])
-            objective, bounds, conditions, matrices = self._evaluate(z_opt)
+        z_root, evaluations = None, 0
+        if self.roots is not None:
+            found = self.roots.solve_from(float(z0[0]))
+            if found is not None:
+                z_root, evaluations = np.array([found.z]), found.evaluations
+        elif along:
+            z_root, evaluations = self._root_along(z0)
+        if z_root is not None:
+            objective, bounds, conditions, matrices = self._evaluate(z_root)
             feasible, _ = self._feasible(bounds, conditions, matrices)
             if feasible:  # else IPOPT, as for a start the search declines
-                return _Run(OPTIMAL, "Solve_Succeeded", objective, found.evaluations, 0, True,
-                            z_opt, bounds, conditions, None, "root")
+                return _Run(OPTIMAL, "Solve_Succeeded", objective, evaluations, 0, True,
+                            z_root, bounds, conditions, None, "root")
         attempts = (["scalar"] if self.scalar is not None else
                     self.hessians if self.has_nlp else [None])
         resume = None  # where the previous attempt of this start ended, if stable there
@@ -475,6 +491,32 @@ class Problem:
         return _Run(status, return_status, objective, iterations, exchanged, feasible, z_opt,
                     bounds, conditions, solution,
                     "brent" if self.scalar is not None else "ipopt")
+
+    def _root_along(self, z0: np.ndarray) -> tuple[np.ndarray | None, int]:
+        """(a root of e reached from ``z0`` one free tunable at a time, or None; the
+        evaluations of e it took): along each tunable in turn, the others held
+        (:meth:`RootSearch.for_problem <feedtune.tuner.roots.RootSearch.for_problem>`), a
+        line's end that is not a root (a bound of the box, or a constraint's crossing,
+        where |e| is least on that line) the point the next line searches from, for
+        :data:`ALONG_ROUNDS` rounds; a line searched already (the same tunable, the others
+        held where they were) is not searched again."""
+        z, evaluations = np.array(z0, dtype=float), 0
+        searched: dict[int, bytes] = {}  # tunable → the other tunables' values its line held
+        for _ in range(ALONG_ROUNDS):
+            for axis in range(self.n_z):
+                line = np.delete(z, axis).tobytes()
+                if searched.get(axis) == line:
+                    continue
+                searched[axis] = line
+                search = RootSearch.for_problem(self, held=z, axis=axis)
+                found = search.solve_from(float(z[axis])) if search.solvable else None
+                evaluations += search.evaluations  # its own grid's too
+                if found is not None:
+                    z = z.copy()
+                    z[axis] = found.z
+                    if not found.vertex:
+                        return z, evaluations
+        return None, evaluations
 
     def _solve_from(self, start: np.ndarray, started: float, hessian: str, resume=None) -> tuple:
         """One start: IPOPT (with this Hessian approximation), then exchange rounds while a
@@ -618,6 +660,14 @@ class Problem:
             if b.upper is not None:
                 total += max(0.0, value - b.upper) / size
         return total
+
+    @staticmethod
+    def _settled(best) -> bool:
+        """No later start can be chosen over ``best`` (see :meth:`solve`): it solved
+        feasibly with an objective within :meth:`_better`'s tie of 0, the floor of a
+        magnitude minimised (weight > 0), so a later start is evidence of where the
+        optimum lies only."""
+        return best is not None and best[0][0] == 0 and best[0][1] <= 1e-9
 
     @staticmethod
     def _better(key, best_key) -> bool:
