@@ -21,6 +21,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 import feedtune
 from conftest import TUNED, load_example, tune_dict
+from discrete_checks import response
 from feedtune_cli import run_cli
 
 #: tuned values of bundled examples (the optimum `feedtune tune` finds for each, shared with
@@ -79,46 +80,24 @@ def test_pole_metrics_agree_with_python_control(exported, name):
 
 
 DENSE = np.geomspace(1e-3, 1e7, 200_001)
-#: samples each side of the scan's largest one where a state-space ``error`` is evaluated
-#: as itself (WINDOW · 4.6e-5 in ln ω: |S| falls ≈ 1e-5 relative from the peak there)
-WINDOW = 200
-
-
-def _largest_sample(error) -> tuple[int, float]:
-    """(k, |S(jω_k)|): the largest sample of python-control's frequency response of
-    ``error`` on DENSE. A ``StateSpace`` (Koren's reference-pulse loop) is scanned as its
-    transfer function (``control.ss2tf``: without slycot python-control solves the
-    state-space resolvent once a point in Python, 3.9 s for the 200 001 points against
-    0.02 s; the two agree to 1e-15 relative on every point), then evaluated as the state
-    space itself on WINDOW samples each side of that scan's largest: k and its value are
-    the state space's own."""
-    scanned = control.ss2tf(error) if isinstance(error, control.StateSpace) else error
-    mag = np.abs(control.frequency_response(scanned, DENSE).magnitude).reshape(-1)
-    k = int(np.argmax(mag))
-    if scanned is error:
-        return k, float(mag[k])
-    low = max(k - WINDOW, 0)
-    own = np.abs(control.frequency_response(
-        error, DENSE[low:k + WINDOW + 1]).magnitude).reshape(-1)
-    j = int(np.argmax(own))
-    assert 0 < j < len(own) - 1, "the state space's largest sample lies inside the window"
-    return low + j, float(own[j])
 
 
 @pytest.mark.parametrize("name", sorted(WITH_OPEN_LOOP))
 def test_sensitivity_peak_agrees_with_python_control(exported, name):
     """M_s = max |S(jω)| of the exported ``error`` system S = 1 − T: python-control's
-    frequency response on 10 decades (4.6e-5 apart in ln ω; a state space's largest sample
-    as itself, _largest_sample), the largest sample polished by bounded Brent (xatol 1e-12
-    in ln ω); 1e-8 relative: both locate the same smooth peak to far better than that."""
+    frequency response on 10 decades (4.6e-5 apart in ln ω; ``response``,
+    tests/discrete_checks.py: a state space's values as python-control's, solved in one
+    stacked call), the largest sample polished by bounded Brent (xatol 1e-12 in ln ω);
+    1e-8 relative: both locate the same smooth peak to far better than that."""
     loaded, systems = exported(name)
     error = systems.error
-    k, largest = _largest_sample(error)
+    mag = np.abs(response(error, 1j * DENSE))
+    k = int(np.argmax(mag))
     assert 0 < k < len(DENSE) - 1, "the peak lies inside the grid"
     polished = minimize_scalar(lambda u: -float(np.abs(error(1j * math.exp(u)))),
                                method="bounded", options={"xatol": 1e-12},
                                bounds=(math.log(DENSE[k - 1]), math.log(DENSE[k + 1])))
-    expected = max(largest, -polished.fun)
+    expected = max(mag[k], -polished.fun)
     assert loaded.data.metrics["sensitivity_peak"].value == pytest.approx(expected, rel=1e-8)
     # the validator measured it too, from its own model
     [entry] = [e for e in loaded.data.validation["entries"] if e["metric"] == "sensitivity_peak"]
