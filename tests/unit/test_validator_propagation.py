@@ -130,18 +130,22 @@ def test_the_time_grid_is_computed_once_per_model(name, monkeypatch):
 
 
 def _graded_steps_loop(model):
-    """The validator's time grid before issue 15: one Python iteration per step."""
+    """The validator's time grid before issue 15: one Python iteration per step (each
+    mode's fine step FINE/|p| and the times it dies read from lists of floats, not
+    recomputed from numpy arrays at every step: the same operations on the same numbers)."""
     p = model.poles()
     speeds, decay = np.abs(p), -p.real
     end = math.log(1 / continuous.SETTLED) / float(np.min(decay))
     order = np.argsort(-speeds)
-    dies = math.log(1 / continuous.ALIVE) / decay[order]
-    steps, t, h = [], 0.0, continuous.FINE / float(speeds[order[0]])
+    dies = (math.log(1 / continuous.ALIVE) / decay[order]).tolist()
+    fine = [continuous.FINE / float(speeds[i]) for i in order]
+    growth, last = continuous.GROWTH, len(order) - 1
+    steps, t, h = [], 0.0, fine[0]
     k = 0
     while t < end:
-        while k < len(order) - 1 and dies[k] <= t:
+        while k < last and dies[k] <= t:
             k += 1
-        h = min(h * continuous.GROWTH, continuous.FINE / float(speeds[order[k]]))
+        h = min(h * growth, fine[k])
         steps.append(h)
         t += h
     return np.asarray(steps)
