@@ -27,7 +27,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 import feedtune
 from conftest import TUNED, load_example, tune_dict
-from discrete_checks import control_peak_and_bandwidth
+from discrete_checks import control_peak_and_bandwidth, response
 from feedtune.api import Result, ResultError
 from feedtune.loops.export import loop_to_control
 from feedtune.loops.loop import ContinuousLoop
@@ -93,12 +93,13 @@ def gain_of(system):
 
 def dense_peak_and_bandwidth(closed):
     """(M_peak, −3 dB bandwidth) of a continuous closed loop normalised to its DC gain:
-    ``control.frequency_response`` on DENSE, then the peak polished by bounded Brent between
+    python-control's system at s = jω on DENSE (``response``, tests/discrete_checks.py: the
+    values of ``control.frequency_response``), then the peak polished by bounded Brent between
     the grid neighbours of the largest sample (xatol 1e-12 in ln ω) and the first crossing
     of 1/√2 by brentq (xtol 1e-12·ω). The DC gain itself (ω = 0) is a candidate peak: a
     loop without resonance peaks there."""
     dc = abs(control.dcgain(closed))
-    mag = np.abs(control.frequency_response(closed, DENSE).magnitude).reshape(-1) / dc
+    mag = np.abs(response(closed, 1j * DENSE)) / dc
     gain = gain_of(closed)
     k = int(np.argmax(mag))
     peak = mag[k]
@@ -542,14 +543,15 @@ def test_sampled_user_loop_exports_a_named_discrete_system(exported, name):
 
 
 def sensitivity_peak(open_loop, period) -> float:
-    """max |1/(1 + L(e^{jωT}))| up to π/T by python-control's own evaluation: 20 001 points,
-    polished by bounded Brent (as control_peak_and_bandwidth)."""
+    """max |1/(1 + L(e^{jωT}))| up to π/T by python-control's system: 20 001 points
+    (``response``, tests/discrete_checks.py), polished by bounded Brent on python-control's
+    own evaluation (as control_peak_and_bandwidth)."""
     grid = np.geomspace(1e-5 * math.pi / period, math.pi / period, 20_001)
 
     def magnitude(w):
         return abs(1 / (1 + complex(open_loop(np.exp(1j * w * period)))))
 
-    values = np.abs(1 / (1 + np.asarray(open_loop(np.exp(1j * grid * period))).ravel()))
+    values = np.abs(1 / (1 + response(open_loop, np.exp(1j * grid * period))))
     k = int(np.argmax(values))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     polished = minimize_scalar(lambda u: -magnitude(math.exp(u)), method="bounded",

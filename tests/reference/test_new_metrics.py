@@ -21,6 +21,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 import feedtune
 from conftest import TUNED, load_example, tune_dict
+from discrete_checks import response
 from feedtune_cli import run_cli
 
 #: tuned values of bundled examples (the optimum `feedtune tune` finds for each, shared with
@@ -84,12 +85,13 @@ DENSE = np.geomspace(1e-3, 1e7, 200_001)
 @pytest.mark.parametrize("name", sorted(WITH_OPEN_LOOP))
 def test_sensitivity_peak_agrees_with_python_control(exported, name):
     """M_s = max |S(jω)| of the exported ``error`` system S = 1 − T: python-control's
-    frequency response on 10 decades (4.6e-5 apart in ln ω), the largest sample polished
-    by bounded Brent (xatol 1e-12 in ln ω); 1e-8 relative: both locate the same smooth
-    peak to far better than that."""
+    frequency response on 10 decades (4.6e-5 apart in ln ω; ``response``,
+    tests/discrete_checks.py: a state space's values as python-control's, solved in one
+    stacked call), the largest sample polished by bounded Brent (xatol 1e-12 in ln ω);
+    1e-8 relative: both locate the same smooth peak to far better than that."""
     loaded, systems = exported(name)
     error = systems.error
-    mag = np.abs(control.frequency_response(error, DENSE).magnitude).reshape(-1)
+    mag = np.abs(response(error, 1j * DENSE))
     k = int(np.argmax(mag))
     assert 0 < k < len(DENSE) - 1, "the peak lies inside the grid"
     polished = minimize_scalar(lambda u: -float(np.abs(error(1j * math.exp(u)))),

@@ -109,6 +109,13 @@ def simulate(loop, radius, feed, revolutions_samples, fine=64):
         end = radius * np.exp(1j * omega * interval * (side + 1))
         return start + (t / interval - side) * (end - start)
 
+    # within a sample the state at its j-th fine point is ad^j x + (ad^(j-1) + … + 1) bd u:
+    # ``fine`` steps of the exponential as one product per sample (the same recurrence)
+    powers, drives = [np.eye(m)], [np.zeros(m)]
+    for _ in range(fine):
+        powers.append(ad @ powers[-1])
+        drives.append(ad @ drives[-1] + bd[:, 0])
+    position, position_drive = np.array(powers[:fine])[:, 0, :], np.array(drives[:fine])[:, 0]
     state = np.zeros(m, dtype=complex)
     pending = [0j] * delay
     path = []
@@ -116,11 +123,11 @@ def simulate(loop, radius, feed, revolutions_samples, fine=64):
         command = gain * (reference(k * period) - state[0])
         pending.append(command)
         u = pending.pop(0)
-        for _ in range(fine):
-            path.append(state[0])
-            state = ad @ state + bd[:, 0] * u
+        path.append(position @ state + position_drive * u)
+        state = powers[fine] @ state + drives[fine] * u
+    path = np.concatenate(path)
     times = np.arange(len(path)) * period / fine
-    return times, np.abs(np.array(path))
+    return times, np.abs(path)
 
 
 @pytest.mark.parametrize("case", [

@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from discrete_checks import response
 from feedtune import load_result
 from feedtune.objectives import METRICS
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
@@ -45,10 +46,13 @@ def _spec(period: float = PERIOD) -> dict:
 
 
 def _control_error(closed_loop, radii: np.ndarray) -> np.ndarray:
-    """r·| |H(e^{jωT})| − 1 | [m] at each radius, ω = V_m/r, by python-control (which
-    sorts the frequencies: the radii are read back from them)."""
-    response = closed_loop.frequency_response(V_M / np.asarray(radii))
-    return V_M / response.omega * np.abs(np.abs(np.ravel(response.complex)) - 1)
+    """r·| |H(e^{jωT})| − 1 | [m] at each radius, ω = V_m/r (sorted, the radii read back
+    from them), by python-control's closed loop at z = e^{jωT} as ``frequency_response``
+    evaluates it (``response``, tests/discrete_checks.py: the same values, one stacked
+    solve instead of one a point)."""
+    omega = np.sort(V_M / np.asarray(radii))
+    values = response(closed_loop, np.exp(1j * omega * closed_loop.dt))
+    return V_M / omega * np.abs(np.abs(values) - 1)
 
 
 @pytest.fixture(scope="module")

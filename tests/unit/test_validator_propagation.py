@@ -74,14 +74,23 @@ def test_a_long_run_is_the_product_up_to_rounding(length):
     assert np.max(np.abs(new - old)) <= 1e-13 * np.max(np.abs(old))
 
 
+#: (M, z₀, out, poles as bytes) → (t, θ) of _simulate_before: the responses test and the
+#: validated-values test (whose validator builds the same models) read each stored
+#: result's responses; computed once per process, as the previous code computed them
+_BEFORE: dict = {}
+
+
 def _simulate_before(model, kind):
     """ContinuousModel._simulate before issue 15: its own grid loop, one augmented system
     per response, e^{Mh} z and θ = out·z one step at a time."""
     m, z0, out = model._augmented(kind)
-    steps = _graded_steps_loop(model)
-    t = np.concatenate([[0.0], np.cumsum(steps)])
-    theta = np.array([out @ z for z in _step_by_step(m, z0, steps)])
-    return t, theta, lambda tt: float(out @ expm(m * tt) @ z0)
+    key = tuple(np.asarray(a).tobytes() for a in (m, z0, out, model.poles()))
+    if key not in _BEFORE:
+        steps = _graded_steps_loop(model)
+        t = np.concatenate([[0.0], np.cumsum(steps)])
+        _BEFORE[key] = t, np.array([out @ z for z in _step_by_step(m, z0, steps)])
+    t, theta = _BEFORE[key]
+    return t.copy(), theta.copy(), lambda tt: float(out @ expm(m * tt) @ z0)
 
 
 @pytest.mark.parametrize("name", RESULTS)
@@ -121,18 +130,22 @@ def test_the_time_grid_is_computed_once_per_model(name, monkeypatch):
 
 
 def _graded_steps_loop(model):
-    """The validator's time grid before issue 15: one Python iteration per step."""
+    """The validator's time grid before issue 15: one Python iteration per step (each
+    mode's fine step FINE/|p| and the times it dies read from lists of floats, not
+    recomputed from numpy arrays at every step: the same operations on the same numbers)."""
     p = model.poles()
     speeds, decay = np.abs(p), -p.real
     end = math.log(1 / continuous.SETTLED) / float(np.min(decay))
     order = np.argsort(-speeds)
-    dies = math.log(1 / continuous.ALIVE) / decay[order]
-    steps, t, h = [], 0.0, continuous.FINE / float(speeds[order[0]])
+    dies = (math.log(1 / continuous.ALIVE) / decay[order]).tolist()
+    fine = [continuous.FINE / float(speeds[i]) for i in order]
+    growth, last = continuous.GROWTH, len(order) - 1
+    steps, t, h = [], 0.0, fine[0]
     k = 0
     while t < end:
-        while k < len(order) - 1 and dies[k] <= t:
+        while k < last and dies[k] <= t:
             k += 1
-        h = min(h * continuous.GROWTH, continuous.FINE / float(speeds[order[k]]))
+        h = min(h * growth, fine[k])
         steps.append(h)
         t += h
     return np.asarray(steps)
