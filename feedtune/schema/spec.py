@@ -24,7 +24,7 @@ from pydantic_core import SchemaValidator, core_schema
 from feedtune.expr import Unbounded, to_float
 from feedtune.loops.loop import HorizonError
 from feedtune.loops.protocols import Capability
-from feedtune.loops.sampled_plants import SampledModelError
+from feedtune.loops.errors import SampledModelError
 from feedtune.schema.ipopt import IpoptOptions
 from feedtune.lazy import Loaded
 from feedtune.objectives import METRIC_PATHS, metric_class
