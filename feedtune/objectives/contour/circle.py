@@ -3,6 +3,7 @@
 from pydantic import Field, PositiveFloat
 
 from feedtune.lazy import ca
+from feedtune.loops.frequency import value_at
 from feedtune.loops.protocols import Loop
 from feedtune.schema.model import SpecModel
 
@@ -34,6 +35,4 @@ def radius_gain_excess_value(loop: Loop, omega):
     """:func:`radius_gain_excess` [1]; for a loop of numbers and a float ω [rad/s] its
     number (a DM), evaluated by the Function replayed on the loop's twin
     (:func:`feedtune.loops.frequency.value_at`: the same operations, no graph built)."""
-    from feedtune.loops.frequency import value_at
-
     return value_at("radius_gain_excess", _radius_gain_excess_of, loop, omega)
