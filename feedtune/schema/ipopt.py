@@ -2,9 +2,9 @@
 ranges.
 
 Its own module, without postponed annotations: each option's type is built as the class is
-defined, not compiled from a string twice (by ``TypedDict`` and by pydantic) as in a module
-with ``from __future__ import annotations``, ≈ 4 M instructions of every ``feedtune
-validate`` (issue 15's start-up; benchmarks/README.md).
+defined, not compiled from a string into a forward reference (by ``TypedDict``) and then
+evaluated (by pydantic) as in a module with ``from __future__ import annotations``: ≈ 4 M
+instructions of every ``feedtune validate`` (issue 15's start-up; benchmarks/README.md).
 """
 
 from typing import Annotated, Literal

@@ -17,7 +17,7 @@ import sys
 import threading
 from typing import Annotated, Any, Callable, Literal, Union, get_origin
 
-from pydantic import (ConfigDict, Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
+from pydantic import (Field, PositiveFloat, PositiveInt, TypeAdapter, ValidationError,
                       create_model, field_validator, model_serializer, model_validator)
 from pydantic_core import SchemaValidator, core_schema
 
