@@ -25,10 +25,10 @@ from feedtune.expr import Unbounded, to_float
 from feedtune.loops.loop import HorizonError
 from feedtune.loops.protocols import Capability
 from feedtune.loops.errors import SampledModelError
-from feedtune.schema.ipopt import IpoptOptions
 from feedtune.lazy import Loaded
 from feedtune.objectives import METRIC_PATHS, metric_class
 from feedtune.plants import DATA_PLANTS, PLANT_PATHS, plant_for
+from feedtune.schema.ipopt import IpoptOptions
 from feedtune.schema.model import SpecModel, empty_list
 from feedtune.schema.uncertainty import (MAX_SCENARIOS, RobustSpec, move_inline_forms,
                                          number_path, plant_pointer, scenario_count,
