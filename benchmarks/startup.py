@@ -1,4 +1,5 @@
-"""Start-up time of the command line: `feedtune --help`, `feedtune validate`, `feedtune tune`.
+"""Start-up time of the command line: `feedtune --help`, `feedtune validate`, `feedtune tune`,
+`feedtune batch`.
 
 Each command runs REPEAT times, interleaved with its baseline (a bare interpreter,
 `python -c pass`), in fresh processes from this one (wall time and the process's CPU time,
@@ -41,6 +42,7 @@ import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -50,11 +52,16 @@ EXAMPLE = str(REPO / "examples" / "koren-1979-sampled-data.json")
 SAMPLED_USER = str(REPO / "examples" / "user-defined-sampled-drive.json")
 #: the environment of every measured process: bytecode cached as after a first run
 ENV = {name: value for name, value in os.environ.items() if name != "PYTHONDONTWRITEBYTECODE"}
+#: the ``batch`` case's result directory, removed before each run (else the result is kept)
+BATCH_OUT = Path(tempfile.gettempdir()) / "feedtune-startup-batch"
 CASES = {  # name: (arguments after `python -m feedtune`, issue 15's target [s] or None)
     "--help": (["--help"], 0.3),
     "validate": (["validate", EXAMPLE], 0.3),
     "validate (sampled user)": (["validate", SAMPLED_USER], 0.3),
     "tune (Koren's example)": (["tune", EXAMPLE, "-q"], None),
+    # the batch's process loads and warms the tuner, then forks one worker for the spec
+    "batch (Koren's example, 1 worker)": (["batch", EXAMPLE, "--out", str(BATCH_OUT), "-q",
+                                           "-j", "1"], None),
 }
 #: ``--floor``: the dependencies alone, as ``feedtune validate`` loads them (collector off,
 #: no interpreter teardown)
@@ -72,6 +79,7 @@ ALL_EXAMPLES = {"--help": CASES["--help"],
 def wall(command: list[str], cwd: Path = REPO) -> tuple[float, float]:
     """(wall, CPU) time [s] of one run of ``command`` in ``cwd``, output discarded; CPU is the
     child's user + system time, which a loaded machine inflates far less than the wall time."""
+    shutil.rmtree(BATCH_OUT, ignore_errors=True)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True,

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 from feedtune.lazy import ca, np
+from feedtune.loops.errors import SampledModelError
 
 #: Taylor degree of the exponential's core; with the scaled argument's 1-norm ≤ 1 the
 #: truncation is ≤ e/19! ≈ 2e-17 of the norm, below double rounding (1.1e-16)
@@ -24,10 +25,6 @@ TAYLOR_DEGREE = 18
 #: θ/T within this (relative) of a whole number counts as that number: the rounding of θ/T
 #: when θ is an exact multiple of T (a few ulps; 1e-12 leaves room for θ computed as q·T)
 WHOLE_SAMPLE_TOL = 1e-12
-
-
-class SampledModelError(ValueError):
-    """A plant, controller or dead time the sampled loop cannot take; names the field."""
 
 
 def _float_matrix(value, name: str, shape=None) -> np.ndarray:

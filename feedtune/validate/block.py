@@ -15,22 +15,32 @@ from __future__ import annotations
 from feedtune.schema.labels import metric_label
 from feedtune.schema.uncertainty import with_numbers
 from feedtune.validate.entries import poles_entry, stable_entry
-from feedtune.validate.frequency_data import validate_measured
 from feedtune.validate.measurements import Phase, measures
 from feedtune.validate.model import NotCovered
 from feedtune.validate.models import model_for
 from feedtune.validate.poles import POLE_MEASUREMENTS, pole_entries
 
 
+<<<<<<< HEAD
 #: the fields of a result that no validator reads, left out of its dump: the solver's
 #: record of every start is most of a batch result (a dump without them takes a third of
 #: the time, and the fields read are the same)
 UNREAD = frozenset({"solver", "optimum", "provenance", "warnings", "validation"})
+=======
+def _measured_entries(result: dict) -> list[dict]:
+    """:func:`feedtune.validate.frequency_data.validate_measured`, its module (and
+    scipy.interpolate, ≈ 0.1 s of imports) imported when a result of measured data is
+    validated, not by every tuning (issue 15's start-up)."""
+    from feedtune.validate.frequency_data import validate_measured
+
+    return validate_measured(result)
+
+>>>>>>> h-imp3
 
 #: plants known only by measured data: plant type → (validator, its entries from a result)
 MEASURED = {"frequency_response_data": (
     "numpy/scipy re-evaluation on every measured frequency (feedtune.validate.frequency_data)",
-    validate_measured)}
+    _measured_entries)}
 
 
 def measurement_phases(model) -> tuple[Phase, ...]:

@@ -183,3 +183,33 @@ def test_validate_starts_no_garbage_collection_and_gives_the_collector_back():
                for line in proc.stderr.splitlines() if line.startswith("collections: ")]
     assert {path.stem: report for path, report in zip(EXAMPLES, reports)} == {
         path.stem: {"status": 0, "collections": 0, "enabled": True} for path in EXAMPLES}
+
+
+#: what ``feedtune tune`` and a batch's warm-up import to tune and validate a software servo:
+#: the tuner, the validator, and the validator's model of that plant; the modules loaded
+#: then, as JSON on stdout
+_TUNER_AND_VALIDATOR = """
+import json, sys
+import feedtune.problem, feedtune.validate
+from feedtune.batch.job import WARM_UP_SPEC
+from feedtune.validate.models import model_for
+model_for(WARM_UP_SPEC["plant"], {"position_gain": 20.0, "sampling_period": 0.015625})
+print(json.dumps(sorted(sys.modules)))
+"""
+
+
+def test_a_tuning_loads_only_its_own_plants_validator():
+    """Issue 15's start-up of ``tune`` and ``batch``: the validator imports a plant's model
+    when a result of that plant is validated (``feedtune.validate.models.MODEL_PATHS``), and
+    the measured-data validator (scipy.interpolate) only for measured data; before, every
+    tuning process imported all of them."""
+    proc = subprocess.run([sys.executable, "-c", _TUNER_AND_VALIDATOR], capture_output=True,
+                          text=True, cwd=REPO, timeout=120, check=True)
+    modules = set(json.loads(proc.stdout))
+    others = {f"feedtune.validate.{name}" for name in (
+        "hydraulic_rotary", "cascade", "ward_leonard", "pulse_generator", "linear",
+        "sampled_linear", "frequency_data")}
+    assert "feedtune.validate.software_servo" in modules
+    assert modules & others == set()
+    assert not any(name == "scipy.interpolate" or name.startswith("scipy.interpolate.")
+                   for name in modules)
