@@ -21,12 +21,12 @@ from feedtune.validate.models import model_for
 from feedtune.validate.poles import POLE_MEASUREMENTS, pole_entries
 
 
-<<<<<<< HEAD
 #: the fields of a result that no validator reads, left out of its dump: the solver's
 #: record of every start is most of a batch result (a dump without them takes a third of
 #: the time, and the fields read are the same)
 UNREAD = frozenset({"solver", "optimum", "provenance", "warnings", "validation"})
-=======
+
+
 def _measured_entries(result: dict) -> list[dict]:
     """:func:`feedtune.validate.frequency_data.validate_measured`, its module (and
     scipy.interpolate, ≈ 0.1 s of imports) imported when a result of measured data is
@@ -35,7 +35,6 @@ def _measured_entries(result: dict) -> list[dict]:
 
     return validate_measured(result)
 
->>>>>>> h-imp3
 
 #: plants known only by measured data: plant type → (validator, its entries from a result)
 MEASURED = {"frequency_response_data": (
