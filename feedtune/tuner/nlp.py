@@ -110,6 +110,9 @@ WARM_START_OPTIONS = {"warm_start_init_point": "yes", "mu_init": 1e-6,
 #: Ward-Leonard spec, built with every solver and called after every round); measured on
 #: that spec: the cold solver's construction 0.63-0.85 → 0.47-0.52 s CPU (load 13-15)
 NO_PARAMETER_MULTIPLIERS = {"calc_lam_p": False, "no_nlp_grad": True}
+#: two starts' objectives (or violations) within this [relative, absolute below 1] are tied:
+#: a later start must beat the best by more (:meth:`Problem._better`, :meth:`Problem._settled`)
+OBJECTIVE_TIE = 1e-9
 #: rounds of line searches over every free tunable (:meth:`Problem._root_along`)
 ALONG_ROUNDS = 2
 FIXED_IPOPT_OPTIONS = {"print_level": 0, "sb": "yes", "option_file_name": "",
@@ -667,15 +670,15 @@ class Problem:
         feasibly with an objective within :meth:`_better`'s tie of 0, the floor of a
         magnitude minimised (weight > 0), so a later start is evidence of where the
         optimum lies only."""
-        return best is not None and best[0][0] == 0 and best[0][1] <= 1e-9
+        return best is not None and best[0][0] == 0 and best[0][1] <= OBJECTIVE_TIE
 
     @staticmethod
     def _better(key, best_key) -> bool:
         """Start ``key`` beats ``best_key``: solved before unsolved, then lower objective
-        (or violation), by more than 1e-9 relative."""
+        (or violation), by more than :data:`OBJECTIVE_TIE` relative (absolute below 1)."""
         if key[0] != best_key[0]:
             return key[0] < best_key[0]
         a, b = key[1], best_key[1]
         if a is None or b is None:
             return b is None and a is not None
-        return a < b - 1e-9 * max(1.0, abs(b))
+        return a < b - OBJECTIVE_TIE * max(1.0, abs(b))

@@ -3,8 +3,7 @@
 :data:`MODEL_PATHS` names each plant type's model by module, and :func:`model_for` imports
 the one a result's plant needs: a tuning (``feedtune tune``, a batch worker) loads only its
 own plant's validator, not the other plants' (with their scipy imports; issue 15's
-start-up). ``MODELS`` (plant type → class, a dict) imports every model's module when first
-read.
+start-up).
 """
 
 from __future__ import annotations
@@ -39,10 +38,3 @@ def model_class(kind: str) -> type[Model]:
     module, _, name = MODEL_PATHS[kind].partition(":")
     return getattr(importlib.import_module(module), name)
 
-
-def __getattr__(name: str):
-    """``MODELS``: plant type → model class, every model's module imported on first read."""
-    if name != "MODELS":
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    models = globals()["MODELS"] = {kind: model_class(kind) for kind in MODEL_PATHS}
-    return models

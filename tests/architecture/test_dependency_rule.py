@@ -217,11 +217,11 @@ def test_validator_and_report_are_independent_of_the_tuner(module):
 
 def test_every_plant_has_a_validator_model():
     """One model per plant type, ``validate/<key>.py``: a new plant is validated or this fails."""
-    from feedtune.validate.models import MODELS
+    from feedtune.validate.models import MODEL_PATHS, model_class
 
-    assert set(MODELS) == set(PLANTS)
-    for key, cls in MODELS.items():
-        assert cls.__module__ == f"feedtune.validate.{key}"
+    assert set(MODEL_PATHS) == set(PLANTS)
+    for key in MODEL_PATHS:
+        assert model_class(key).__module__ == f"feedtune.validate.{key}"
 
 
 # -- registries and naming ---------------------------------------------------------------------
