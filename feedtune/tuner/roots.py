@@ -122,6 +122,7 @@ class RootSearch:
     evaluations: int = field(init=False, default=0)  # of the error, by every start
     _charged: int = field(init=False, default=0)  # by the start being solved
     _roots: dict = field(init=False, default_factory=dict)  # bracket → (root, evaluations)
+    _points: dict = field(init=False, default_factory=dict)  # z → its point (:meth:`_at`)
 
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([
@@ -132,6 +133,7 @@ class RootSearch:
         self.evaluations = len(self.grid)
         self.errors = np.array([p[0] for p in points], dtype=float)
         self.feasible = np.array([_feasible(p) for p in points])
+        self._points = {_key(z): p for z, p in zip(self.grid.tolist(), points)}
 
     @classmethod
     def for_problem(cls, problem, held: np.ndarray | None = None,
@@ -167,13 +169,24 @@ class RootSearch:
             other = (-conditions.min(axis=0) if conditions.size else
                      np.full(terms.shape[1], -math.inf))
             other = np.where(np.isnan(other), math.inf, other)
-            return [(float(terms[0, j]), rows[:, j], float(other[j]))
+            return [(float(terms[0, j]), tuple(rows[:, j].tolist()), float(other[j]))
                     for j in range(terms.shape[1])]
 
+        # one point: the same operations on Python floats (each one correctly rounded
+        # operation, as numpy's), without the arrays around three numbers
+        one = [(int(r), bool(m), float(b), float(s), float(n)) for r, m, b, s, n in sides]
+
         def evaluate(z):
-            terms, bounds, stability, settling = check.outputs(
-                np.concatenate([at[:axis], [z], at[axis + 1:]]), p)[:4]
-            return points(terms, bounds, np.vstack([stability, settling]))[0]
+            full = at.copy()
+            full[axis] = z
+            terms, bounds, stability, settling = check.outputs(full, p)[:4]
+            values = bounds.ravel().tolist()
+            rows = tuple(s * (b - (abs(values[r]) if m else values[r])) / size_
+                         for r, m, b, s, size_ in one)
+            conditions = stability.ravel().tolist() + settling.ravel().tolist()
+            other = (-math.inf if not conditions else
+                     math.inf if any(c != c for c in conditions) else -min(conditions))
+            return float(terms[0, 0]), rows, other
 
         def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
             grid = np.repeat(at[:, None], len(zs), axis=1)
@@ -191,9 +204,18 @@ class RootSearch:
         return bool(self.feasible.any())
 
     def _at(self, z: float):
+        """The point (e, bound rows, other) at ``z``, counted as an evaluation of e by the
+        search and the start being solved; evaluated once per search and z (the grid's
+        points from its call): brentq's bracket ends are points the search has, and a
+        crossing's root one brentq evaluated. The count stays the search's reads, as a
+        bracket an earlier start searched is charged again."""
         self.evaluations += 1
         self._charged += 1
-        return self.evaluate(z)
+        key = _key(z)
+        point = self._points.get(key)
+        if point is None:
+            point = self._points[key] = self.evaluate(z)
+        return point
 
     def solve_from(self, z0: float) -> Found | None:
         """The start at ``z0`` (a grid point) solved, or None: declined (module docstring)."""
@@ -329,7 +351,8 @@ class RootSearch:
         stability or settling condition's (the NLP holds those with a margin: IPOPT's)."""
         point = self._at(outside)
         # narrow to where only bound rows, all defined, are violated: the bound's crossing
-        while point[2] > 0 or not math.isfinite(point[0]) or not np.all(np.isfinite(point[1])):
+        while point[2] > 0 or not math.isfinite(point[0]) or not all(
+                math.isfinite(r) for r in point[1]):
             if abs(outside - inside) <= BOUNDARY_XTOL:
                 return None
             middle = 0.5 * (inside + outside)
@@ -338,7 +361,8 @@ class RootSearch:
                 inside = middle
             else:
                 outside, point = middle, probe
-        row = int(np.argmax(point[1]))
+        rows = point[1]
+        row = max(range(len(rows)), key=rows.__getitem__)  # the first largest, as argmax
         root = _brentq(lambda z: self._at(z)[1][row], inside, outside)
         if root is None:
             return None
@@ -395,4 +419,9 @@ def _brentq(f: Callable, a: float, b: float) -> float | None:
 
 def _feasible(point) -> bool:
     e, rows, other = point
-    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or (rows <= 0).all()))
+    return bool(math.isfinite(e) and other <= 0 and all(r <= 0 for r in rows))
+
+
+def _key(z: float) -> tuple:
+    """``z`` as a key of :attr:`RootSearch._points` that tells −0.0 from 0.0."""
+    return z, math.copysign(1.0, z)
