@@ -133,7 +133,7 @@ class RootSearch:
         self.evaluations = len(self.grid)
         self.errors = np.array([p[0] for p in points], dtype=float)
         self.feasible = np.array([_feasible(p) for p in points])
-        self._points = {_key(z): p for z, p in zip(self.grid.tolist(), points)}
+        self._points = {(z, math.copysign(1.0, z)): p for z, p in zip(self.grid.tolist(), points)}
 
     @classmethod
     def for_problem(cls, problem, held: np.ndarray | None = None,
@@ -169,8 +169,7 @@ class RootSearch:
             other = (-conditions.min(axis=0) if conditions.size else
                      np.full(terms.shape[1], -math.inf))
             other = np.where(np.isnan(other), math.inf, other)
-            return [(float(terms[0, j]), tuple(rows[:, j].tolist()), float(other[j]))
-                    for j in range(terms.shape[1])]
+            return list(zip(terms[0].tolist(), map(tuple, rows.T.tolist()), other.tolist()))
 
         # one point: the same operations on Python floats (each one correctly rounded
         # operation, as numpy's), without the arrays around three numbers
@@ -419,7 +418,11 @@ def _brentq(f: Callable, a: float, b: float) -> float | None:
 
 def _feasible(point) -> bool:
     e, rows, other = point
-    return bool(math.isfinite(e) and other <= 0 and all(r <= 0 for r in rows))
+    return bool(math.isfinite(e) and other <= 0 and all(map(_HOLDS, rows)))
+
+
+#: a bound row holds: r ≤ 0 (False for NaN)
+_HOLDS = (0.0).__ge__
 
 
 def _key(z: float) -> tuple:
