@@ -351,6 +351,7 @@ class ErrorCheck:
 
         self.check = numeric(problem.evaluator.function)
         self.p = problem.param_values[:problem.evaluator.n_params]
+        self._dense = all(self.check.dense(i) for i in range(4))  # terms … settling
         # each bound's sides: sign·(bound − v)/size ≤ 0 where it holds, v the bound row's
         # value (its magnitude for a Magnitude)
         sides = [(index, magnitude, bound, sign, max(1.0, abs(b.lower or 0), abs(b.upper or 0)))
@@ -369,14 +370,17 @@ class ErrorCheck:
 
     def point(self, z: np.ndarray) -> tuple:
         """(e, bound rows, other) at the log tunables ``z``."""
-        terms, bounds, stability, settling = self.check.outputs(z, self.p)[:4]
+        if self._dense:  # read as floats from the evaluation's own result arrays
+            terms, bounds, stability, settling = self.check.nonzeros(z, self.p)[:4]
+        else:
+            terms, bounds, stability, settling = self.check.outputs(z, self.p)[:4]
         values = bounds.ravel().tolist()
         rows = tuple(s * (b - (abs(values[r]) if m else values[r])) / size
                      for r, m, b, s, size in self._sides)
         conditions = stability.ravel().tolist() + settling.ravel().tolist()
         other = (-math.inf if not conditions else
                  math.inf if any(c != c for c in conditions) else -min(conditions))
-        return float(terms[0, 0]), rows, other
+        return float(terms.flat[0]), rows, other
 
     def points(self, grid: np.ndarray) -> list[tuple]:
         """:meth:`point` at each column of ``grid`` (n_z × n), from one call of the check
