@@ -124,6 +124,24 @@ class NumericCall:
                 out.append(full)
         return out
 
+    def nonzeros(self, *inputs) -> list[np.ndarray]:
+        """Every output's nonzeros at ``inputs`` (by position, each a flat array of the
+        input's entries, every input given): this thread's result arrays themselves, not
+        copies, so valid until its next call; an output with structural zeros has fewer
+        entries than :meth:`outputs` gives it (:meth:`dense` says which)."""
+        buffer, evaluate, args, results = self._bound()
+        for target, value in zip(args, inputs):
+            target[:] = value
+        evaluate()
+        if self.check and buffer.ret() != 0:
+            raise RuntimeError(f"evaluation of {self.name} failed")
+        return results
+
+    def dense(self, index: int) -> bool:
+        """Output ``index`` has no structural zeros: its :meth:`nonzeros` are its entries
+        (column-major)."""
+        return self._shapes[index][1] is None
+
     def named(self, **inputs) -> dict[str, np.ndarray]:
         """:meth:`__call__` with the inputs by name (those left out: their defaults), the
         outputs by name."""

@@ -45,13 +45,13 @@ from feedtune.tuner.calls import numeric
 from feedtune.tuner.evaluation import Seen, smallest_magnitudes
 from feedtune.tuner.optimum import Solution, equal_optima, flat_tunables
 from feedtune.tuner.scenarios import objective_value, worst_group
-from feedtune.tuner.roots import RootSearch
+from feedtune.tuner.roots import ErrorCheck, RootSearch
 from feedtune.tuner.roots import applies as root_search_applies
 from feedtune.tuner.roots import applies_along as root_search_applies_along
 from feedtune.tuner.scalar import ScalarSearch
 from feedtune.tuner.scalar import applies as scalar_search_applies
-from feedtune.tuner.stability import (add_stability_rows, feasibility, nan_where_unstable,
-                                      poles_stable, restore)
+from feedtune.tuner.stability import (add_stability_rows, feasibility, holds,
+                                      nan_where_unstable, restore)
 from feedtune.tuner.starts import starting_points
 from feedtune.tuner.structure import Structure, build_structure, leading_values
 from feedtune.tuner.supremum import ExchangeGroup, add_exchange_points
@@ -221,6 +221,7 @@ class Problem:
         # solved by a root of e one tunable at a time (:meth:`_root_along`), where one is
         # found; IPOPT otherwise. The chosen start, and so the tuned point, stays IPOPT's
         self._along = searched and root_search_applies_along(self)
+        self._lines = None  # its ErrorCheck (feedtune.tuner.roots), made by the first line
         entry = self._entry(self.hessians[0], with_solver=not (scalar or roots))
         # called with numbers through their evaluation buffers (feedtune.tuner.calls), which
         # hold their Functions weakly: kept here while this problem is
@@ -364,6 +365,11 @@ class Problem:
         """See :func:`feedtune.tuner.stability.feasibility`."""
         return feasibility(bounds, self.bounds, conditions, matrices, self.discrete)
 
+    def _holds(self, bounds, conditions, matrices) -> bool:
+        """:meth:`_feasible`'s verdict alone (a start's end: the stability block is the
+        tuned point's only)."""
+        return holds(bounds, self.bounds, conditions, matrices.values(), self.discrete)
+
     def solve(self, progress: Callable[[StartOutcome, int], None] | None = None) -> Outcome:
         """Run every start; ``progress(start_outcome, total)`` is called after each."""
         starts: list[StartOutcome] = []
@@ -459,7 +465,7 @@ class Problem:
             z_root, evaluations = self._root_along(z0)
         if z_root is not None:
             objective, bounds, conditions, matrices = self._evaluate(z_root)
-            feasible, _ = self._feasible(bounds, conditions, matrices)
+            feasible = self._holds(bounds, conditions, matrices)
             if feasible:  # else IPOPT, as for a start the search declines
                 return _Run(OPTIMAL, "Solve_Succeeded", objective, evaluations, 0, True,
                             z_root, bounds, conditions, None, "root")
@@ -480,7 +486,7 @@ class Problem:
             else:
                 z_opt, return_status, status = z0, "No_Free_Tunables", OPTIMAL
             objective, bounds, conditions, matrices = self._evaluate(z_opt)
-            feasible, _ = self._feasible(bounds, conditions, matrices)
+            feasible = self._holds(bounds, conditions, matrices)
             if (status in SOLVED and feasible) or return_status == "No_Stable_Start":
                 break
             # the next Hessian goes on from a stable end point, with its exchange
@@ -505,13 +511,15 @@ class Problem:
         held where they were) is not searched again."""
         z, evaluations = np.array(z0, dtype=float), 0
         searched: dict[int, bytes] = {}  # tunable → the other tunables' values its line held
+        if self._lines is None:  # the check read as the lines' points, made once
+            self._lines = ErrorCheck(self)
         for _ in range(ALONG_ROUNDS):
             for axis in range(self.n_z):
                 line = np.delete(z, axis).tobytes()
                 if searched.get(axis) == line:
                     continue
                 searched[axis] = line
-                search = RootSearch.for_problem(self, held=z, axis=axis)
+                search = RootSearch.for_problem(self, held=z, axis=axis, check=self._lines)
                 found = search.solve_from(float(z[axis])) if search.solvable else None
                 evaluations += search.evaluations  # its own grid's too
                 if found is not None:
@@ -600,8 +608,7 @@ class Problem:
     def _stable(self, z: np.ndarray) -> bool:
         """Every stability condition and every matrix's poles hold at the log tunables z."""
         conditions, *matrices = self.stability_check(z, self.param_values)
-        return bool(np.all(conditions > 0) and all(
-            poles_stable(m, self.discrete)["stable"] for m in matrices))
+        return holds([], [], conditions, matrices, self.discrete)
 
     def _stable_start(self, z0: np.ndarray) -> np.ndarray | None:
         """``z0`` if its loop is stable, else a stable point near it (see

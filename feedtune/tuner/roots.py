@@ -122,6 +122,7 @@ class RootSearch:
     evaluations: int = field(init=False, default=0)  # of the error, by every start
     _charged: int = field(init=False, default=0)  # by the start being solved
     _roots: dict = field(init=False, default_factory=dict)  # bracket → (root, evaluations)
+    _points: dict = field(init=False, default_factory=dict)  # z → its point (:meth:`_at`)
 
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([
@@ -132,55 +133,32 @@ class RootSearch:
         self.evaluations = len(self.grid)
         self.errors = np.array([p[0] for p in points], dtype=float)
         self.feasible = np.array([_feasible(p) for p in points])
+        self._points = {(z, math.copysign(1.0, z)): p for z, p in zip(self.grid.tolist(), points)}
 
     @classmethod
-    def for_problem(cls, problem, held: np.ndarray | None = None,
-                    axis: int = 0) -> "RootSearch | None":
+    def for_problem(cls, problem, held: np.ndarray | None = None, axis: int = 0,
+                    check: "ErrorCheck | None" = None) -> "RootSearch | None":
         """The search on ``problem``'s NLP check Function (the expressions IPOPT sees), or
         None where :func:`applies` says it does not. ``held``: a start of a problem of
         several free tunables, searched along tunable ``axis`` with the others held at
-        the start's values (a grid of that start alone); the search's z is that tunable's."""
+        the start's values (a grid of that start alone); the search's z is that tunable's.
+        ``check``: the problem's :class:`ErrorCheck`, made here if not given."""
         if not (applies(problem) if held is None else applies_along(problem)):
             return None
         at = np.asarray(held if held is not None else [0.0], dtype=float)
         starts = (np.asarray(problem.starts, dtype=float)[:, 0] if held is None else
                   at[axis:axis + 1])
-        from feedtune.tuner.calls import numeric
-
-        check = numeric(problem.evaluator.function)
-        p = problem.param_values[:problem.evaluator.n_params]
-        # each bound's sides: sign·(bound − v)/size ≤ 0 where it holds, v the bound row's
-        # value (its magnitude for a Magnitude)
-        sides = [(index, magnitude, bound, sign, max(1.0, abs(b.lower or 0), abs(b.upper or 0)))
-                 for index, (b, magnitude) in enumerate(zip(problem.bounds,
-                                                            problem.evaluator.bound_magnitude))
-                 for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
-        columns = list(zip(*sides)) or [()] * 5
-        row = np.array(columns[0], dtype=int)
-        magnitude, bound, sign, size = (np.array(column, dtype=dtype).reshape(-1, 1) for
-                                        column, dtype in zip(columns[1:], (bool, float, float,
-                                                                           float)))
-
-        def points(terms, bounds, conditions):  # (e, bound rows, other) of every column
-            values = bounds[row]
-            rows = sign * (bound - np.where(magnitude, np.abs(values), values)) / size
-            other = (-conditions.min(axis=0) if conditions.size else
-                     np.full(terms.shape[1], -math.inf))
-            other = np.where(np.isnan(other), math.inf, other)
-            return [(float(terms[0, j]), rows[:, j], float(other[j]))
-                    for j in range(terms.shape[1])]
+        check = check if check is not None else ErrorCheck(problem)
 
         def evaluate(z):
-            terms, bounds, stability, settling = check.outputs(
-                np.concatenate([at[:axis], [z], at[axis + 1:]]), p)[:4]
-            return points(terms, bounds, np.vstack([stability, settling]))[0]
+            full = at.copy()
+            full[axis] = z
+            return check.point(full)
 
         def evaluate_all(zs):  # one call of the check mapped over the points: the same bits
             grid = np.repeat(at[:, None], len(zs), axis=1)
             grid[axis] = zs
-            terms, bounds, stability, settling = mapped(check.function, len(zs)).outputs(
-                grid, np.tile(p, len(zs)))[:4]
-            return points(terms, bounds, np.vstack([stability, settling]))
+            return check.points(grid)
 
         return cls(evaluate, float(problem.lbw[axis]), float(problem.ubw[axis]), starts,
                    evaluate_all=evaluate_all)
@@ -191,9 +169,18 @@ class RootSearch:
         return bool(self.feasible.any())
 
     def _at(self, z: float):
+        """The point (e, bound rows, other) at ``z``, counted as an evaluation of e by the
+        search and the start being solved; evaluated once per search and z (the grid's
+        points from its call): brentq's bracket ends are points the search has, and a
+        crossing's root one brentq evaluated. The count stays the search's reads, as a
+        bracket an earlier start searched is charged again."""
         self.evaluations += 1
         self._charged += 1
-        return self.evaluate(z)
+        key = _key(z)
+        point = self._points.get(key)
+        if point is None:
+            point = self._points[key] = self.evaluate(z)
+        return point
 
     def solve_from(self, z0: float) -> Found | None:
         """The start at ``z0`` (a grid point) solved, or None: declined (module docstring)."""
@@ -329,7 +316,8 @@ class RootSearch:
         stability or settling condition's (the NLP holds those with a margin: IPOPT's)."""
         point = self._at(outside)
         # narrow to where only bound rows, all defined, are violated: the bound's crossing
-        while point[2] > 0 or not math.isfinite(point[0]) or not np.all(np.isfinite(point[1])):
+        while point[2] > 0 or not math.isfinite(point[0]) or not all(
+                math.isfinite(r) for r in point[1]):
             if abs(outside - inside) <= BOUNDARY_XTOL:
                 return None
             middle = 0.5 * (inside + outside)
@@ -338,7 +326,8 @@ class RootSearch:
                 inside = middle
             else:
                 outside, point = middle, probe
-        row = int(np.argmax(point[1]))
+        rows = point[1]
+        row = max(range(len(rows)), key=rows.__getitem__)  # the first largest, as argmax
         root = _brentq(lambda z: self._at(z)[1][row], inside, outside)
         if root is None:
             return None
@@ -350,6 +339,62 @@ class RootSearch:
             if _feasible(found):
                 return float(z), float(found[0])
         return None
+
+
+class ErrorCheck:
+    """A problem's NLP check Function read as the search's points (e, bound rows, other)
+    at log tunables z (module docstring): made once per problem, whose lines along one
+    tunable (feedtune.tuner.nlp's ``_root_along``) each read it."""
+
+    def __init__(self, problem):
+        from feedtune.tuner.calls import numeric
+
+        self.check = numeric(problem.evaluator.function)
+        self.p = problem.param_values[:problem.evaluator.n_params]
+        self._dense = all(self.check.dense(i) for i in range(4))  # terms … settling
+        # each bound's sides: sign·(bound − v)/size ≤ 0 where it holds, v the bound row's
+        # value (its magnitude for a Magnitude)
+        sides = [(index, magnitude, bound, sign, max(1.0, abs(b.lower or 0), abs(b.upper or 0)))
+                 for index, (b, magnitude) in enumerate(zip(problem.bounds,
+                                                            problem.evaluator.bound_magnitude))
+                 for bound, sign in ((b.lower, 1.0), (b.upper, -1.0)) if bound is not None]
+        columns = list(zip(*sides)) or [()] * 5
+        self._row = np.array(columns[0], dtype=int)
+        self._magnitude, self._bound, self._sign, self._size = (
+            np.array(column, dtype=dtype).reshape(-1, 1)
+            for column, dtype in zip(columns[1:], (bool, float, float, float)))
+        # one point: the same operations on Python floats (each one correctly rounded
+        # operation, as numpy's), without the arrays around three numbers
+        self._sides = [(int(r), bool(m), float(b), float(s), float(n))
+                       for r, m, b, s, n in sides]
+
+    def point(self, z: np.ndarray) -> tuple:
+        """(e, bound rows, other) at the log tunables ``z``."""
+        if self._dense:  # read as floats from the evaluation's own result arrays
+            terms, bounds, stability, settling = self.check.nonzeros(z, self.p)[:4]
+        else:
+            terms, bounds, stability, settling = self.check.outputs(z, self.p)[:4]
+        values = bounds.ravel().tolist()
+        rows = tuple(s * (b - (abs(values[r]) if m else values[r])) / size
+                     for r, m, b, s, size in self._sides)
+        conditions = stability.ravel().tolist() + settling.ravel().tolist()
+        other = (-math.inf if not conditions else
+                 math.inf if any(c != c for c in conditions) else -min(conditions))
+        return float(terms.flat[0]), rows, other
+
+    def points(self, grid: np.ndarray) -> list[tuple]:
+        """:meth:`point` at each column of ``grid`` (n_z × n), from one call of the check
+        mapped over them (:func:`mapped`: the same bits)."""
+        n = grid.shape[1]
+        terms, bounds, stability, settling = mapped(self.check.function, n).outputs(
+            grid, np.tile(self.p, n))[:4]
+        values = bounds[self._row]
+        rows = self._sign * (self._bound - np.where(self._magnitude, np.abs(values),
+                                                    values)) / self._size
+        conditions = np.vstack([stability, settling])
+        other = -conditions.min(axis=0) if conditions.size else np.full(n, -math.inf)
+        other = np.where(np.isnan(other), math.inf, other)
+        return list(zip(terms[0].tolist(), map(tuple, rows.T.tolist()), other.tolist()))
 
 
 #: the check Functions mapped over n points, by Function and n, kept while the Function is
@@ -395,4 +440,13 @@ def _brentq(f: Callable, a: float, b: float) -> float | None:
 
 def _feasible(point) -> bool:
     e, rows, other = point
-    return bool(math.isfinite(e) and other <= 0 and (rows.size == 0 or (rows <= 0).all()))
+    return bool(math.isfinite(e) and other <= 0 and all(map(_HOLDS, rows)))
+
+
+#: a bound row holds: r ≤ 0 (False for NaN)
+_HOLDS = (0.0).__ge__
+
+
+def _key(z: float) -> tuple:
+    """``z`` as a key of :attr:`RootSearch._points` that tells −0.0 from 0.0."""
+    return z, math.copysign(1.0, z)
