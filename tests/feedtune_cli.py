@@ -37,6 +37,8 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import io
+import logging
+import multiprocessing
 import os
 import signal
 import subprocess
@@ -46,6 +48,7 @@ import traceback
 import warnings
 from pathlib import Path
 
+import feedtune.__main__
 from feedtune.__main__ import run
 
 REPO = Path(__file__).resolve().parents[1]
@@ -76,13 +79,18 @@ def _exit_status(code) -> tuple[int, str]:
     return 1, f"{code}\n"
 
 
+def _default_warnings() -> None:
+    """The warning filters and display of ``python`` started without -W."""
+    warnings.resetwarnings()
+    for action, category, module in DEFAULT_WARNING_FILTERS:
+        warnings.filterwarnings(action, category=category, module=module, append=True)
+    warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
+
+
 @contextlib.contextmanager
 def _fresh_warnings():
     with warnings.catch_warnings():
-        warnings.resetwarnings()
-        for action, category, module in DEFAULT_WARNING_FILTERS:
-            warnings.filterwarnings(action, category=category, module=module, append=True)
-        warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
+        _default_warnings()
         yield
 
 
@@ -203,3 +211,103 @@ def run_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
     if text:
         stdout, stderr = stdout.decode("utf-8"), stderr.decode("utf-8")
     return subprocess.CompletedProcess(["feedtune", *args], status, stdout, stderr)
+
+
+def _forked_command(args: list[str], cwd: str, stdout: str, stderr: str) -> None:
+    """The child of :func:`start_cli`: the process set up as ``python -m feedtune ARGS``
+    started from this one would find it, then the command's own ``main``, which ends the
+    process (:func:`feedtune.__main__.exit_without_teardown`)."""
+    os.chdir(cwd)
+    for fd, path, flags in ((0, os.devnull, os.O_RDONLY), (1, stdout, os.O_WRONLY),
+                            (2, stderr, os.O_WRONLY)):
+        opened = os.open(path, flags)
+        os.dup2(opened, fd)
+        os.close(opened)
+    sys.stdin = io.TextIOWrapper(io.BufferedReader(io.FileIO(0, "r", closefd=False)),
+                                 encoding="utf-8")
+    sys.stdout = io.TextIOWrapper(io.BufferedWriter(io.FileIO(1, "w", closefd=False)),
+                                  encoding="utf-8")
+    sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)),
+                                  encoding="utf-8", errors="backslashreplace",
+                                  line_buffering=True)
+    # an executed interpreter: caught signals back to their defaults, ignored ones kept
+    # ignored, and Python's KeyboardInterrupt for SIGINT
+    for signum, default in ((signal.SIGINT, signal.default_int_handler),
+                            (signal.SIGTERM, signal.SIG_DFL)):
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            signal.signal(signum, default)
+    _default_warnings()
+    logging.root.handlers.clear()  # pytest's capture: a record reaches stderr, as there
+    sys.argv = [feedtune.__main__.__file__, *args]
+    feedtune.__main__.main()
+
+
+class Command:
+    """A ``feedtune ARGS`` process started by :func:`start_cli`: the part of
+    :class:`subprocess.Popen` the tests use (``pid``, ``send_signal``, ``wait``,
+    ``communicate``, ``returncode``: negative for a signal, as Popen's)."""
+
+    def __init__(self, args: list[str], process, stdout: str, stderr: str, text: bool):
+        self.args, self._process, self._paths, self._text = args, process, (stdout, stderr), text
+
+    @property
+    def pid(self) -> int:
+        return self._process.pid
+
+    @property
+    def returncode(self) -> int | None:
+        return self._process.exitcode
+
+    def send_signal(self, signum: int) -> None:
+        if self.returncode is None:  # not a pid that may be another process's by now
+            os.kill(self.pid, signum)
+
+    def wait(self, timeout: float | None = None) -> int:
+        self._process.join(timeout)
+        if self.returncode is None:
+            raise subprocess.TimeoutExpired(self.args, timeout)
+        return self.returncode
+
+    def communicate(self, timeout: float | None = None) -> tuple:
+        """(stdout, stderr) once the process has ended (bytes, or str with ``text``)."""
+        self.wait(timeout)
+        outputs = []
+        for path in self._paths:
+            data = Path(path).read_bytes()
+            os.unlink(path)
+            outputs.append(data.decode("utf-8") if self._text else data)
+        return tuple(outputs)
+
+
+def start_cli(*args: str, cwd: Path | str | None = None, text: bool = False) -> Command:
+    """``feedtune ARGS`` as a process of its own, forked from this one (spawned if this
+    process runs other threads, as a batch's workers are: :func:`feedtune.batch.local.start_method`):
+    for a test whose subject is the process (a signal or SIGKILL sent to it, its exit
+    status and stderr when its Dask scheduler is lost) but not a fresh interpreter's start.
+    It runs ``feedtune.__main__.main``, the ``feedtune`` script's function, with stdin empty,
+    stdout and stderr files of its own, the signal dispositions, warning filters and logging
+    of a fresh interpreter, and the imports (and a batch's warm-up) of this process: ≈ 1.3 s
+    of CPU less than a ``python -m feedtune`` process (tests/README.md). What a fresh
+    interpreter does before the command (its imports, a signal while they load) is tested
+    with ``subprocess`` (tests/cli/test_startup_imports.py, the early signals of
+    tests/batch/test_batch_cli.py)."""
+    from feedtune.batch.local import start_method
+
+    paths = []
+    for _ in range(2):
+        handle, path = tempfile.mkstemp(prefix="feedtune-cli-")
+        os.close(handle)
+        paths.append(path)
+    context = multiprocessing.get_context(start_method())
+    process = context.Process(target=_forked_command, name="feedtune",
+                              args=(list(args), str(cwd or os.getcwd()), *paths))
+    process.start()
+    return Command(["feedtune", *args], process, *paths, text)
+
+
+def run_forked(*args: str, cwd: Path | str | None = None, text: bool = False,
+               timeout: float | None = None) -> subprocess.CompletedProcess:
+    """:func:`start_cli` to its end: what ``subprocess.run(..., capture_output=True)`` returns."""
+    command = start_cli(*args, cwd=cwd, text=text)
+    stdout, stderr = command.communicate(timeout)
+    return subprocess.CompletedProcess(command.args, command.returncode, stdout, stderr)
