@@ -213,12 +213,12 @@ def run_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
     return subprocess.CompletedProcess(["feedtune", *args], status, stdout, stderr)
 
 
-def _forked_command(args: list[str], cwd: str, stdout: str, stderr: str) -> None:
+def _forked_command(args: list[str], cwd: str, stdin: str, stdout: str, stderr: str) -> None:
     """The child of :func:`start_cli`: the process set up as ``python -m feedtune ARGS``
     started from this one would find it, then the command's own ``main``, which ends the
     process (:func:`feedtune.__main__.exit_without_teardown`)."""
     os.chdir(cwd)
-    for fd, path, flags in ((0, os.devnull, os.O_RDONLY), (1, stdout, os.O_WRONLY),
+    for fd, path, flags in ((0, stdin, os.O_RDONLY), (1, stdout, os.O_WRONLY),
                             (2, stderr, os.O_WRONLY)):
         opened = os.open(path, flags)
         os.dup2(opened, fd)
@@ -239,7 +239,15 @@ def _forked_command(args: list[str], cwd: str, stdout: str, stderr: str) -> None
     _default_warnings()
     logging.root.handlers.clear()  # pytest's capture: a record reaches stderr, as there
     sys.argv = [feedtune.__main__.__file__, *args]
-    feedtune.__main__.main()
+    try:
+        feedtune.__main__.main()
+    except BaseException as exc:  # noqa: BLE001 — as the interpreter ends on it
+        traceback.print_exc()
+        sys.stderr.flush()
+        if isinstance(exc, KeyboardInterrupt):  # the interpreter's status: killed by SIGINT
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGINT)
+        os._exit(1)
 
 
 class Command:
@@ -247,8 +255,8 @@ class Command:
     :class:`subprocess.Popen` the tests use (``pid``, ``send_signal``, ``wait``,
     ``communicate``, ``returncode``: negative for a signal, as Popen's)."""
 
-    def __init__(self, args: list[str], process, stdout: str, stderr: str, text: bool):
-        self.args, self._process, self._paths, self._text = args, process, (stdout, stderr), text
+    def __init__(self, args: list[str], process, paths: list[str], text: bool):
+        self.args, self._process, self._paths, self._text = args, process, paths, text
 
     @property
     def pid(self) -> int:
@@ -271,21 +279,22 @@ class Command:
     def communicate(self, timeout: float | None = None) -> tuple:
         """(stdout, stderr) once the process has ended (bytes, or str with ``text``)."""
         self.wait(timeout)
-        outputs = []
-        for path in self._paths:
-            data = Path(path).read_bytes()
-            os.unlink(path)
-            outputs.append(data.decode("utf-8") if self._text else data)
-        return tuple(outputs)
+        stdin, *outputs = (Path(path) for path in self._paths)
+        stdin.unlink()
+        data = [path.read_bytes() for path in outputs]
+        for path in outputs:
+            path.unlink()
+        return tuple(d.decode("utf-8") if self._text else d for d in data)
 
 
-def start_cli(*args: str, cwd: Path | str | None = None, text: bool = False) -> Command:
+def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
+              text: bool = False) -> Command:
     """``feedtune ARGS`` as a process of its own, forked from this one (spawned if this
     process runs other threads, as a batch's workers are: :func:`feedtune.batch.local.start_method`):
     for a test whose subject is the process (a signal or SIGKILL sent to it, its exit
     status and stderr when its Dask scheduler is lost) but not a fresh interpreter's start.
-    It runs ``feedtune.__main__.main``, the ``feedtune`` script's function, with stdin empty,
-    stdout and stderr files of its own, the signal dispositions, warning filters and logging
+    It runs ``feedtune.__main__.main``, the ``feedtune`` script's function, with ``stdin``
+    on standard input, stdout and stderr files of its own, the signal dispositions, warning filters and logging
     of a fresh interpreter, and the imports (and a batch's warm-up) of this process: ≈ 1.3 s
     of CPU less than a ``python -m feedtune`` process (tests/README.md). What a fresh
     interpreter does before the command (its imports, a signal while they load) is tested
@@ -294,20 +303,21 @@ def start_cli(*args: str, cwd: Path | str | None = None, text: bool = False) -> 
     from feedtune.batch.local import start_method
 
     paths = []
-    for _ in range(2):
+    for data in (stdin, b"", b""):  # stdin, stdout, stderr
         handle, path = tempfile.mkstemp(prefix="feedtune-cli-")
-        os.close(handle)
+        with os.fdopen(handle, "wb") as file:
+            file.write(data)
         paths.append(path)
     context = multiprocessing.get_context(start_method())
     process = context.Process(target=_forked_command, name="feedtune",
                               args=(list(args), str(cwd or os.getcwd()), *paths))
     process.start()
-    return Command(["feedtune", *args], process, *paths, text)
+    return Command(["feedtune", *args], process, paths, text)
 
 
-def run_forked(*args: str, cwd: Path | str | None = None, text: bool = False,
-               timeout: float | None = None) -> subprocess.CompletedProcess:
+def run_forked(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
+               text: bool = False, timeout: float | None = None) -> subprocess.CompletedProcess:
     """:func:`start_cli` to its end: what ``subprocess.run(..., capture_output=True)`` returns."""
-    command = start_cli(*args, cwd=cwd, text=text)
+    command = start_cli(*args, stdin=stdin, cwd=cwd, text=text)
     stdout, stderr = command.communicate(timeout)
     return subprocess.CompletedProcess(command.args, command.returncode, stdout, stderr)
