@@ -290,16 +290,16 @@ class Command:
 def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
               text: bool = False) -> Command:
     """``feedtune ARGS`` as a process of its own, forked from this one (spawned if this
-    process runs other threads, as a batch's workers are: :func:`feedtune.batch.local.start_method`):
-    for a test whose subject is the process (a signal or SIGKILL sent to it, its exit
-    status and stderr when its Dask scheduler is lost) but not a fresh interpreter's start.
-    It runs ``feedtune.__main__.main``, the ``feedtune`` script's function, with ``stdin``
-    on standard input, stdout and stderr files of its own, the signal dispositions, warning filters and logging
-    of a fresh interpreter, and the imports (and a batch's warm-up) of this process: ≈ 1.3 s
-    of CPU less than a ``python -m feedtune`` process (tests/README.md). What a fresh
-    interpreter does before the command (its imports, a signal while they load) is tested
-    with ``subprocess`` (tests/cli/test_startup_imports.py, the early signals of
-    tests/batch/test_batch_cli.py)."""
+    process runs other threads, as a batch's workers are:
+    :func:`feedtune.batch.local.start_method`), for a test whose subject is the process (a
+    signal or SIGKILL sent to it, its exit status and stderr when its Dask scheduler is lost
+    or missing) but not a fresh interpreter's start. It runs ``feedtune.__main__.main``, the
+    ``feedtune`` script's function, with ``stdin`` on standard input, stdout and stderr files
+    of its own, the signal dispositions, warning filters and logging of a fresh interpreter,
+    and this process's imports (and a batch's warm-up): ≈ 1.3 s of CPU less than a ``python
+    -m feedtune`` process (tests/README.md). What a fresh interpreter does before the command
+    (its imports, a signal while they load) is tested with ``subprocess``
+    (tests/cli/test_startup_imports.py, the early signals of tests/batch/test_batch_cli.py)."""
     from feedtune.batch.local import start_method
 
     paths = []
