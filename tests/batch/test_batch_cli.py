@@ -477,28 +477,43 @@ def test_a_spec_over_the_time_limit_is_stopped_and_the_rest_complete(tmp_path):
     assert time.monotonic() - started < 50  # not the 60 s the job sleeps
 
 
+@pytest.fixture(scope="module")
+def first_spec_facts(tmp_path_factory):
+    """``facts(start)``: what a worker started by ``start`` had before each of its two specs'
+    clocks started (batch_jobs.first_spec_facts' messages), from one batch of two specs per
+    start method, run when first asked and read by the two tests below (a spawned worker
+    is a fresh interpreter: ≈ 0.8 s of CPU a batch)."""
+    messages = {}
+
+    def facts(start: str) -> list[str]:
+        if start not in messages:
+            root = tmp_path_factory.mktemp(f"first-spec-{start}")
+            write_specs(root / "specs", 2)
+            outcome = run_batch([str(root / "specs")], root / "out",
+                                LocalExecutor(1, job=batch_jobs.first_spec_facts, start=start))
+            messages[start] = [row["message"] for row in outcome.document["rows"]]
+        return messages[start]
+
+    return facts
+
+
 @pytest.mark.parametrize("start", ["fork", "spawn"])
-def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(tmp_path, start):
+def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(first_spec_facts,
+                                                                           start):
     """--timeout charges a spec its own time, not its worker's start (loading CasADi took
     over the test's 3 s limit on a loaded machine: every spec timed out; a spawned worker's
     first tuning, ≈ 0.8 s of CPU more, did so at load 9). A worker is forked, or spawned
     when the batch's process runs other threads (test_workers_are_spawned_while_...)."""
-    write_specs(tmp_path / "specs", 2)
-    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
-                        LocalExecutor(1, job=batch_jobs.tuner_loaded, start=start))
-    assert [row["message"] for row in outcome.document["rows"]] == [
+    assert [message.split("; ")[0] for message in first_spec_facts(start)] == [
         "tuner loaded before the spec: True, warmed up: True"] * 2
 
 
 @pytest.mark.parametrize("start", ["fork", "spawn"])
-def test_a_worker_freezes_what_it_loaded_before_its_first_spec(tmp_path, start):
+def test_a_worker_freezes_what_it_loaded_before_its_first_spec(first_spec_facts, start):
     """Issue 15: the imports and the warm-up's objects (≈ 74 000) are left out of a worker's
     garbage collections, which walked them at every full collection and, forked, copied the
     pages it shares with the batch (benchmarks/README.md, "Branch h-bx1")."""
-    write_specs(tmp_path / "specs", 2)
-    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
-                        LocalExecutor(1, job=batch_jobs.frozen_objects, start=start))
-    assert [row["message"] for row in outcome.document["rows"]] == [
+    assert [message.split("; ")[1] for message in first_spec_facts(start)] == [
         "objects frozen before the spec: True"] * 2
 
 
