@@ -25,11 +25,13 @@ pydantic, numpy, scipy and CasADi (≈ 45 % of the suite's CPU went to such star
 benchmarks/README.md, "The test suite's CPU"). A solver the tuner built for an earlier
 test is reused here as in a batch; results do not depend on it (tests/unit/test_solver_reuse.py).
 
-What still needs a process of its own, so keep ``subprocess`` there: the process's exit
-(``feedtune.__main__.main`` ends without the interpreter's teardown), signals sent to the
-command, what a fresh interpreter imports (tests/cli/test_startup_imports.py), anything
-printed once per process (IPOPT's banner), the console script itself, and ``feedtune
-batch`` on a Dask cluster (tests/README.md).
+What still needs a fresh interpreter, so keep ``subprocess`` there: the process's exit
+(``feedtune.__main__.main`` ends without the interpreter's teardown), a signal while the
+command line loads, what a fresh interpreter imports (tests/cli/test_startup_imports.py),
+anything printed once per process (IPOPT's banner) and the console script itself. A signal
+sent to a running command, or a ``feedtune batch`` whose Dask scheduler is lost, needs a
+process but not a fresh interpreter: :func:`start_cli` forks one from this process
+(tests/README.md).
 """
 
 from __future__ import annotations
