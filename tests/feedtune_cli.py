@@ -215,10 +215,11 @@ def run_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
     return subprocess.CompletedProcess(["feedtune", *args], status, stdout, stderr)
 
 
-def _forked_command(args: list[str], cwd: str, stdin: str, stdout: str, stderr: str) -> None:
+def _forked_command(main, args: list[str], cwd: str, stdin: str, stdout: str,
+                    stderr: str) -> None:
     """The child of :func:`start_cli`: the process set up as ``python -m feedtune ARGS``
-    started from this one would find it, then the command's own ``main``, which ends the
-    process (:func:`feedtune.__main__.exit_without_teardown`)."""
+    started from this one would find it, then ``main`` (the command's own, which ends the
+    process: :func:`feedtune.__main__.exit_without_teardown`)."""
     os.chdir(cwd)
     for fd, path, flags in ((0, stdin, os.O_RDONLY), (1, stdout, os.O_WRONLY),
                             (2, stderr, os.O_WRONLY)):
@@ -242,7 +243,7 @@ def _forked_command(args: list[str], cwd: str, stdin: str, stdout: str, stderr: 
     logging.root.handlers.clear()  # pytest's capture: a record reaches stderr, as there
     sys.argv = [feedtune.__main__.__file__, *args]
     try:
-        feedtune.__main__.main()
+        main()
     except BaseException as exc:  # noqa: BLE001 — as the interpreter ends on it
         traceback.print_exc()
         sys.stderr.flush()
@@ -290,7 +291,7 @@ class Command:
 
 
 def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
-              text: bool = False) -> Command:
+              text: bool = False, main=None) -> Command:
     """``feedtune ARGS`` as a process of its own, forked from this one (spawned if this
     process runs other threads, as a batch's workers are:
     :func:`feedtune.batch.local.start_method`), for a test whose subject is the process (a
@@ -301,7 +302,9 @@ def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
     and this process's imports (and a batch's warm-up): ≈ 1.3 s of CPU less than a ``python
     -m feedtune`` process (tests/README.md). What a fresh interpreter does before the command
     (its imports, a signal while they load) is tested with ``subprocess``
-    (tests/cli/test_startup_imports.py, the early signals of tests/batch/test_batch_cli.py)."""
+    (tests/cli/test_startup_imports.py, the early signals of tests/batch/test_batch_cli.py).
+    ``main``: the function the child runs instead of ``feedtune.__main__.main`` (a test of
+    this helper's own; module-level, so that a spawned child finds it by name)."""
     from feedtune.batch.local import start_method
 
     paths = []
@@ -312,7 +315,8 @@ def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
         paths.append(path)
     context = multiprocessing.get_context(start_method())
     process = context.Process(target=_forked_command, name="feedtune",
-                              args=(list(args), str(cwd or os.getcwd()), *paths))
+                              args=(main or feedtune.__main__.main, list(args),
+                                    str(cwd or os.getcwd()), *paths))
     process.start()
     return Command(["feedtune", *args], process, paths, text)
 

@@ -74,34 +74,39 @@ def test_exit_codes_map_as_sys_exit_maps_them(monkeypatch, code, status, message
     assert (proc.returncode, proc.stderr) == (status, message)
 
 
-def _fresh_process_facts(args=None):
-    """A command for the forked process: what it finds, on stdout; a warning and a log
+def _fresh_process_facts() -> None:
+    """A ``main`` for the forked process: what it finds, on stdout; a warning and a log
     record, which a fresh interpreter prints on stderr; exit status 3."""
     import logging
 
-    print(os.getcwd(), sys.stdin.read(),
+    from feedtune.__main__ import exit_without_teardown
+
+    print(os.getcwd(), sys.argv[1:], sys.stdin.read(),
           signal.getsignal(signal.SIGINT) is signal.default_int_handler,
-          signal.getsignal(signal.SIGTERM) is signal.SIG_DFL, args)
+          signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
     warnings.warn("a user warning")
     logging.getLogger("feedtune.test").warning("a log record")
-    return 3
+    exit_without_teardown(3)
 
 
-def test_a_forked_command_starts_as_a_fresh_interpreter_would(monkeypatch, tmp_path):
-    monkeypatch.setattr(feedtune_cli.feedtune.__main__, "run", _fresh_process_facts)
+def _sleep() -> None:
+    time.sleep(60)
+
+
+def test_a_forked_command_starts_as_a_fresh_interpreter_would(tmp_path):
     previous = signal.signal(signal.SIGTERM, lambda signum, frame: None)  # this process's own
     try:
-        command = start_cli("anything", stdin=b"given", cwd=tmp_path, text=True)
+        command = start_cli("anything", stdin=b"given", cwd=tmp_path, text=True,
+                            main=_fresh_process_facts)
     finally:
         signal.signal(signal.SIGTERM, previous)
     out, err = command.communicate(timeout=120)
     assert command.returncode == 3, err
-    assert out == f"{tmp_path} given True True None\n"
+    assert out == f"{tmp_path} ['anything'] given True True\n"
     assert "UserWarning: a user warning" in err and "a log record" in err
 
 
-def test_a_forked_command_ends_by_the_signal_sent_to_it(monkeypatch):
-    monkeypatch.setattr(feedtune_cli.feedtune.__main__, "run", lambda args: time.sleep(60))
-    command = start_cli("anything")
+def test_a_forked_command_ends_by_the_signal_sent_to_it():
+    command = start_cli("anything", main=_sleep)
     command.send_signal(signal.SIGKILL)
     assert command.wait(timeout=120) == -signal.SIGKILL
