@@ -81,9 +81,11 @@ def _fresh_process_facts() -> None:
 
     from feedtune.__main__ import exit_without_teardown
 
+    names = {signal.default_int_handler: "KeyboardInterrupt", signal.SIG_DFL: "default",
+             signal.SIG_IGN: "ignored"}
     print(os.getcwd(), sys.argv[1:], sys.stdin.read(),
-          signal.getsignal(signal.SIGINT) is signal.default_int_handler,
-          signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+          *(names.get(signal.getsignal(signum), "caught")
+            for signum in (signal.SIGINT, signal.SIGTERM)))
     warnings.warn("a user warning")
     logging.getLogger("feedtune.test").warning("a log record")
     exit_without_teardown(3)
@@ -94,6 +96,10 @@ def _sleep() -> None:
 
 
 def test_a_forked_command_starts_as_a_fresh_interpreter_would(tmp_path):
+    """As an executed interpreter: a caught signal back to its default, Python's
+    KeyboardInterrupt for SIGINT unless SIGINT is ignored (a suite started in the background
+    of a shell, `pytest &`, inherits it ignored, and so would a `python` it starts)."""
+    sigint = "ignored" if signal.getsignal(signal.SIGINT) is signal.SIG_IGN else "KeyboardInterrupt"
     previous = signal.signal(signal.SIGTERM, lambda signum, frame: None)  # this process's own
     try:
         command = start_cli("anything", stdin=b"given", cwd=tmp_path, text=True,
@@ -102,7 +108,7 @@ def test_a_forked_command_starts_as_a_fresh_interpreter_would(tmp_path):
         signal.signal(signal.SIGTERM, previous)
     out, err = command.communicate(timeout=120)
     assert command.returncode == 3, err
-    assert out == f"{tmp_path} ['anything'] given True True\n"
+    assert out == f"{tmp_path} ['anything'] given {sigint} default\n"
     assert "UserWarning: a user warning" in err and "a log record" in err
 
 
