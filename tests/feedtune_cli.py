@@ -260,6 +260,7 @@ class Command:
 
     def __init__(self, args: list[str], process, paths: list[str], text: bool):
         self.args, self._process, self._paths, self._text = args, process, paths, text
+        self._outputs = None
 
     @property
     def pid(self) -> int:
@@ -274,20 +275,22 @@ class Command:
             os.kill(self.pid, signum)
 
     def wait(self, timeout: float | None = None) -> int:
+        """The exit status once the process has ended; its stdout and stderr are then read
+        and its three files removed."""
         self._process.join(timeout)
         if self.returncode is None:
             raise subprocess.TimeoutExpired(self.args, timeout)
+        if self._outputs is None:
+            _, *outputs = (Path(path).read_bytes() for path in self._paths)
+            for path in self._paths:
+                os.unlink(path)
+            self._outputs = tuple(d.decode("utf-8") if self._text else d for d in outputs)
         return self.returncode
 
     def communicate(self, timeout: float | None = None) -> tuple:
         """(stdout, stderr) once the process has ended (bytes, or str with ``text``)."""
         self.wait(timeout)
-        stdin, *outputs = (Path(path) for path in self._paths)
-        stdin.unlink()
-        data = [path.read_bytes() for path in outputs]
-        for path in outputs:
-            path.unlink()
-        return tuple(d.decode("utf-8") if self._text else d for d in data)
+        return self._outputs
 
 
 def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
