@@ -25,11 +25,13 @@ pydantic, numpy, scipy and CasADi (≈ 45 % of the suite's CPU went to such star
 benchmarks/README.md, "The test suite's CPU"). A solver the tuner built for an earlier
 test is reused here as in a batch; results do not depend on it (tests/unit/test_solver_reuse.py).
 
-What still needs a process of its own, so keep ``subprocess`` there: the process's exit
-(``feedtune.__main__.main`` ends without the interpreter's teardown), signals sent to the
-command, what a fresh interpreter imports (tests/cli/test_startup_imports.py), anything
-printed once per process (IPOPT's banner), the console script itself, and ``feedtune
-batch`` on a Dask cluster (tests/README.md).
+What still needs a fresh interpreter, so keep ``subprocess`` there: the process's exit
+(``feedtune.__main__.main`` ends without the interpreter's teardown), a signal while the
+command line loads, what a fresh interpreter imports (tests/cli/test_startup_imports.py),
+anything printed once per process (IPOPT's banner) and the console script itself. A signal
+sent to a running command, or a ``feedtune batch`` whose Dask scheduler is lost, needs a
+process but not a fresh interpreter: :func:`start_cli` forks one from this process
+(tests/README.md).
 """
 
 from __future__ import annotations
@@ -37,6 +39,8 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import io
+import logging
+import multiprocessing
 import os
 import signal
 import subprocess
@@ -46,6 +50,7 @@ import traceback
 import warnings
 from pathlib import Path
 
+import feedtune.__main__
 from feedtune.__main__ import run
 
 REPO = Path(__file__).resolve().parents[1]
@@ -76,13 +81,18 @@ def _exit_status(code) -> tuple[int, str]:
     return 1, f"{code}\n"
 
 
+def _default_warnings() -> None:
+    """The warning filters and display of ``python`` started without -W."""
+    warnings.resetwarnings()
+    for action, category, module in DEFAULT_WARNING_FILTERS:
+        warnings.filterwarnings(action, category=category, module=module, append=True)
+    warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
+
+
 @contextlib.contextmanager
 def _fresh_warnings():
     with warnings.catch_warnings():
-        warnings.resetwarnings()
-        for action, category, module in DEFAULT_WARNING_FILTERS:
-            warnings.filterwarnings(action, category=category, module=module, append=True)
-        warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
+        _default_warnings()
         yield
 
 
@@ -203,3 +213,120 @@ def run_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
     if text:
         stdout, stderr = stdout.decode("utf-8"), stderr.decode("utf-8")
     return subprocess.CompletedProcess(["feedtune", *args], status, stdout, stderr)
+
+
+def _forked_command(main, args: list[str], cwd: str, stdin: str, stdout: str,
+                    stderr: str) -> None:
+    """The child of :func:`start_cli`: the process set up as ``python -m feedtune ARGS``
+    started from this one would find it, then ``main`` (the command's own, which ends the
+    process: :func:`feedtune.__main__.exit_without_teardown`)."""
+    os.chdir(cwd)
+    for fd, path, flags in ((0, stdin, os.O_RDONLY), (1, stdout, os.O_WRONLY),
+                            (2, stderr, os.O_WRONLY)):
+        opened = os.open(path, flags)
+        os.dup2(opened, fd)
+        os.close(opened)
+    sys.stdin = io.TextIOWrapper(io.BufferedReader(io.FileIO(0, "r", closefd=False)),
+                                 encoding="utf-8")
+    sys.stdout = io.TextIOWrapper(io.BufferedWriter(io.FileIO(1, "w", closefd=False)),
+                                  encoding="utf-8")
+    sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)),
+                                  encoding="utf-8", errors="backslashreplace",
+                                  line_buffering=True)
+    # an executed interpreter: caught signals back to their defaults, ignored ones kept
+    # ignored, and Python's KeyboardInterrupt for SIGINT
+    for signum, default in ((signal.SIGINT, signal.default_int_handler),
+                            (signal.SIGTERM, signal.SIG_DFL)):
+        if signal.getsignal(signum) is not signal.SIG_IGN:
+            signal.signal(signum, default)
+    _default_warnings()
+    logging.root.handlers.clear()  # pytest's capture: a record reaches stderr, as there
+    sys.argv = [feedtune.__main__.__file__, *args]
+    try:
+        main()
+    except BaseException as exc:  # noqa: BLE001 — as the interpreter ends on it
+        traceback.print_exc()
+        sys.stderr.flush()
+        if isinstance(exc, KeyboardInterrupt):  # the interpreter's status: killed by SIGINT
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGINT)
+        os._exit(1)
+
+
+class Command:
+    """A ``feedtune ARGS`` process started by :func:`start_cli`: the part of
+    :class:`subprocess.Popen` the tests use (``pid``, ``send_signal``, ``wait``,
+    ``communicate``, ``returncode``: negative for a signal, as Popen's)."""
+
+    def __init__(self, args: list[str], process, paths: list[str], text: bool):
+        self.args, self._process, self._paths, self._text = args, process, paths, text
+        self._outputs = None
+
+    @property
+    def pid(self) -> int:
+        return self._process.pid
+
+    @property
+    def returncode(self) -> int | None:
+        return self._process.exitcode
+
+    def send_signal(self, signum: int) -> None:
+        if self.returncode is None:  # not a pid that may be another process's by now
+            os.kill(self.pid, signum)
+
+    def wait(self, timeout: float | None = None) -> int:
+        """The exit status once the process has ended; its stdout and stderr are then read
+        and its three files removed."""
+        self._process.join(timeout)
+        if self.returncode is None:
+            raise subprocess.TimeoutExpired(self.args, timeout)
+        if self._outputs is None:
+            _, *outputs = (Path(path).read_bytes() for path in self._paths)
+            for path in self._paths:
+                os.unlink(path)
+            self._outputs = tuple(d.decode("utf-8") if self._text else d for d in outputs)
+        return self.returncode
+
+    def communicate(self, timeout: float | None = None) -> tuple:
+        """(stdout, stderr) once the process has ended (bytes, or str with ``text``)."""
+        self.wait(timeout)
+        return self._outputs
+
+
+def start_cli(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
+              text: bool = False, main=None) -> Command:
+    """``feedtune ARGS`` as a process of its own, forked from this one (spawned if this
+    process runs other threads, as a batch's workers are:
+    :func:`feedtune.batch.local.start_method`), for a test whose subject is the process (a
+    signal or SIGKILL sent to it, its exit status and stderr when its Dask scheduler is lost
+    or missing) but not a fresh interpreter's start. It runs ``feedtune.__main__.main``, the
+    ``feedtune`` script's function, with ``stdin`` on standard input, stdout and stderr files
+    of its own, the signal dispositions, warning filters and logging of a fresh interpreter,
+    and this process's imports (and a batch's warm-up): ≈ 1.3 s of CPU less than a ``python
+    -m feedtune`` process (tests/README.md). What a fresh interpreter does before the command
+    (its imports, a signal while they load) is tested with ``subprocess``
+    (tests/cli/test_startup_imports.py, the early signals of tests/batch/test_batch_cli.py).
+    ``main``: the function the child runs instead of ``feedtune.__main__.main`` (a test of
+    this helper's own; module-level, so that a spawned child finds it by name)."""
+    from feedtune.batch.local import start_method
+
+    paths = []
+    for data in (stdin, b"", b""):  # stdin, stdout, stderr
+        handle, path = tempfile.mkstemp(prefix="feedtune-cli-")
+        with os.fdopen(handle, "wb") as file:
+            file.write(data)
+        paths.append(path)
+    context = multiprocessing.get_context(start_method())
+    process = context.Process(target=_forked_command, name="feedtune",
+                              args=(main or feedtune.__main__.main, list(args),
+                                    str(cwd or os.getcwd()), *paths))
+    process.start()
+    return Command(["feedtune", *args], process, paths, text)
+
+
+def run_forked(*args: str, stdin: bytes = b"", cwd: Path | str | None = None,
+               text: bool = False, timeout: float | None = None) -> subprocess.CompletedProcess:
+    """:func:`start_cli` to its end: what ``subprocess.run(..., capture_output=True)`` returns."""
+    command = start_cli(*args, stdin=stdin, cwd=cwd, text=text)
+    stdout, stderr = command.communicate(timeout)
+    return subprocess.CompletedProcess(command.args, command.returncode, stdout, stderr)

@@ -31,21 +31,18 @@ def sleeping(data: bytes, existing):
     return solve(data, existing)
 
 
-def tuner_loaded(data: bytes, existing):
-    """Say whether the worker had loaded the tuner, and tuned its warm-up spec, before this
-    spec's clock started."""
+def first_spec_facts(data: bytes, existing):
+    """Say what the worker had before this spec's clock started: whether its objects from
+    before (the imports, the warm-up's) were out of the garbage collector's scans
+    (``gc.freeze``), and whether it had loaded the tuner and tuned its warm-up spec."""
+    import gc
+
+    frozen = gc.get_freeze_count() > 10_000
     from feedtune.batch import job
 
     return Outcome("error", f"tuner loaded before the spec: {'feedtune.problem' in sys.modules}"
-                            f", warmed up: {job._warmed}")
-
-
-def frozen_objects(data: bytes, existing):
-    """Say whether the worker's objects from before its first spec (the imports, the
-    warm-up's) were out of the garbage collector's scans (``gc.freeze``) when it started."""
-    import gc
-
-    return Outcome("error", f"objects frozen before the spec: {gc.get_freeze_count() > 10_000}")
+                            f", warmed up: {job._warmed}; objects frozen before the spec: "
+                            f"{frozen}")
 
 
 #: set by a test in its own process; a worker forked from it sees the value, a spawned one

@@ -1,5 +1,12 @@
 """``feedtune batch`` through its real entry point, and its executors in process.
 
+A batch whose process is the subject (a signal or SIGKILL sent to it, its Dask scheduler
+lost or missing) runs as a process of its own forked from this one (``start_cli``,
+tests/feedtune_cli.py), running the ``feedtune`` script's ``main``; a fresh interpreter
+(``python -m feedtune``, ``python -c``) where its start is the subject: a signal while the
+command line loads, what the warm-up imports, a batch without Dask installed, a worker
+whose batch dies as it starts.
+
 What issue 5 asks of a batch, each with a test that fails if it breaks: one result per
 spec named after it (collisions handled) and a summary; resume by canonical-spec hash and
 feedtune version; exit statuses 0/1/2; JUnit XML and GitHub annotations; the baseline
@@ -31,7 +38,7 @@ import batch_jobs
 from feedtune.batch.job import solve
 from feedtune.batch.local import LocalExecutor
 from feedtune.batch.runner import run_batch
-from feedtune_cli import run_cli
+from feedtune_cli import run_cli, run_forked, start_cli
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLES = REPO / "examples"
@@ -41,21 +48,6 @@ FAST = "koren-1979-sampled-data"  # ≈0.1 s to tune
 #: specs are shared among workers is tested on all cores (mixed_batch, resume) and across
 #: executors (test_one_worker_all_cores_and_dask_give_identical_results).
 ONE_WORKER = ("-j", "1")
-
-
-def run(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
-    """``python -m feedtune ARGS``, text out, never raising on exit status."""
-    return subprocess.run([sys.executable, "-m", "feedtune", *args], capture_output=True,
-                          text=True, cwd=REPO, timeout=timeout,
-                          env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
-
-
-def batch(*args: str, timeout: float = 300) -> subprocess.CompletedProcess:
-    """``python -m feedtune batch ARGS``: for tests whose subject is the batch's process
-    (a signal or SIGKILL sent to it, a Dask cluster it joins, what a fresh interpreter
-    imports). ≈ 2 s of CPU before its first spec (imports 1.3–1.8 s, the
-    warm-up tuning 0.2–0.3 s; benchmarks/README.md "tproc")."""
-    return run("batch", *args, timeout=timeout)
 
 
 def in_process(*args: str) -> subprocess.CompletedProcess:
@@ -149,6 +141,15 @@ def rows_by_id(out: Path) -> dict[str, dict]:
 def threads_before() -> set[str]:
     """The names of this process's Python threads before the file's first test."""
     return {thread.name for thread in threading.enumerate()}
+
+
+@pytest.fixture(scope="module")
+def distributed_loaded() -> None:
+    """distributed imported in this process (≈ 0.5 s of CPU, no thread started) before a
+    Dask test forks its children (the client's process, a scheduler, a worker, a batch),
+    so that each of them has it loaded instead of importing it again. No client runs here
+    (in_a_fork; test_the_dask_tests_leave_no_thread_in_this_process)."""
+    import distributed  # noqa: F401 — loaded for the children forked from this process
 
 
 # -- one batch, read every way ------------------------------------------------------------
@@ -476,28 +477,43 @@ def test_a_spec_over_the_time_limit_is_stopped_and_the_rest_complete(tmp_path):
     assert time.monotonic() - started < 50  # not the 60 s the job sleeps
 
 
+@pytest.fixture(scope="module")
+def first_spec_facts(tmp_path_factory):
+    """``facts(start)``: what a worker started by ``start`` had before each of its two specs'
+    clocks started (batch_jobs.first_spec_facts' messages), from one batch of two specs per
+    start method, run when first asked and read by the two tests below (a spawned worker
+    is a fresh interpreter: ≈ 0.8 s of CPU a batch)."""
+    messages = {}
+
+    def facts(start: str) -> list[str]:
+        if start not in messages:
+            root = tmp_path_factory.mktemp(f"first-spec-{start}")
+            write_specs(root / "specs", 2)
+            outcome = run_batch([str(root / "specs")], root / "out",
+                                LocalExecutor(1, job=batch_jobs.first_spec_facts, start=start))
+            messages[start] = [row["message"] for row in outcome.document["rows"]]
+        return messages[start]
+
+    return facts
+
+
 @pytest.mark.parametrize("start", ["fork", "spawn"])
-def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(tmp_path, start):
+def test_a_worker_loads_the_tuner_before_the_clock_of_its_first_spec_starts(first_spec_facts,
+                                                                           start):
     """--timeout charges a spec its own time, not its worker's start (loading CasADi took
     over the test's 3 s limit on a loaded machine: every spec timed out; a spawned worker's
     first tuning, ≈ 0.8 s of CPU more, did so at load 9). A worker is forked, or spawned
     when the batch's process runs other threads (test_workers_are_spawned_while_...)."""
-    write_specs(tmp_path / "specs", 2)
-    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
-                        LocalExecutor(1, job=batch_jobs.tuner_loaded, start=start))
-    assert [row["message"] for row in outcome.document["rows"]] == [
+    assert [message.split("; ")[0] for message in first_spec_facts(start)] == [
         "tuner loaded before the spec: True, warmed up: True"] * 2
 
 
 @pytest.mark.parametrize("start", ["fork", "spawn"])
-def test_a_worker_freezes_what_it_loaded_before_its_first_spec(tmp_path, start):
+def test_a_worker_freezes_what_it_loaded_before_its_first_spec(first_spec_facts, start):
     """Issue 15: the imports and the warm-up's objects (≈ 74 000) are left out of a worker's
     garbage collections, which walked them at every full collection and, forked, copied the
     pages it shares with the batch (benchmarks/README.md, "Branch h-bx1")."""
-    write_specs(tmp_path / "specs", 2)
-    outcome = run_batch([str(tmp_path / "specs")], tmp_path / "out",
-                        LocalExecutor(1, job=batch_jobs.frozen_objects, start=start))
-    assert [row["message"] for row in outcome.document["rows"]] == [
+    assert [message.split("; ")[1] for message in first_spec_facts(start)] == [
         "objects frozen before the spec: True"] * 2
 
 
@@ -647,9 +663,7 @@ def first(count: int, out: Path, paths: list[Path]) -> tuple[dict[str, dict], li
 def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path, uninterrupted):
     specs, _, reference = uninterrupted
     out = tmp_path / "out"
-    process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
-                                "--out", str(out), "-j", "1"], cwd=REPO,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    process = start_cli("batch", str(specs), "--out", str(out), "-j", "1", cwd=REPO)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 3:
         time.sleep(0.02)
@@ -670,6 +684,7 @@ def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
 
 
+@pytest.mark.usefixtures("distributed_loaded")
 def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path, uninterrupted):
     _, paths, reference = uninterrupted
     specs = [str(path) for path in paths[:6]]
@@ -715,9 +730,7 @@ def test_interrupt_keeps_what_is_done_and_a_rerun_finishes(tmp_path, stop):
     specs = tmp_path / "specs"
     write_specs(specs, 10)
     out = tmp_path / "out"
-    process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
-                                "--out", str(out), "-j", "1"], cwd=REPO,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    process = start_cli("batch", str(specs), "--out", str(out), "-j", "1", cwd=REPO, text=True)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 2:
         time.sleep(0.02)
@@ -749,6 +762,7 @@ def _batch_on_a_running_cluster(*args: str) -> tuple[str, subprocess.CompletedPr
             "batch", *args, "--scheduler", cluster.scheduler_address)
 
 
+@pytest.mark.usefixtures("distributed_loaded")
 def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
     _, paths, reference = uninterrupted
     local, _ = first(3, reference, paths)  # the local executor's results
@@ -760,6 +774,7 @@ def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
     assert results(tmp_path / "remote") == local
 
 
+@pytest.mark.usefixtures("distributed_loaded")
 def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
     import dask
 
@@ -832,16 +847,15 @@ def dask_scheduler(workers: int):
             process.join()
 
 
+@pytest.mark.usefixtures("distributed_loaded")
 def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_path):
     """The issue: exit 1, a traceback and `error` rows. Now: one line naming the
     scheduler, exit 2, the finished results in the summary, the rest `not_run` for a rerun."""
     specs, out = tmp_path / "specs", tmp_path / "out"
     write_specs(specs, 12)
     with dask_scheduler(workers=1) as (address, scheduler):
-        process = subprocess.Popen([sys.executable, "-m", "feedtune", "batch", str(specs),
-                                    "--out", str(out), "--scheduler", address, "-q"],
-                                   cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                   text=True)
+        process = start_cli("batch", str(specs), "--out", str(out), "--scheduler", address,
+                            "-q", cwd=REPO, text=True)
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and len(list(out.glob("axis-*.json"))) < 3:
             time.sleep(0.02)
@@ -858,6 +872,7 @@ def test_a_dask_scheduler_lost_mid_run_is_exit_two_keeping_what_finished(tmp_pat
     assert all(r["reason"] == "not_run" for r in rows if r not in finished)
 
 
+@pytest.mark.usefixtures("distributed_loaded")
 @pytest.mark.parametrize("case", ["no-workers", "no-scheduler"])
 def test_no_dask_workers_or_scheduler_is_exit_two_after_the_worker_timeout(tmp_path, case):
     specs = tmp_path / "specs"
@@ -866,8 +881,8 @@ def test_no_dask_workers_or_scheduler_is_exit_two_after_the_worker_timeout(tmp_p
     with (dask_scheduler(workers=0) if case == "no-workers"
           else contextlib.nullcontext(("tcp://127.0.0.1:9", None))) as (address, _):
         started = time.monotonic()
-        proc = batch(str(specs), "--out", str(tmp_path / "out"), "--scheduler", address,
-                     "--worker-timeout", "2", timeout=120)
+        proc = run_forked("batch", str(specs), "--out", str(tmp_path / "out"), "--scheduler",
+                          address, "--worker-timeout", "2", cwd=REPO, text=True, timeout=120)
     assert proc.returncode == 2, proc.stderr
     (line,) = proc.stderr.splitlines()
     expected = (f"error: no Dask workers connected to {address} within 2 s"

@@ -137,13 +137,22 @@ LONG_LIVED = {"position_controller.kp": 1.13090766e5, "position_controller.ti": 
               "notch.depth": 0.213148571}
 
 
-def test_a_response_too_long_to_resolve_is_reported_null_not_an_error():
+def test_a_response_too_long_to_resolve_is_reported_null_not_an_error(monkeypatch):
     """Its IAE, ITAE, overshoot and settling time are null and the others reported, the
     status decided by its constraints (M_peak 331 > 1.3: infeasible). It was status error
     with no metric at all: the time grid is built when a crossing is first read, after
-    the check that turns a too-long response into a null."""
-    import feedtune
+    the check that turns a too-long response into a null.
 
+    What is tested is the tuner's result; the result is not validated here (its
+    ``validation`` None, as a robust round's): the validator's re-measurement of the two
+    reported ISEs on its graded grid of 31 M steps was ≈ 90 % of this test's CPU (≈ 5 s),
+    read by no assertion, and never changes a status or a metric (``problem._validation``
+    only adds the block; the propagation and integrals of long grids are
+    tests/unit/test_validator_propagation.py's and test_validator_integrals.py's)."""
+    import feedtune
+    import feedtune.problem
+
+    monkeypatch.setattr(feedtune.problem, "_validation", lambda result: None)
     spec = dict(SPEC, tunables={name: {"value": v} for name, v in LONG_LIVED.items()})
     result = feedtune.tune(spec)
     assert result.status == "infeasible", result.message

@@ -2,7 +2,9 @@
 under 0.3 s; benchmarks/startup.py measures the time). These tests hold the import set, not
 the time: commands run through the real entry point (``feedtune.__main__.run``, what the
 command runs before it exits) in a fresh interpreter, which lists after each command the
-heavy packages it then holds in ``sys.modules`` (a package loaded by one command stays listed after the later ones)."""
+heavy packages it then holds in ``sys.modules`` (a package loaded by one command stays listed
+after the later ones) and the garbage collections meanwhile. The tests of ``--help`` and
+``validate`` read one such interpreter's commands (``probed``)."""
 
 from __future__ import annotations
 
@@ -13,67 +15,47 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((REPO / "examples").glob("*.json"))
 
 #: run each ``feedtune ARGS`` of argv[1] in this interpreter; after each, print on stderr its
-#: exit status and which packages of argv[2] (or their submodules) are loaded
+#: exit status, which packages of argv[2] (or their submodules) are loaded, how many cyclic
+#: garbage collections started meanwhile and whether the collector is on
 _PROBE = """
-import json, sys
+import gc, json, sys
 commands, packages = json.loads(sys.argv[1]), json.loads(sys.argv[2])
+collections = []
+gc.callbacks.append(lambda phase, info: phase == "start" and collections.append(info["generation"]))
 from feedtune.__main__ import run
 for args in commands:
+    collections.clear()
     status = run(args)
     heavy = [package for package in packages
              if any(name == package or name.startswith(package + ".") for name in sys.modules)]
-    print("\\nloaded: " + json.dumps({"status": status, "heavy": heavy}), file=sys.stderr)
+    report = {"status": status, "heavy": heavy, "collections": len(collections),
+              "enabled": gc.isenabled()}
+    print("\\nloaded: " + json.dumps(report), file=sys.stderr)
 """
 
+KOREN = REPO / "examples" / "koren-1979-sampled-data.json"
+#: what the probe lists: the heavy packages of the tests below and every registered plant's
+#: and metric's module
+HEAVY = ("pydantic", "numpy", "casadi", "scipy", "matplotlib", "feedtune.tuner")
 
-def loaded(commands: list[list[str]], packages: tuple[str, ...]) -> list[tuple[int, list[str]]]:
-    """(exit status, which of ``packages`` are loaded) after each of ``feedtune ARGS...``,
-    run one after the other in one fresh interpreter."""
+
+def loaded(commands: list[list[str]], packages: tuple[str, ...]) -> list[dict]:
+    """The report (exit status, which of ``packages`` are loaded, the collections and the
+    collector's state) after each of ``feedtune ARGS...``, run one after the other in one
+    fresh interpreter."""
     proc = subprocess.run([sys.executable, "-c", _PROBE, json.dumps(commands),
                            json.dumps(packages)],
                           capture_output=True, text=True, cwd=REPO, timeout=120, check=True)
     reports = [json.loads(line.removeprefix("loaded: "))
                for line in proc.stderr.splitlines() if line.startswith("loaded: ")]
     assert len(reports) == len(commands), proc.stderr
-    return [(report["status"], report["heavy"]) for report in reports]
-
-
-def test_help_loads_no_spec_model_or_numerical_package():
-    [(status, heavy)] = loaded([["--help"]], ("pydantic", "numpy", "casadi", "scipy",
-                                              "matplotlib"))
-    assert status == 0
-    assert heavy == []
-
-
-def test_validate_loads_neither_scipy_nor_matplotlib_nor_the_tuner():
-    """Every bundled example, one after the other: the first to load one is named."""
-    paths = EXAMPLES
-    reports = loaded([["validate", str(path)] for path in paths],
-                     ("scipy", "matplotlib", "feedtune.tuner"))
-    assert {path.stem: report for path, report in zip(paths, reports)} == {
-        path.stem: (0, []) for path in paths}
-
-
-def test_validate_loads_no_casadi():
-    [(status, heavy)] = loaded(
-        [["validate", str(REPO / "examples" / "koren-1979-sampled-data.json")]], ("casadi",))
-    assert status == 0
-    assert heavy == []
-
-
-def test_validate_loads_neither_casadi_nor_numpy_on_any_example():
-    """Every bundled example, one after the other in one interpreter: the first to load one
-    of them is named. Koren's reference-pulse examples ask a deferred loop
-    (``Plant.checked_loop``), not one of CasADi matrices, which metrics it supports; the
-    Ward-Leonard drive's frequency band takes D(s)'s modes in closed form, not from numpy."""
-    reports = loaded([["validate", str(path)] for path in EXAMPLES], ("casadi", "numpy"))
-    assert {path.stem: report for path, report in zip(EXAMPLES, reports)} == {
-        path.stem: (0, []) for path in EXAMPLES}
+    return reports
 
 
 def _registered_modules() -> dict[str, str]:
@@ -102,16 +84,64 @@ def _with_registered_imports(modules: set[str], registered: set[str]) -> set[str
     return found
 
 
-def test_validate_imports_only_the_plant_and_metrics_a_spec_names():
+@pytest.fixture(scope="module")
+def probed() -> dict:
+    """One fresh interpreter for the tests below (each was one of its own): ``--help``, then
+    ``validate`` of Koren's sampled example, then of every bundled example one after the
+    other. The lists are cumulative (a package loaded by one command stays listed after the
+    later ones), so the examples' lists hold what the first two loaded as well."""
+    commands = [["--help"], ["validate", str(KOREN)],
+                *(["validate", str(path)] for path in EXAMPLES)]
+    registered = sorted(set(_registered_modules().values()))
+    help_, koren, *examples = loaded(commands, (*HEAVY, *registered))
+    return {"help": help_, "koren": koren, "examples": dict(zip(EXAMPLES, examples))}
+
+
+def _of(report: dict, packages: tuple[str, ...]) -> tuple[int, list[str]]:
+    """(exit status, which of ``packages`` the report lists)."""
+    return report["status"], [package for package in report["heavy"] if package in packages]
+
+
+def test_help_loads_no_spec_model_or_numerical_package(probed):
+    status, heavy = _of(probed["help"], ("pydantic", "numpy", "casadi", "scipy", "matplotlib"))
+    assert status == 0
+    assert heavy == []
+
+
+def test_validate_loads_neither_scipy_nor_matplotlib_nor_the_tuner(probed):
+    """Every bundled example, one after the other: the first to load one is named."""
+    packages = ("scipy", "matplotlib", "feedtune.tuner")
+    assert {path.stem: _of(report, packages) for path, report in probed["examples"].items()} == {
+        path.stem: (0, []) for path in EXAMPLES}
+
+
+def test_validate_loads_no_casadi(probed):
+    """Koren's example, the first spec this interpreter validates."""
+    status, heavy = _of(probed["koren"], ("casadi",))
+    assert status == 0
+    assert heavy == []
+
+
+def test_validate_loads_neither_casadi_nor_numpy_on_any_example(probed):
+    """Every bundled example, one after the other in one interpreter: the first to load one
+    of them is named. Koren's reference-pulse examples ask a deferred loop
+    (``Plant.checked_loop``), not one of CasADi matrices, which metrics it supports; the
+    Ward-Leonard drive's frequency band takes D(s)'s modes in closed form, not from numpy."""
+    packages = ("casadi", "numpy")
+    assert {path.stem: _of(report, packages) for path, report in probed["examples"].items()} == {
+        path.stem: (0, []) for path in EXAMPLES}
+
+
+def test_validate_imports_only_the_plant_and_metrics_a_spec_names(probed):
     """Issue 15's start-up: the registries import a plant's or metric's module when a spec
     names it. Every bundled example, one after the other in one interpreter: after each,
     the plant and metric modules loaded are those of the plants and metrics named so far
     (and the registered modules these import), not the other registered ones."""
     modules = _registered_modules()
     registered = set(modules.values())
-    reports = loaded([["validate", str(path)] for path in EXAMPLES], tuple(sorted(registered)))
     named: set[str] = set()
-    for path, (status, heavy) in zip(EXAMPLES, reports):
+    for path, report in [(KOREN, probed["koren"]), *probed["examples"].items()]:
+        status, heavy = _of(report, tuple(registered))
         spec = json.loads(path.read_text())
         named |= {modules[spec["plant"]["type"]]}
         named |= {modules[term["metric"]]
@@ -154,35 +184,18 @@ def test_validate_does_not_look_for_pydantic_plugins():
     assert environ == {"PYDANTIC_DISABLE_PLUGINS": "logfire"}
 
 
-#: ``feedtune validate`` of each path of argv[1] in this interpreter, counting the cyclic
-#: garbage collector's collections meanwhile; one JSON line per command on stderr
-_COLLECTIONS = """
-import gc, json, sys
-collections = []
-gc.callbacks.append(lambda phase, info: phase == "start" and collections.append(info["generation"]))
-from feedtune.__main__ import run
-for path in json.loads(sys.argv[1]):
-    collections.clear()
-    status = run(["validate", path])
-    report = {"status": status, "collections": len(collections), "enabled": gc.isenabled()}
-    print("\\ncollections: " + json.dumps(report), file=sys.stderr)
-"""
-
-
-def test_validate_starts_no_garbage_collection_and_gives_the_collector_back():
+def test_validate_starts_no_garbage_collection_and_gives_the_collector_back(probed):
     """Issue 15's start-up: loading click and pydantic and building a spec's models started
     ≈ 60 collections that found nothing to free (≈ 26 M of ≈ 690 M instructions), and the
     first one after a pause walked every object allocated meanwhile. The command line holds
     the collector off while it starts and ``validate`` while it checks
-    (:mod:`feedtune.collector`); after each command it is on again. Every bundled example,
-    one after the other in one interpreter."""
-    proc = subprocess.run([sys.executable, "-c", _COLLECTIONS,
-                           json.dumps([str(path) for path in EXAMPLES])],
-                          capture_output=True, text=True, cwd=REPO, timeout=120, check=True)
-    reports = [json.loads(line.removeprefix("collections: "))
-               for line in proc.stderr.splitlines() if line.startswith("collections: ")]
-    assert {path.stem: report for path, report in zip(EXAMPLES, reports)} == {
-        path.stem: {"status": 0, "collections": 0, "enabled": True} for path in EXAMPLES}
+    (:mod:`feedtune.collector`); after each command it is on again. Koren's example (the
+    first to load pydantic and build a spec's models), then every bundled example, one after
+    the other in one interpreter."""
+    reports = [("koren (first)", probed["koren"]),
+               *((path.stem, report) for path, report in probed["examples"].items())]
+    assert {name: (report["status"], report["collections"], report["enabled"])
+            for name, report in reports} == {name: (0, 0, True) for name, _ in reports}
 
 
 #: what ``feedtune tune`` and a batch's warm-up import to tune and validate a software servo:
