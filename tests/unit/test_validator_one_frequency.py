@@ -106,7 +106,8 @@ def test_the_frequency_metrics_one_frequency_response_is_lapacks_to_rounding(gai
         assert abs(lo - model.open_loop(float(omega))[0]) <= 1e-14 * abs(lo)
         assert abs(closed - model.complementary(float(omega))[0]) <= 1e-14 * abs(closed)
         if model.sampled:
-            value = sampled_frequency._gain_squared(model, float(omega))
+            value = sampled_frequency._gain_squared(model, float(omega),
+                                                    sampled_frequency._scan(model)[3])
             grid = (np.abs(model.complementary(float(omega)) / model.dc_gain()) ** 2)[0]
             assert abs(value - grid) <= 1e-14 * value
 
