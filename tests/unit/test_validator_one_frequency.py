@@ -106,6 +106,38 @@ def test_the_frequency_metrics_one_frequency_response_is_lapacks_to_rounding(gai
         assert abs(lo - model.open_loop(float(omega))[0]) <= 1e-14 * abs(lo)
         assert abs(closed - model.complementary(float(omega))[0]) <= 1e-14 * abs(closed)
         if model.sampled:
-            value = sampled_frequency._gain_squared(model, float(omega))
+            value = sampled_frequency._gain_squared(model, float(omega),
+                                                    sampled_frequency._scan(model)[3])
             grid = (np.abs(model.complementary(float(omega)) / model.dc_gain()) ** 2)[0]
             assert abs(value - grid) <= 1e-14 * value
+
+
+@pytest.mark.parametrize("states", [1, 2, 3])
+def test_the_one_frequency_solve_is_numpys_to_the_bit(states):
+    """open_loop_at's solve (LAPACK's zgesv through scipy) gives np.linalg.solve's bits on
+    random complex systems of the drive's sizes, −Φ + z·I as the resolvent is built (real
+    entries, z of modulus 1 on the diagonal) and general complex ones, over 16 decades of
+    scale: numpy and scipy each ship their own LAPACK, so this pins them to agree."""
+    from feedtune.validate.software_servo import _solve_resolvent
+
+    rng = np.random.default_rng(1979)
+    for trial in range(3000):
+        scale = 10.0 ** rng.uniform(-8, 8, size=(states, states))
+        matrix = (rng.standard_normal((states, states))
+                  + 1j * rng.standard_normal((states, states))) * scale
+        if trial % 2:
+            matrix = (-matrix.real).astype(complex)
+            matrix[np.diag_indices(states)] += np.exp(1j * rng.uniform(0, math.pi))
+        rhs = (rng.standard_normal((states, 1)) * 10.0 ** rng.uniform(-6, 2)).astype(complex)
+        assert _solve_resolvent(matrix, rhs).tobytes() == np.linalg.solve(matrix, rhs).tobytes()
+
+
+def test_the_one_frequency_solve_refuses_a_singular_matrix_as_numpy_does():
+    from feedtune.validate.software_servo import _solve_resolvent
+
+    singular = np.array([[1.0, 2.0], [2.0, 4.0]], dtype=complex)
+    rhs = np.ones((2, 1), dtype=complex)
+    with pytest.raises(np.linalg.LinAlgError, match="Singular matrix"):
+        np.linalg.solve(singular, rhs)
+    with pytest.raises(np.linalg.LinAlgError, match="Singular matrix"):
+        _solve_resolvent(singular, rhs)
