@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pytest
 
+from example_specs import problems_built_only
 from feedtune.objectives import METRICS
 from feedtune.problem import build_plant, resolve_tunables
 from feedtune.schema.spec import parse_spec
@@ -115,8 +116,9 @@ def test_settling_bound_everywhere_leaves_the_horizon_to_the_tuner():
             "tunables": {"position_gain": {"min": 40.0, "max": 200},
                          "sampling_period": {"value": 1 / 64}},
             "objective": [{"metric": "iae"}], "solver": {"multistart": 2}}
-    problem = _problem(data)
-    assert not ScalarSearch.for_problem(problem).solvable
+    with problems_built_only():  # whether the search can solve it: no IPOPT solver needed
+        problem = _problem(data)
+        assert not ScalarSearch.for_problem(problem).solvable
     longer = _problem(data, horizon_scale=4.0)
     ipopt = longer.solve()
     _, z, _, statuses = _search(longer)
@@ -130,9 +132,10 @@ def test_settling_bound_everywhere_leaves_the_horizon_to_the_tuner():
     _spec([{"metric": "radial_error", "radius": 0.008, "feed": 0.04}]),  # |e|: an epigraph slack
 ], ids=["two-tunables", "epigraph"])
 def test_scalar_search_declines_what_it_cannot_solve(data):
-    problem = _problem(data)
-    assert not applies(problem)
-    assert ScalarSearch.for_problem(problem) is None
+    with problems_built_only():  # the Problem as the tuner builds it, IPOPT's solver aside
+        problem = _problem(data)
+        assert not applies(problem)
+        assert ScalarSearch.for_problem(problem) is None
 
 
 def _numpy_search(f, lower, upper, starts, count=8, feasible=None):
