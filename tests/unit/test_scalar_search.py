@@ -56,6 +56,23 @@ def _problem(data: dict, horizon_scale: float = 1.0) -> Problem:
                    numbers=plant.numbers())
 
 
+#: (problem, IPOPT's outcome) by the spec's hash (key order and spelled-out defaults
+#: ignored), once per test process: the reference of the tests below that solve one spec
+_SOLVED: dict[str, tuple] = {}
+
+
+def _solved(data: dict) -> tuple:
+    """(:func:`_problem` of ``data``, its IPOPT solution), built and solved once per test
+    process for every test of the same spec (``time`` absolute is the iae default: the
+    grid test and the tuner's test solve one problem). Read them only; a test may run the
+    search on the problem, which reads it."""
+    key = parse_spec(data).sha256()
+    if key not in _SOLVED:
+        problem = _problem(data)
+        _SOLVED[key] = problem, problem.solve()
+    return _SOLVED[key]
+
+
 def _seen(problem, z):
     """What the problem's NLP sees at ``z`` [ln tunable]."""
     return problem.evaluator(np.asarray(z, dtype=float), problem.param_values)
@@ -74,8 +91,7 @@ def _search(problem):
 def test_koren_iae_gain_equals_ipopt(time):
     """Min IAE at T = 1/64 s (benchmarks/koren_vs_scipy.py case 3; natural time as in
     examples/koren-1979-min-iae-radius.json): one grid minimum, refined once, at IPOPT's K."""
-    problem = _problem(_spec([{"metric": "iae", "time": time}]))
-    ipopt = problem.solve()
+    problem, ipopt = _solved(_spec([{"metric": "iae", "time": time}]))
     search, z, objective, statuses = _search(problem)
     assert statuses == ["Solve_Succeeded"]  # unimodal on the grid: one refinement
     assert math.exp(z[0]) == pytest.approx(ipopt.values["position_gain"], rel=K_TOL)
@@ -209,7 +225,7 @@ def test_tuner_uses_the_scalar_search_for_one_free_tunable():
     from feedtune.problem import tune
 
     data = _spec([{"metric": "iae"}])
-    ipopt = _problem(data).solve()
+    _, ipopt = _solved(data)  # the grid test's [absolute] problem
     result = tune(parse_spec(data))
     assert result.solver.method == "brent"
     assert result.success and result.validation["ok"]
