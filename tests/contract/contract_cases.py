@@ -428,6 +428,24 @@ def symbolic_loop(config: PlantConfig, box):
     return z, config.plant.loop({name: ca.exp(z[i]) for i, name in enumerate(names)}, box)
 
 
+@lru_cache(maxsize=None)
+def nominal_loop(config: PlantConfig):
+    """The loop of numbers at the nominal point with the plant's default bounds: one per
+    configuration and test process, read by the plant contract's tests at that point and
+    the metric contract's default-box cases (as the validator and the reports read every
+    metric of a spec on one loop). Read it only."""
+    return config.plant.loop(nominal(config), config.default_box)
+
+
+@lru_cache(maxsize=None)
+def default_symbolic_loop(config: PlantConfig):
+    """(z, loop): :func:`symbolic_loop` over the plant's default bounds, one per
+    configuration and test process, read by the plant contract's stability conditions and
+    its symbolic-against-numeric numbers (the NLP builds one loop for all its rows). Read
+    it only."""
+    return symbolic_loop(config, config.default_box)
+
+
 def log_point(config: PlantConfig, point: dict[str, float]) -> np.ndarray:
     return np.log([point[name] for name in config.tunables])
 
