@@ -370,7 +370,25 @@ def as_float(x) -> float:
 
 def numpy_stable(matrix: np.ndarray, discrete: bool) -> tuple[bool, float]:
     """Stability from numpy eigenvalues, and the distance to the boundary (for ambiguity)."""
-    poles = np.linalg.eigvals(matrix)
+    return _pole_verdict(np.linalg.eigvals(matrix), discrete)
+
+
+def eigenvalues_each(matrices: list[np.ndarray]) -> list[np.ndarray]:
+    """``numpy.linalg.eigvals`` of each matrix, those of one shape in one stacked call
+    (LAPACK's geev on each in turn: the same eigenvalues as one call a matrix, without
+    numpy's Python wrapper for each of the ≈ 18 000 matrices of the stability contract)."""
+    out: list = [None] * len(matrices)
+    shapes: dict[tuple, list[int]] = {}
+    for index, matrix in enumerate(matrices):
+        shapes.setdefault(matrix.shape, []).append(index)
+    for indices in shapes.values():
+        for index, poles in zip(indices, np.linalg.eigvals(np.stack([matrices[i] for i in indices]))):
+            out[index] = poles
+    return out
+
+
+def _pole_verdict(poles: np.ndarray, discrete: bool) -> tuple[bool, float]:
+    """:func:`numpy_stable` of a matrix with eigenvalues ``poles``."""
     if discrete:
         radius = float(np.max(np.abs(poles)))
         return radius < 1, abs(radius - 1)
@@ -386,9 +404,11 @@ def numpy_loop_stable(loop) -> tuple[bool, float]:
         [as_array(m) for m in loop.stability_matrices().values()], loop.discrete)
 
 
-def numpy_matrices_stable(matrices, discrete: bool) -> tuple[bool, float]:
-    """:func:`numpy_loop_stable` of a loop's stability matrices already read as arrays."""
-    results = [numpy_stable(m, discrete) for m in matrices]
+def numpy_matrices_stable(matrices, discrete: bool, poles=None) -> tuple[bool, float]:
+    """:func:`numpy_loop_stable` of a loop's stability matrices already read as arrays
+    (``poles``: their eigenvalues, when computed already by :func:`eigenvalues_each`)."""
+    results = ([numpy_stable(m, discrete) for m in matrices] if poles is None
+               else [_pole_verdict(p, discrete) for p in poles])
     stable = all(s for s, _ in results)
     deciding = [d for s, d in results if s == stable]  # unstable: only the unstable ones
     return stable, min(deciding)
@@ -426,6 +446,24 @@ def symbolic_loop(config: PlantConfig, box):
     names = list(config.tunables)
     z = ca.MX.sym("log_tunables", len(names))
     return z, config.plant.loop({name: ca.exp(z[i]) for i, name in enumerate(names)}, box)
+
+
+@lru_cache(maxsize=None)
+def nominal_loop(config: PlantConfig):
+    """The loop of numbers at the nominal point with the plant's default bounds: one per
+    configuration and test process, read by the plant contract's tests at that point and
+    the metric contract's default-box cases (as the validator and the reports read every
+    metric of a spec on one loop). Read it only."""
+    return config.plant.loop(nominal(config), config.default_box)
+
+
+@lru_cache(maxsize=None)
+def default_symbolic_loop(config: PlantConfig):
+    """(z, loop): :func:`symbolic_loop` over the plant's default bounds, one per
+    configuration and test process, read by the plant contract's stability conditions and
+    its symbolic-against-numeric numbers (the NLP builds one loop for all its rows). Read
+    it only."""
+    return symbolic_loop(config, config.default_box)
 
 
 def log_point(config: PlantConfig, point: dict[str, float]) -> np.ndarray:

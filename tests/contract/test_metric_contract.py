@@ -16,8 +16,8 @@ import pytest
 
 from contract_cases import (CONFIGS, OPTION_SAMPLES, as_float, exact_expr, exact_metric_cases,
                             log_point, metric_cases,
-                            narrow_box, nominal, numeric_loop, numeric_metric, option_variants,
-                            symbolic_loop)
+                            narrow_box, nominal, nominal_loop, numeric_loop, numeric_metric,
+                            option_variants, symbolic_loop)
 from feedtune.expr import Crossing, PoleRegion, Supremum, Unbounded
 from feedtune.loops.loop import HorizonError
 from feedtune.objectives import METRICS
@@ -50,11 +50,11 @@ def _symbolic_value(config, name, options):
     return METRICS[name]().evaluate(_symbolic_loop(config)[1], options)
 
 
-@functools.lru_cache(maxsize=None)
 def _default_box_loop(config):
     """The loop of numbers at the nominal point with the plant's default bounds, one per
-    configuration and shared by its metrics' cases (as :func:`_symbolic_loop`)."""
-    return config.plant.loop(nominal(config), config.default_box)
+    configuration and shared by its metrics' cases (as :func:`_symbolic_loop`) and the
+    plant contract's tests at that point (``contract_cases.nominal_loop``)."""
+    return nominal_loop(config)
 
 
 # -- declarations ------------------------------------------------------------------------------

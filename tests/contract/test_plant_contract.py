@@ -12,9 +12,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from contract_cases import (ALL_CONFIGS, CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float, grid,
-                            literal_fields, log_point, nominal, numpy_matrices_stable,
-                            stability_sample, symbolic_loop)
+from contract_cases import (ALL_CONFIGS, CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float,
+                            default_symbolic_loop, eigenvalues_each, grid, literal_fields,
+                            log_point, nominal, nominal_loop, numpy_matrices_stable,
+                            stability_sample)
 from feedtune.loops.loop import Drive
 from feedtune.loops.protocols import Capability
 from feedtune.plants import PLANTS
@@ -90,8 +91,8 @@ def test_tunables_are_declared_with_units_and_bounds(config):
 
 @pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
 def test_loop_is_stable_at_a_nominal_point(config):
-    point = nominal(config)  # raises if no grid point of the default box is stable
-    loop = config.plant.loop(point, config.default_box)
+    nominal(config)  # raises if no grid point of the default box is stable
+    loop = nominal_loop(config)
     matrices = loop.stability_matrices()
     assert list(matrices)[0] == "closed_loop"
     np.testing.assert_array_equal(as_array(matrices["closed_loop"]), as_array(loop.state_matrix))
@@ -113,7 +114,7 @@ def test_stability_conditions_agree_with_numpy_eigenvalues(config, request):
     _known_defect(request, config)
     box = config.default_box
     points = stability_sample(config)
-    z, sym_loop = symbolic_loop(config, box)
+    z, sym_loop = default_symbolic_loop(config)
     f = ca.Function("conditions", [z], [ca.vertcat(*sym_loop.stability_conditions())])
     table = np.array(f.map(len(points))(np.column_stack([log_point(config, p) for p in points])))
     counts = {True: 0, False: 0}
@@ -121,10 +122,12 @@ def test_stability_conditions_agree_with_numpy_eigenvalues(config, request):
     # not depend on (a reference interval) repeats a boundary loop once per grid value
     on_grid = len(grid(config))
     plant = config.plant  # one plant; a loop per point
-    for index, (point, conditions) in enumerate(zip(points, table.T)):
-        loop = plant.loop(point, box)
-        matrices = {name: as_array(m) for name, m in loop.stability_matrices().items()}
-        stable, distance = numpy_matrices_stable(matrices.values(), loop.discrete)
+    loops = [plant.loop(point, box) for point in points]
+    read = [{name: as_array(m) for name, m in loop.stability_matrices().items()} for loop in loops]
+    poles = iter(eigenvalues_each([m for matrices in read for m in matrices.values()]))
+    for index, (point, conditions, loop, matrices) in enumerate(zip(points, table.T, loops, read)):
+        stable, distance = numpy_matrices_stable(
+            matrices.values(), loop.discrete, [next(poles) for _ in matrices])
         if distance < 1e-9:  # on the boundary to rounding: either answer is right
             key = tuple(m.tobytes() for m in matrices.values())
             ambiguous["grid" if index < on_grid else "random"].add(key)
@@ -144,7 +147,7 @@ def test_stability_conditions_agree_with_numpy_eigenvalues(config, request):
 
 @pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
 def test_characteristic_polynomial_has_the_eigenvalues(config):
-    loop = config.plant.loop(nominal(config), config.default_box)
+    loop = nominal_loop(config)
     matrix = as_array(loop.state_matrix)
     assert loop.order == matrix.shape[0] == matrix.shape[1]
     poly = [as_float(c) for c in loop.characteristic_polynomial]
@@ -195,7 +198,7 @@ def _loop_numbers(loop) -> dict[str, np.ndarray]:
 def test_loop_has_a_state_space_or_polynomial_form(config):
     """_loop_numbers compares what a loop carries: it must carry one of the two forms, so the
     comparison below is never reduced to the common interface by a renamed attribute."""
-    loop = config.plant.loop(nominal(config), config.default_box)
+    loop = nominal_loop(config)
     state_space = all(getattr(loop, n, None) is not None for n in OPTIONAL_MATRICES)
     polynomial = all(getattr(loop, n, None) is not None for n in OPTIONAL_POLYNOMIALS[:3])
     assert state_space or polynomial
@@ -206,13 +209,14 @@ def test_symbolic_and_numeric_loops_agree(config, request):
     """The same plant code on MX symbols (the NLP) and on floats (the result) gives one loop."""
     _known_defect(request, config)
     box = config.default_box
-    z, sym_loop = symbolic_loop(config, box)
+    z, sym_loop = default_symbolic_loop(config)
     symbolic_numbers = _loop_numbers(sym_loop)  # read once: names and expressions
     names = list(symbolic_numbers)
     f = ca.Function("loop_numbers", [z], [ca.MX(v) for v in symbolic_numbers.values()])
     points = [nominal(config)] + grid(config)[:: max(1, len(grid(config)) // 5)]
-    for point in points:
-        num_loop = config.plant.loop(point, box)
+    # at the nominal point: the loop of numbers the other tests at that point read
+    loops = [nominal_loop(config)] + [config.plant.loop(point, box) for point in points[1:]]
+    for point, num_loop in zip(points, loops):
         assert num_loop.discrete == sym_loop.discrete and num_loop.order == sym_loop.order
         symbolic = f(log_point(config, point))
         for name, sym_value, num_value in zip(names, symbolic, _loop_numbers(num_loop).values()):
@@ -223,6 +227,6 @@ def test_symbolic_and_numeric_loops_agree(config, request):
 
 @pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
 def test_loop_carries_the_drive(config):
-    loop = config.plant.loop(nominal(config), config.default_box)
+    loop = nominal_loop(config)
     assert isinstance(loop.drive, Drive)
     assert isinstance(loop.discrete, bool)

@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pytest
 
+from example_specs import problems_built_only
 from feedtune.objectives import METRICS
 from feedtune.problem import build_plant, resolve_tunables
 from feedtune.schema.spec import parse_spec
@@ -55,6 +56,23 @@ def _problem(data: dict, horizon_scale: float = 1.0) -> Problem:
                    numbers=plant.numbers())
 
 
+#: (problem, IPOPT's outcome) by the spec's hash (key order and spelled-out defaults
+#: ignored), once per test process: the reference of the tests below that solve one spec
+_SOLVED: dict[str, tuple] = {}
+
+
+def _solved(data: dict) -> tuple:
+    """(:func:`_problem` of ``data``, its IPOPT solution), built and solved once per test
+    process for every test of the same spec (``time`` absolute is the iae default: the
+    grid test and the tuner's test solve one problem). Read them only; a test may run the
+    search on the problem, which reads it."""
+    key = parse_spec(data).sha256()
+    if key not in _SOLVED:
+        problem = _problem(data)
+        _SOLVED[key] = problem, problem.solve()
+    return _SOLVED[key]
+
+
 def _seen(problem, z):
     """What the problem's NLP sees at ``z`` [ln tunable]."""
     return problem.evaluator(np.asarray(z, dtype=float), problem.param_values)
@@ -73,8 +91,7 @@ def _search(problem):
 def test_koren_iae_gain_equals_ipopt(time):
     """Min IAE at T = 1/64 s (benchmarks/koren_vs_scipy.py case 3; natural time as in
     examples/koren-1979-min-iae-radius.json): one grid minimum, refined once, at IPOPT's K."""
-    problem = _problem(_spec([{"metric": "iae", "time": time}]))
-    ipopt = problem.solve()
+    problem, ipopt = _solved(_spec([{"metric": "iae", "time": time}]))
     search, z, objective, statuses = _search(problem)
     assert statuses == ["Solve_Succeeded"]  # unimodal on the grid: one refinement
     assert math.exp(z[0]) == pytest.approx(ipopt.values["position_gain"], rel=K_TOL)
@@ -115,8 +132,9 @@ def test_settling_bound_everywhere_leaves_the_horizon_to_the_tuner():
             "tunables": {"position_gain": {"min": 40.0, "max": 200},
                          "sampling_period": {"value": 1 / 64}},
             "objective": [{"metric": "iae"}], "solver": {"multistart": 2}}
-    problem = _problem(data)
-    assert not ScalarSearch.for_problem(problem).solvable
+    with problems_built_only():  # whether the search can solve it: no IPOPT solver needed
+        problem = _problem(data)
+        assert not ScalarSearch.for_problem(problem).solvable
     longer = _problem(data, horizon_scale=4.0)
     ipopt = longer.solve()
     _, z, _, statuses = _search(longer)
@@ -130,9 +148,10 @@ def test_settling_bound_everywhere_leaves_the_horizon_to_the_tuner():
     _spec([{"metric": "radial_error", "radius": 0.008, "feed": 0.04}]),  # |e|: an epigraph slack
 ], ids=["two-tunables", "epigraph"])
 def test_scalar_search_declines_what_it_cannot_solve(data):
-    problem = _problem(data)
-    assert not applies(problem)
-    assert ScalarSearch.for_problem(problem) is None
+    with problems_built_only():  # the Problem as the tuner builds it, IPOPT's solver aside
+        problem = _problem(data)
+        assert not applies(problem)
+        assert ScalarSearch.for_problem(problem) is None
 
 
 def _numpy_search(f, lower, upper, starts, count=8, feasible=None):
@@ -206,7 +225,7 @@ def test_tuner_uses_the_scalar_search_for_one_free_tunable():
     from feedtune.problem import tune
 
     data = _spec([{"metric": "iae"}])
-    ipopt = _problem(data).solve()
+    _, ipopt = _solved(data)  # the grid test's [absolute] problem
     result = tune(parse_spec(data))
     assert result.solver.method == "brent"
     assert result.success and result.validation["ok"]

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from example_specs import load_example, without_timing
+from example_specs import built, load_example, problems_built_only, without_timing
 from feedtune.plants import plant_for
 from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
@@ -143,8 +143,13 @@ def test_a_number_that_shapes_the_graph_makes_a_new_solver():
     different τ is a different structure, never a parameter of the same solver."""
     a = load_example("koren-1979-min-iae-radius.json")
     b = _variant(a, time_constant=0.03)
-    _, info = _tune_after(a, b)
+    with problems_built_only() as (_, made):  # the cache's look-ups are the builds'
+        cache.clear_solver_cache()
+        built(a)
+        built(b)
+        info = cache.solver_cache_info()
     assert info["hits"] == 0 and info["misses"] == 2, info
+    assert made[0] == 2  # b's miss asked for a solver of its own
 
 
 def test_one_free_gain_builds_no_solver_and_matches_ipopt():
@@ -178,10 +183,11 @@ def test_cache_is_bounded_least_recently_used_first(monkeypatch):
     a = load_example("koren-1979-sampled-data.json")
     b = copy.deepcopy(a)
     b["solver"]["tol"] = 1e-8  # an nlpsol option: part of the key
-    cache.clear_solver_cache()
-    for data in (a, b, a):
-        tune(parse_spec(data))
-    info = cache.solver_cache_info()
+    with problems_built_only():  # the cache's look-ups and evictions are the builds'
+        cache.clear_solver_cache()
+        for data in (a, b, a):
+            built(data)
+        info = cache.solver_cache_info()
     assert (info["hits"], info["misses"], info["size"]) == (0, 3, 1), info
 
 

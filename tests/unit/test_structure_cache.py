@@ -9,10 +9,10 @@ import copy
 
 import pytest
 
-from example_specs import load_example, without_timing
+from example_specs import built, load_example, problems_built_only, without_timing
 from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
-from feedtune.tuner import cache, nlp
+from feedtune.tuner import cache
 
 
 def _changed(data: dict, plant: dict | None = None, **paths) -> dict:
@@ -53,34 +53,30 @@ def test_a_spec_of_a_known_structure_builds_no_graph_and_gets_the_fresh_result(e
     assert without_timing(reused) == without_timing(fresh)
 
 
-def _keys(data: dict, monkeypatch) -> tuple[list[str], set[str]]:
+def _keys(data: dict) -> tuple[list[str], set[str]]:
     """The structure keys ``tune`` handed the Problem, and the solver-cache keys (hashes of
-    the serialized graphs) of a fresh tuning of ``data``."""
-    seen = []
-    init = nlp.Problem.__init__
-
-    def spy(self, *args, **kwargs):
-        seen.append(kwargs.get("structure_key"))
-        init(self, *args, **kwargs)
-
-    monkeypatch.setattr(nlp.Problem, "__init__", spy)
-    cache.clear_solver_cache()
-    tune(parse_spec(data))
-    monkeypatch.setattr(nlp.Problem, "__init__", init)
-    return seen, set(cache._cache)
+    the serialized graphs) of a fresh build of ``data``'s problem: built as ``tune`` builds
+    it, up to its solve (``problems_built_only``: the graphs and their keys are the build's;
+    IPOPT's solver, not part of the key, and the solve are not what these tests compare)."""
+    with problems_built_only() as (seen, made):
+        cache.clear_solver_cache()
+        built(data)
+        graphs = set(cache._cache)
+    assert made[0] == len(graphs)  # a solver was asked for each graph keyed
+    return seen, graphs
 
 
 #: the keys of a fresh tuning of each unchanged example, by file name: the pairs below
 #: share their first spec (three pairs start from koren-1979-min-iae-radius), whose fresh
 #: tuning gives the same keys each time (the SAME pairs assert that two fresh tunings of
-#: one structure give one key and one graph), so it is tuned once per test process
+#: one structure give one key and one graph), so it is built once per test process
 _EXAMPLE_KEYS: dict[str, tuple[list[str], set[str]]] = {}
 
 
-def _example_keys(example: str, monkeypatch) -> tuple[list[str], set[str]]:
+def _example_keys(example: str) -> tuple[list[str], set[str]]:
     """:func:`_keys` of the bundled ``example`` as it is, once per test process."""
     if example not in _EXAMPLE_KEYS:
-        _EXAMPLE_KEYS[example] = _keys(load_example(example), monkeypatch)
+        _EXAMPLE_KEYS[example] = _keys(load_example(example))
     return _EXAMPLE_KEYS[example]
 
 
@@ -97,16 +93,16 @@ DIFFERENT = [
 
 
 @pytest.mark.parametrize("example, changes", SAME + DIFFERENT)
-def test_equal_structure_keys_mean_equal_graphs(example, changes, monkeypatch):
+def test_equal_structure_keys_mean_equal_graphs(example, changes):
     """The key is sound: two specs with one structure key have one serialized graph (the
     solver cache's key, computed from the built Functions), and every pair in DIFFERENT
     whose graphs differ has two keys."""
     a = load_example(example)
     b = _changed(a, **changes)
-    keys_a, graphs_a = _example_keys(example, monkeypatch)
-    keys_b, graphs_b = _keys(b, monkeypatch)
+    keys_a, graphs_a = _example_keys(example)
+    keys_b, graphs_b = _keys(b)
     assert keys_a and keys_b and None not in keys_a + keys_b
-    assert graphs_a and graphs_b  # IPOPT solvers were built: there are graphs to compare
+    assert graphs_a and graphs_b  # IPOPT solvers were asked for: there are graphs to compare
     if keys_a == keys_b:
         assert graphs_a == graphs_b
     if graphs_a != graphs_b:
@@ -121,10 +117,11 @@ def test_structure_cache_is_bounded_least_recently_used_first(monkeypatch):
     monkeypatch.setattr(cache, "STRUCTURE_CACHE_SIZE", 1)
     a = load_example("koren-1979-sampled-data.json")
     b = _changed(a, constraints__0__max=0.9)
-    cache.clear_solver_cache()
-    for data in (a, b, a):
-        tune(parse_spec(data))
-    info = cache.structure_cache_info()
+    with problems_built_only():  # the structure cache's look-ups are the builds'
+        cache.clear_solver_cache()
+        for data in (a, b, a):
+            built(data)
+        info = cache.structure_cache_info()
     assert (info["hits"], info["misses"], info["size"]) == (0, 3, 1), info
 
 
@@ -148,8 +145,9 @@ def test_numbers_the_graph_does_not_read_share_its_structure():
     assert without_timing(reused) == without_timing(fresh)
 
     iae = load_example("koren-1979-min-iae-radius.json")
-    cache.clear_solver_cache()
-    tune(parse_spec(iae))
-    tune(parse_spec(_changed(iae, plant={"time_constant": 0.03})))
-    info = cache.structure_cache_info()
+    with problems_built_only():  # the structure cache's counters are the builds'
+        cache.clear_solver_cache()
+        built(iae)
+        built(_changed(iae, plant={"time_constant": 0.03}))
+        info = cache.structure_cache_info()
     assert (info["hits"], info["misses"]) == (0, 2), info
