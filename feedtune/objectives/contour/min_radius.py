@@ -184,9 +184,8 @@ def _screened(excess, jet, u):
     values = np.where(np.repeat(fails, _CELL), np.inf, np.nan)
     values = np.append(values, np.nan)
     if open_cells.size:
-        wanted = np.zeros(n + 1, dtype=bool)
-        for shift in range(-1, _CELL + 2):  # each open cell's radii and one either side
-            wanted[np.clip(open_cells * _CELL + shift, 0, n)] = True
+        wanted = np.zeros(n + 1, dtype=bool)  # each open cell's radii and one either side
+        wanted[np.clip(open_cells[:, None] * _CELL + np.arange(-1, _CELL + 2), 0, n)] = True
         index = np.flatnonzero(wanted)
         rows = -(-index.size // _CHUNK) * _CHUNK
         padded = np.concatenate([index, np.full(rows - index.size, index[-1])])
