@@ -121,8 +121,8 @@ def _exact(excess, low: float, jet=None) -> float:
     from scipy.optimize import brentq, minimize_scalar  # 0.11 s: only for a number
 
     u = low + np.arange(PER_DECADE_EXACT * SPAN + 1) * math.log(10) / PER_DECADE_EXACT
-    values = None if jet is None else _screened(excess, jet, u)
-    if values is None:
+    values = screened = None if jet is None else _screened(excess, jet, u)
+    if screened is None:
         values = excess(u)
         for _ in range(_EXTENSIONS):  # a slow loop: SPAN more decades, until a circle passes
             if values[-1] <= 0:
@@ -143,7 +143,10 @@ def _exact(excess, low: float, jet=None) -> float:
         if -res.fun > 0:
             worst = max(worst, float(res.x))
     above = u > worst  # the scan's own values there: no second pass over the grid
-    upper = u[above][np.argmax(values[above] <= 0)]
+    passing = values[above] <= 0
+    if screened is not None:  # NaN: a radius of a cell proven to pass
+        passing |= np.isnan(values[above])
+    upper = u[above][np.argmax(passing)]
     return math.exp(brentq(lambda x: excess(np.array([x]))[0], worst, upper, xtol=1e-15))
 
 
