@@ -440,7 +440,7 @@ def _peak_of_numbers(f, slope, curvature, grid: np.ndarray, h: float):
     (the symbolic path then decides, as before: its max and comparisons treat NaN its
     own way).
     """
-    jet = f.derived(("jet",), _jet_function, (slope.fn, curvature.fn))
+    jet = f.derived(("jet",), jet_function, (slope.fn, curvature.fn))
     if jet is None:
         f_grid, at_grid = f(grid), None
     else:  # f, f′, f″ on the grid in one call: f's bits (the jet's), and the whole
@@ -677,7 +677,7 @@ def _golden_function(f, steps: int):
     return _folded(step, steps, f"golden_{steps}", fixed)
 
 
-def _jet_function(f, slope, curvature):
+def jet_function(f, slope, curvature):
     """f, f′ and f″ as one SX Function of (u, the fixed inputs), where the peaks' bounds
     and Newton steps read all three: the three graphs expanded into one with their
     common subexpressions merged (f″'s graph repeats f′'s and f's: 247 instead of
@@ -691,9 +691,9 @@ def _jet_function(f, slope, curvature):
 
 def _jet_columns(f, slope, curvature, u) -> list[np.ndarray]:
     """[f(u), f′(u), f″(u)] for a row ``u``, from three :class:`Mapped`: through
-    :func:`_jet_function` kept with ``f`` where :meth:`Mapped.derived` gives it, else
+    :func:`jet_function` kept with ``f`` where :meth:`Mapped.derived` gives it, else
     one call of each (the same bits)."""
-    jet = f.derived(("jet",), _jet_function, (slope.fn, curvature.fn))
+    jet = f.derived(("jet",), jet_function, (slope.fn, curvature.fn))
     if jet is None:
         return [f(u), slope(u), curvature(u)]
     return jet.columns(u)
