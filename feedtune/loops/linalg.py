@@ -299,14 +299,18 @@ def roots(p: list, iterations: int = 200) -> list[complex]:
     p = [complex(c) for c in p]
     while len(p) > 1 and p[0] == 0:
         p.pop(0)
+    if len(p) == 1:
+        return []
+    monic = [c / p[0] for c in p]
+    # trailing zeros, a coefficient that underflows to 0 once divided by the leading one
+    # (5e-324/2) among them: roots at 0, each one less point for the Newton polygon
     zeros = 0
-    while len(p) > 1 and p[-1] == 0:
-        p.pop()
+    while len(monic) > 1 and monic[-1] == 0:
+        monic.pop()
         zeros += 1
-    n = len(p) - 1
+    n = len(monic) - 1
     if n == 0:
         return [0j] * zeros
-    monic = [c / p[0] for c in p]
     derivative = [c * (n - i) for i, c in enumerate(monic[:-1])]
     z = _newton_polygon_starts(monic)
 

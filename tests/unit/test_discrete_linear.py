@@ -14,7 +14,7 @@ import casadi as ca
 import control
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import feedtune
@@ -142,6 +142,9 @@ _coefficients = st.lists(st.floats(min_value=-1e3, max_value=1e3, allow_nan=Fals
 @given(numerator=_coefficients, denominator=_coefficients,
        period=st.floats(min_value=-1.0, max_value=1.0, allow_nan=False),
        controller=st.sampled_from(["p", "pi", "pid"]), samples=st.integers(-2, 3))
+# a constant term that underflows when made monic (linalg.roots raised IndexError)
+@example(numerator=[2.0, 5e-324], denominator=[1.0, 0.0, 0.0], period=1.0, controller="pi",
+         samples=0)
 def test_any_discrete_model_parses_or_is_refused_at_its_field(numerator, denominator, period,
                                                               controller, samples):
     """Spec parsing over random models in z: a spec, or errors whose pointers name fields of

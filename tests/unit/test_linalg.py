@@ -269,6 +269,16 @@ def test_roots_at_the_origin_are_exact_and_a_constant_has_none():
     assert linalg.roots([3.0]) == []
 
 
+def test_a_constant_term_that_underflows_once_made_monic_is_a_root_at_the_origin():
+    """2z + 5e-324: the monic constant 5e-324/2 rounds to 0 (the smallest subnormal,
+    halved). Its root, −2.5e-324, is 0 in floats; it raised IndexError (the Newton polygon
+    had one point fewer than the degree), found by hypothesis through a spec's model in z
+    (tests/unit/test_discrete_linear.py)."""
+    assert linalg.roots([2.0, 5e-324]) == [0j]
+    assert sorted(linalg.roots([1.0, 3.0, 5e-324]), key=abs) == [0j, pytest.approx(-3.0, abs=1e-15)]
+    assert linalg.roots([0.0, 0.0]) == []
+
+
 def test_pivoted_solve_is_numpys_on_symbols_and_numbers():
     """Two rows nearly parallel (the closed loop of a backward-Euler PI at T/T_i = 734) and
     a zero leading pivot: SX, MX and DM give LAPACK's answer to 1e-12 (normwise; measured
