@@ -89,6 +89,19 @@ def _default_warnings() -> None:
     warnings.showwarning = _show_on_stderr  # not pytest's record (catch_warnings(record=True))
 
 
+def _interpreter_streams(stdin_fd: int) -> None:
+    """``sys.stdin``, ``sys.stdout`` and ``sys.stderr`` as a fresh interpreter opens them,
+    on file descriptors ``stdin_fd``, 1 and 2 (UTF-8; stderr backslash-escaped and
+    line-buffered)."""
+    sys.stdin = io.TextIOWrapper(io.BufferedReader(io.FileIO(stdin_fd, "r", closefd=False)),
+                                 encoding="utf-8")
+    sys.stdout = io.TextIOWrapper(io.BufferedWriter(io.FileIO(1, "w", closefd=False)),
+                                  encoding="utf-8")
+    sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)),
+                                  encoding="utf-8", errors="backslashreplace",
+                                  line_buffering=True)
+
+
 @contextlib.contextmanager
 def _fresh_warnings():
     with warnings.catch_warnings():
@@ -146,13 +159,7 @@ def _standard_streams(stdin: bytes):
     saved_streams = sys.stdin, sys.stdout, sys.stderr
     os.dup2(out.fileno(), 1)
     os.dup2(err.fileno(), 2)
-    sys.stdin = io.TextIOWrapper(io.BufferedReader(io.FileIO(given.fileno(), "r", closefd=False)),
-                                 encoding="utf-8")
-    sys.stdout = io.TextIOWrapper(io.BufferedWriter(io.FileIO(1, "w", closefd=False)),
-                                  encoding="utf-8")
-    sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)),
-                                  encoding="utf-8", errors="backslashreplace",
-                                  line_buffering=True)
+    _interpreter_streams(given.fileno())
     try:
         yield out, err
     finally:
@@ -226,13 +233,7 @@ def _forked_command(main, args: list[str], cwd: str, stdin: str, stdout: str,
         opened = os.open(path, flags)
         os.dup2(opened, fd)
         os.close(opened)
-    sys.stdin = io.TextIOWrapper(io.BufferedReader(io.FileIO(0, "r", closefd=False)),
-                                 encoding="utf-8")
-    sys.stdout = io.TextIOWrapper(io.BufferedWriter(io.FileIO(1, "w", closefd=False)),
-                                  encoding="utf-8")
-    sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)),
-                                  encoding="utf-8", errors="backslashreplace",
-                                  line_buffering=True)
+    _interpreter_streams(0)
     # an executed interpreter: caught signals back to their defaults, ignored ones kept
     # ignored, and Python's KeyboardInterrupt for SIGINT
     for signum, default in ((signal.SIGINT, signal.default_int_handler),
