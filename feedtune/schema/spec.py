@@ -737,6 +737,16 @@ def _robust_errors(raw: dict, plant_params, plant, moved: set[str]) -> list[tupl
     return errors
 
 
+def _arithmetic_words(exc: ArithmeticError) -> str:
+    """What went wrong, for a spec's author: Python's exception names and texts ("float
+    division by zero") are not JSON's words (tests/property/test_spec_parsing.py)."""
+    if isinstance(exc, ZeroDivisionError):
+        return "a number underflows to 0 and is then divided by"
+    if isinstance(exc, OverflowError):
+        return "a number overflows"
+    return "an arithmetic error"
+
+
 def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str, str]]:
     """Checks that need the registries, run on every part of ``raw`` (the canonical spec:
     uncertain forms in ``robust``; ``moved`` the ones written in ``plant``) that validates
@@ -774,7 +784,7 @@ def _semantic_errors(raw: dict, moved: set[str] = frozenset()) -> list[tuple[str
         return errors + [(pointer, message)]
     except ArithmeticError as exc:  # e.g. D_m = 1e-300: D_m² underflows to 0, then K/D_m²
         return errors + [("/plant", "the plant's numbers leave double precision when the "
-                                    f"loop is formed ({type(exc).__name__}: {exc}); give "
+                                    f"loop is formed ({_arithmetic_words(exc)}); give "
                                     "them in SI units within about 1e-150 … 1e150")]
     supported = optimisable = None  # computed when a message needs them
     for section, adapter in _TERM.items():

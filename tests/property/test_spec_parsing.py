@@ -439,6 +439,8 @@ JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 @example(site=(_SERVO, ("solver", "expand")), value="yes")
 @example(site=(_SERVO, ("solver", "ipopt_options")), value={"mu_init": None, "max_soc": True})
 @example(site=(_HYDRAULIC, ("tunables",)), value=[])
+# D_m² underflows to 0: the message said "ZeroDivisionError: float division by zero"
+@example(site=(_HYDRAULIC, ("plant", "displacement")), value=1.0268611901489461e-199)
 def test_messages_name_json_types_never_python_ones(site, value):
     """Whatever value lands on whatever field, a message says null, true/false, number,
     string, array or object: never NoneType, dict, list, bool (issue 14). The user's own

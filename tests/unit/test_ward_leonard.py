@@ -283,6 +283,7 @@ def test_root_moduli_refuse_what_double_precision_cannot_hold():
         parse_spec(_spec(inertia=1e-150, armature_inductance=1e-150, armature_resistance=1e160))
     (pointer, message), = err.value.errors
     assert pointer == "/plant" and "leave double precision" in message
+    assert "a number overflows" in message and "Error" not in message  # not Python's words
 
 
 # -- spec validation -------------------------------------------------------------------------
