@@ -547,9 +547,10 @@ def _message(error: dict) -> str:
         return (f"{container} should have {bound} {limit} item{'s' if limit != 1 else ''}, "
                 f"not {ctx.get('actual_length')}")
     if kind == "union_tag_invalid" and isinstance(given, dict):
+        # the tag as JSON: pydantic prints Python's str() of it, a string in single quotes
+        # ('None' would read as Python's None)
         value = given.get(ctx["discriminator"].strip("'"))
-        if not isinstance(value, str):  # pydantic would print Python's str() of it
-            return error["msg"].replace(f"tag '{ctx['tag']}'", f"tag {json.dumps(value)}", 1)
+        return error["msg"].replace(f"tag '{ctx['tag']}'", f"tag {json.dumps(value)}", 1)
     return error["msg"].removeprefix("Value error, ")
 
 

@@ -158,7 +158,7 @@ def corpus() -> list[Case]:
             ("tunables", "velocity_gain"), {"min": 1, "max": 2})),
              "/tunables/velocity_gain", "unknown tunable"),
         Case("unknown-plant-type", _edit("unknown-plant-type", _set(("plant", "type"), "stepper")),
-             "/plant", "'stepper'"),
+             "/plant", '"stepper"'),
         # -- values out of range ----------------------------------------------------------
         Case("time-constant-zero", _edit("time-constant-zero", _set(("plant", "time_constant"), 0)),
              "/plant/time_constant", "greater than 0"),

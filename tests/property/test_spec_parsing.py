@@ -436,6 +436,7 @@ JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
 @example(site=(_SERVO, ("plant",)), value=[1])
 @example(site=(_SERVO, ("plant", "type")), value=1.5)
 @example(site=(_SERVO, ("plant", "type")), value={"True": None})  # a tag echoed as JSON
+@example(site=(_SERVO, ("plant", "type")), value="None")  # was echoed as 'None'
 @example(site=(_SERVO, ("solver", "expand")), value="yes")
 @example(site=(_SERVO, ("solver", "ipopt_options")), value={"mu_init": None, "max_soc": True})
 @example(site=(_HYDRAULIC, ("tunables",)), value=[])
