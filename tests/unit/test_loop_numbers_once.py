@@ -24,7 +24,7 @@ def _bits(values) -> list[str]:
 def test_the_closed_loops_stability_matrix_is_its_numbers_with_evalfs_bits(kind):
     for loop in example_loops(kind, 4, seed=5):
         matrix = loop.stability_matrices()["closed_loop"]
-        assert isinstance(matrix, ca.DM)  # main: the MX graph, evaluated again by the tuner
+        assert isinstance(matrix, ca.DM)  # it was the MX graph, evaluated again by the tuner
         assert _bits(matrix) == _bits(ca.evalf(ca.MX(loop.state_matrix)))
         assert _bits(matrix) == _bits(loop.numeric_state_matrix())
 
@@ -32,7 +32,7 @@ def test_the_closed_loops_stability_matrix_is_its_numbers_with_evalfs_bits(kind)
 def test_a_continuous_loop_of_numbers_evaluates_its_matrix_and_polynomial_once(monkeypatch):
     loops = example_loops("pulse", 4, seed=9)
     expected = []
-    for loop in loops:  # what main computed: the MX graphs, each evaluated on its own
+    for loop in loops:  # what the loop computed before: the MX graphs, each evaluated on its own
         _, a1, a0 = loop.characteristic_polynomial
         poly = [float(ca.evalf(ca.MX(c))) for c in loop.characteristic_polynomial]
         expected.append((float(ca.evalf(a1 / (2 * ca.sqrt(a0)))),
@@ -63,7 +63,7 @@ def test_a_loop_of_symbols_keeps_its_graphs():
 
 @pytest.mark.parametrize("kind", ["pulse", "sampled"])
 def test_the_pole_metrics_of_a_loop_of_numbers_are_numbers(kind):
-    """Their exact values are DMs (main: MX constants, for which the reports' one Function
+    """Their exact values are DMs (they were MX constants, for which the reports' one Function
     was built on a sampled loop, whose other reports are all numbers), the same numbers."""
     for loop in example_loops(kind, 3, seed=13):
         for name in ("pole_damping", "decay_rate"):

@@ -325,19 +325,9 @@ def test_min_radius_of_a_loop_of_numbers_scans_the_radii_once(monkeypatch):
     the refinements; the value is the scan's own."""
     import feedtune.objectives.contour.min_radius as min_radius
 
-    sizes = []
-    vectorised = min_radius._vectorised
+    from test_min_radius_screen import row_sizes
 
-    def counted(fn):
-        evaluate = vectorised(fn)
-
-        def wrapper(u):
-            sizes.append(np.size(u))
-            return evaluate(u)
-
-        return wrapper
-
-    monkeypatch.setattr(min_radius, "_vectorised", counted)
+    sizes = row_sizes(monkeypatch)
     # every radius scanned: the screen (a structure's second evaluation on) evaluates a
     # subset with the same bits, tests/unit/test_min_radius_screen.py
     monkeypatch.setattr(min_radius, "_screened", lambda *args: None)

@@ -92,9 +92,9 @@ def test_a_failing_band_narrower_than_the_grid_is_kept(monkeypatch):
     assert screened > 0.1  # above the dip (the band near 160 mm), not its lower edge at 60 mm
 
 
-def test_the_screen_evaluates_few_radii(monkeypatch):
-    """On Koren's sampled loop the criterion itself is evaluated on one row of a few
-    dozen radii (the cells around the largest failing radius), not on all 1 601."""
+def row_sizes(monkeypatch) -> list[int]:
+    """The sizes of the rows of radii the criterion is evaluated on from now on (each call
+    of a :func:`min_radius._vectorised` Function appends its row's)."""
     sizes = []
     vectorised = min_radius._vectorised
 
@@ -107,10 +107,17 @@ def test_the_screen_evaluates_few_radii(monkeypatch):
 
         return wrapper
 
+    monkeypatch.setattr(min_radius, "_vectorised", counted)
+    return sizes
+
+
+def test_the_screen_evaluates_few_radii(monkeypatch):
+    """On Koren's sampled loop the criterion itself is evaluated on one row of a few
+    dozen radii (the cells around the largest failing radius), not on all 1 601."""
     loop = _loop(KOREN, "sampled_data", 18.0, 1 / 64)
     metric = METRICS["min_radius"]()
     metric.evaluate(loop, None)
-    monkeypatch.setattr(min_radius, "_vectorised", counted)
+    sizes = row_sizes(monkeypatch)
     metric.evaluate(loop, None)
     rows = [s for s in sizes if s > 1]
     assert len(rows) == 1 and rows[0] <= 4 * min_radius._CHUNK

@@ -64,6 +64,20 @@ def _both(data: dict, monkeypatch):
     return ipopt, tune(parse_spec(copy.deepcopy(data)))
 
 
+def tuned_problem(data: dict, monkeypatch) -> nlp.Problem:
+    """The Problem that tuning ``data`` solved (its first), after the tuning."""
+    problems = []
+    original = nlp.Problem.solve
+
+    def keep(self, *args, **kwargs):
+        problems.append(self)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(nlp.Problem, "solve", keep)
+    tune(parse_spec(copy.deepcopy(data)))
+    return problems[0]
+
+
 def _design(result) -> dict:
     """What a result says of the tuned design: everything but the solver's account of its
     starts and the optimum's evidence (and clocks, provenance)."""
@@ -119,12 +133,12 @@ def test_a_start_that_can_still_be_chosen_is_ipopts(monkeypatch):
 @pytest.mark.parametrize("best, settled", [
     (None, False),
     (((0, 0.0, 0), 0, None, "", ""), True),
-    (((0, 1e-9, 0), 0, None, "", ""), True),
-    (((0, 2e-9, 0), 0, None, "", ""), False),
+    (((0, nlp.OBJECTIVE_TIE, 0), 0, None, "", ""), True),
+    (((0, 2 * nlp.OBJECTIVE_TIE, 0), 0, None, "", ""), False),
     (((1, 0.0, 0), 0, None, "", ""), False),
 ], ids=["no-start-yet", "zero", "within-the-tie", "beyond-the-tie", "unsolved"])
 def test_settled_is_where_no_later_start_can_be_chosen(best, settled):
-    """A solved start whose objective is within ``_better``'s tie of 0 (1e-9) cannot be
+    """A solved start whose objective is within ``_better``'s tie of 0 (OBJECTIVE_TIE) cannot be
     beaten by an objective ≥ 0; an unsolved one, or one above the tie, can."""
     assert nlp.Problem._settled(best) is settled
     if best is not None and best[0][0] == 0:
@@ -134,16 +148,7 @@ def test_settled_is_where_no_later_start_can_be_chosen(best, settled):
 def test_a_line_along_the_second_tunable_is_the_check_at_each_point(monkeypatch):
     """A line's grid (one call of the check mapped over its points, the first tunable held)
     is the bits of the check called at each full point."""
-    problems = []
-    original = nlp.Problem.solve
-
-    def keep(self, *args, **kwargs):
-        problems.append(self)
-        return original(self, *args, **kwargs)
-
-    monkeypatch.setattr(nlp.Problem, "solve", keep)
-    tune(parse_spec(copy.deepcopy(ENCODER)))
-    problem = problems[0]
+    problem = tuned_problem(ENCODER, monkeypatch)
     check = numeric(problem.evaluator.function)
     p = problem.param_values[:problem.evaluator.n_params]
     held = np.asarray(problem.starts[1], dtype=float)

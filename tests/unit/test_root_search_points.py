@@ -17,7 +17,6 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import feedtune.tuner.nlp as nlp
 from feedtune.problem import tune
 from feedtune.schema.spec import parse_spec
 from feedtune.tuner import roots
@@ -26,7 +25,7 @@ from feedtune.tuner.stability import feasibility, holds
 from feedtune.tuner.types import Bound
 
 from test_root_search import SAMPLED
-from test_root_search_along import ENCODER
+from test_root_search_along import ENCODER, tuned_problem
 
 
 def _searches(data: dict, monkeypatch) -> list:
@@ -56,7 +55,7 @@ def _searches(data: dict, monkeypatch) -> list:
 @pytest.mark.parametrize("data", [SAMPLED, ENCODER], ids=["one-tunable", "along-lines"])
 def test_each_z_is_evaluated_once_per_search(data, monkeypatch):
     """No z is evaluated twice by one search, and no grid point again on its own (brentq's
-    bracket ends are grid points: on main each was evaluated again), while the searches
+    bracket ends are grid points: before, each was evaluated again), while the searches
     count every value of e they read, as before."""
     made = _searches(data, monkeypatch)
     assert made and any(counts for _, counts in made)  # brentq ran
@@ -70,16 +69,7 @@ def test_a_point_is_the_grids_bits(monkeypatch):
     """ErrorCheck.point (one evaluation, read from the result arrays as Python floats) at
     every grid point of a line is the grid's mapped call's point, bit for bit, and the check
     Function's own outputs."""
-    problems = []
-    original = nlp.Problem.solve
-
-    def keep(self, *args, **kwargs):
-        problems.append(self)
-        return original(self, *args, **kwargs)
-
-    monkeypatch.setattr(nlp.Problem, "solve", keep)
-    tune(parse_spec(copy.deepcopy(ENCODER)))
-    problem = problems[0]
+    problem = tuned_problem(ENCODER, monkeypatch)
     check = roots.ErrorCheck(problem)
     held = np.asarray(problem.starts[1], dtype=float)
     grid = np.repeat(held[:, None], 9, axis=1)
