@@ -8,9 +8,11 @@ import re
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hypothesis_text import utf8_text
+
 from feedtune.batch.inputs import MAX_STEM, RESERVED_STEMS, Item, assign_stems, safe_stem
 
-names = st.lists(st.one_of(st.text(min_size=0, max_size=150),
+names = st.lists(st.one_of(utf8_text(min_size=0, max_size=150),
                            st.sampled_from(["summary", "Summary", "a", "A", "a-2", "..", "/", "ä"])),
                  min_size=1, max_size=30)
 

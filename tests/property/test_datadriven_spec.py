@@ -10,6 +10,8 @@ import math
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
+from hypothesis_text import utf8_text
+
 from feedtune.measured.datadriven_spec import DataDrivenSpec
 from feedtune.plants.frequency_response_data import FrequencyResponseData
 from feedtune.schema.spec import SpecError, parse_spec
@@ -29,9 +31,9 @@ BASE = {
 
 JSON = st.recursive(
     st.none() | st.booleans() | st.floats(allow_nan=False, allow_infinity=False)
-    | st.integers(-10**6, 10**6) | st.text(max_size=8),
+    | st.integers(-10**6, 10**6) | utf8_text(max_size=8),
     lambda children: st.lists(children, max_size=4)
-    | st.dictionaries(st.text(max_size=6), children, max_size=4),
+    | st.dictionaries(utf8_text(max_size=6), children, max_size=4),
     max_leaves=12)
 
 PATHS = [("name",), ("plant",), ("plant", "sets"), ("plant", "sets", 0),

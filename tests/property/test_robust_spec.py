@@ -14,6 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from hypothesis_text import utf8_text
+
 from feedtune.schema.spec import Spec, SpecError, parse_spec
 from feedtune.schema.uncertainty import MAX_SCENARIOS, MAX_VALUES
 
@@ -101,12 +103,12 @@ def test_the_canonical_spec_parses_back_to_itself(form, objective):
 
 
 malformed = st.one_of(
-    st.lists(st.text(max_size=3) | st.none() | st.booleans(), min_size=1, max_size=3),
+    st.lists(utf8_text(max_size=3) | st.none() | st.booleans(), min_size=1, max_size=3),
     st.just([]),
     st.lists(taus, min_size=MAX_VALUES + 1, max_size=MAX_VALUES + 3),
     st.fixed_dictionaries({"min": st.floats(max_value=0, allow_nan=False, allow_infinity=False), "max": taus}),
     st.fixed_dictionaries({"min": taus}),
-    st.fixed_dictionaries({"nominal": st.text(max_size=3), "tolerance_percent": st.just(10)}),
+    st.fixed_dictionaries({"nominal": utf8_text(max_size=3), "tolerance_percent": st.just(10)}),
     st.fixed_dictionaries({"min": taus, "max": taus, "tolerance_percent": st.just(10)}),
     st.fixed_dictionaries({"values": st.lists(taus, max_size=2)}),
 )

@@ -16,6 +16,8 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from hypothesis_text import utf8_text
+
 from feedtune.objectives import METRICS
 from feedtune.plants import PLANTS
 from feedtune.schema.spec import (MAX_JSON_DEPTH, SolverSpec, Spec, SpecError, TunableSpec,
@@ -151,7 +153,7 @@ def _field_names() -> set[str]:
 #: words the spec gives meaning to, so generated objects sometimes get past the first check
 WORDS = sorted(_field_names() | set(PLANTS) | set(METRICS) | {"absolute", "natural"})
 
-_KEYS = st.sampled_from(WORDS) | st.text(max_size=8)
+_KEYS = st.sampled_from(WORDS) | utf8_text(max_size=8)
 
 json_scalars = (
     st.none() | st.booleans()
@@ -159,7 +161,7 @@ json_scalars = (
     | st.integers(min_value=-2**80, max_value=2**80)
     | st.floats(allow_nan=False, allow_infinity=False)
     | st.sampled_from([0, 0.0, -0.0, -1, -1e-300, 1e-300, 1e308, 0.5, 1, 8, 1e9])
-    | st.text(max_size=12)
+    | utf8_text(max_size=12)
     | st.sampled_from(WORDS)
 )
 
@@ -369,7 +371,7 @@ def _mutations() -> st.SearchStrategy[bytes]:
     return mutate()
 
 
-texts = (st.text() | st.binary().map(bytes) | st.text().map(str.encode) | _mutations()
+texts = (utf8_text() | st.binary().map(bytes) | utf8_text().map(str.encode) | _mutations()
          | json_values.map(json.dumps) | json_values.map(lambda v: json.dumps(v).encode()))
 
 

@@ -11,6 +11,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from hypothesis_text import utf8_text
+
 from feedtune.machine.spec import MachineSpec, parse_machine
 from feedtune.schema.spec import SpecError
 
@@ -22,8 +24,8 @@ TIAN_AXIS = {"plant": TIAN["plant"], "tunables": TIAN["tunables"]}
 
 json_values = st.recursive(
     st.none() | st.booleans() | st.integers(-10**6, 10**6)
-    | st.floats(allow_nan=False, allow_infinity=False) | st.text(max_size=8),
-    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner,
+    | st.floats(allow_nan=False, allow_infinity=False) | utf8_text(max_size=8),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(utf8_text(max_size=6), inner,
                                                                 max_size=3),
     max_leaves=6)
 

@@ -12,6 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from hypothesis_text import utf8_text
+
 from feedtune.measured.data import (MIN_POINTS, DataError, FrequencyResponseData, TimeSeriesData,
                                     read_data, to_csv)
 
@@ -249,7 +251,7 @@ def test_any_text_is_read_or_refused_with_a_location(tmp_path, text, suffix):
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(document=st.recursive(
-    st.none() | st.booleans() | st.floats(allow_nan=True) | st.text(max_size=5),
+    st.none() | st.booleans() | st.floats(allow_nan=True) | utf8_text(max_size=5),
     lambda children: st.lists(children, max_size=6)
     | st.dictionaries(st.sampled_from(["units", "time", "command", "position", "frequency",
                                        "real", "imag", "s", "V", "m"]), children, max_size=5),
