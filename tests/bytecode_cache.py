@@ -37,7 +37,7 @@ import importlib
 import os
 import py_compile
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from importlib.machinery import SourceFileLoader
 from importlib.util import cache_from_source
 
@@ -62,24 +62,28 @@ def _has_bytecode(source: str) -> bool:
     return os.path.exists(cache_from_source(source))
 
 
-def _write(group: Sequence[str], compile_first: Sequence[str]) -> list[str]:
+def _write(group: Sequence[str | Callable[[], object]],
+           compile_first: Sequence[str]) -> list[str]:
     """Compile ``compile_first`` (source files), then import each module of ``group`` with
-    bytecode writing on; the loaded source files whose bytecode is on disk afterwards."""
+    bytecode writing on (or call it: a function that warms another cache of the run with
+    what is imported before it); the loaded source files whose bytecode is on disk
+    afterwards."""
     sys.dont_write_bytecode = False
     for source in compile_first:
         py_compile.compile(source, cfile=cache_from_source(source), quiet=2)
     for name in group:
         try:
-            importlib.import_module(name)
+            name() if callable(name) else importlib.import_module(name)
         except Exception:  # noqa: BLE001 -- a library that fails here fails in the tests
             continue
     return [source for source in _loaded_sources() if _has_bytecode(source)]
 
 
 @contextlib.contextmanager
-def writing(config, groups: Sequence[Sequence[str]]) -> Iterator[int]:
-    """Write the bytecode of what importing each of ``groups`` (module names) loads, and of
-    this process's loaded modules that have none, in one forked process a group, while the
+def writing(config, groups: Sequence[Sequence[str | Callable[[], object]]]) -> Iterator[int]:
+    """Write the bytecode of what importing each of ``groups`` (module names, or functions
+    to call after the names before them) loads, and of this process's loaded modules that
+    have none, in one forked process a group, while the
     ``with`` block runs; recorded in pytest's cache when the block ends. Yields the number
     of processes started (0: the recorded files all have their bytecode, no pytest cache,
     or this process writes bytecode itself)."""

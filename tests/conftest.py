@@ -14,7 +14,9 @@ libraries the tests import (LIBRARIES, tests/bytecode_cache.py): the README's te
 installs without ``--compile-bytecode``, which compiled all ≈ 5 300 modules of the
 environment (≈ 22 s of CPU) for the ≈ 1 700 that the tests import. So is pytest's
 assertion-rewritten code of the test modules and the plugins' modules
-(tests/rewrite_cache.py), which every xdist worker rewrote for itself.
+(tests/rewrite_cache.py), which every xdist worker rewrote for itself, and, in a fresh
+clone, hypothesis's table of the characters UTF-8 encodes (tests/hypothesis_cache.py), which
+every worker that drew a text computed for itself.
 
 The cyclic garbage collector is off while a process imports the test modules and collects
 their tests, and runs the tests with a larger first generation (TEST_GC_THRESHOLD): both
@@ -44,6 +46,7 @@ import pytest
 
 import bytecode_cache
 import feedtune
+import hypothesis_cache
 import rewrite_cache
 from feedtune.__main__ import pin_blas_threads
 from signal_guard import pytest_runtest_setup, pytest_runtest_teardown  # noqa: F401
@@ -73,7 +76,8 @@ TEST_GC_THRESHOLD = 10_000
 #: by side that take about as long each (≈ 4 and ≈ 6 s of CPU when compiling, load 5); the
 #: second ends with the backend the reports draw with and what a Dask scheduler and worker
 #: import as they start their HTTP servers (distributed's ``http.routes``, but its proxy,
-#: which logs at import)
+#: which logs at import), then draws one hypothesis text (tests/hypothesis_cache.py: its
+#: table of UTF-8's characters, which each worker computed in a fresh clone, written once)
 LIBRARIES = (
     ("feedtune.problem", "casadi", "scipy.signal", "scipy.optimize", "scipy.stats", "control",
      "cvxpy"),
@@ -82,7 +86,7 @@ LIBRARIES = (
      "distributed.http.scheduler.info", "distributed.http.scheduler.json",
      "distributed.http.scheduler.prometheus", "distributed.http.worker.prometheus",
      "distributed.http.health", "distributed.http.statics", "tornado.platform.asyncio",
-     "importlib_metadata._adapters"),
+     "importlib_metadata._adapters", hypothesis_cache.draw_a_text),
 )
 
 
