@@ -8,12 +8,12 @@ the 1 114 112 code points (≈ 1.5 s of CPU) and keeps in its storage directory
 has none, so every worker that drew a text (the property tests, the unit tests of
 untrusted input) computed it again (benchmarks/README.md, "Branch h-tunit3").
 :func:`draw_a_text` is called by the process that imports hypothesis to write its bytecode
-(``LIBRARIES`` in tests/conftest.py, tests/bytecode_cache.py), once per installation, while
-the run starts: hypothesis writes the table (atomically, as a worker would) and the workers
-read it (≈ 0.01 s). So does the local constants' cache of the feedtune modules that process
-has loaded, which every worker read from source when it collected the property tests. Both
-are what each worker would have computed, so every drawn example is unchanged; a worker
-that draws before they are written computes them itself, as before.
+(``LIBRARIES`` in tests/conftest.py, tests/bytecode_cache.py: a fresh clone's first run with
+``PYTHONDONTWRITEBYTECODE``, as CI), while the run starts: hypothesis writes the table
+(atomically, as a worker would) and the workers read it (≈ 0.01 s); the draw also writes
+hypothesis's cache of the local constants of the few feedtune modules that process has
+loaded. Both are what each worker would have computed, so every drawn example is
+unchanged; a worker that draws before they are written computes them itself, as before.
 """
 
 from __future__ import annotations
