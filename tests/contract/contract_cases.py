@@ -414,7 +414,6 @@ def numpy_matrices_stable(matrices, discrete: bool, poles=None) -> tuple[bool, f
     return stable, min(deciding)
 
 
-@lru_cache(maxsize=None)
 def nominal(config: PlantConfig) -> dict[str, float]:
     """The numpy-stable grid point closest (in log space) to the geometric middle of the box.
 
@@ -424,14 +423,23 @@ def nominal(config: PlantConfig) -> dict[str, float]:
     the first point instead of building the loop at every one of up to GRID_BUDGET points
     (this runs at collection, in every test worker).
     """
+    return _nominal_search(config)[0]
+
+
+@lru_cache(maxsize=None)
+def _nominal_search(config: PlantConfig) -> tuple:
+    """(:func:`nominal`, the loop of numbers there with the default box that the search
+    found stable): :func:`nominal_loop` is that loop, not a second one built from the same
+    numbers (a sampled loop's matrices are assembled once, not again in the tests)."""
     tunables = config.tunables
     middle = np.array([0.5 * (math.log(t.min) + math.log(t.max)) for t in tunables.values()])
     points = grid(config)
     distances = [float(np.linalg.norm(np.log(list(point.values())) - middle)) for point in points]
     for index in sorted(range(len(points)), key=distances.__getitem__):  # stable: ties in order
-        stable, _ = numpy_loop_stable(config.plant.loop(points[index], config.default_box))
+        loop = config.plant.loop(points[index], config.default_box)
+        stable, _ = numpy_loop_stable(loop)
         if stable:
-            return points[index]
+            return points[index], loop
     raise AssertionError(f"{config.id}: no stable point on the default grid")
 
 
@@ -448,13 +456,12 @@ def symbolic_loop(config: PlantConfig, box):
     return z, config.plant.loop({name: ca.exp(z[i]) for i, name in enumerate(names)}, box)
 
 
-@lru_cache(maxsize=None)
 def nominal_loop(config: PlantConfig):
     """The loop of numbers at the nominal point with the plant's default bounds: one per
-    configuration and test process, read by the plant contract's tests at that point and
-    the metric contract's default-box cases (as the validator and the reports read every
-    metric of a spec on one loop). Read it only."""
-    return config.plant.loop(nominal(config), config.default_box)
+    configuration and test process (the one :func:`nominal` found stable), read by the
+    plant contract's tests at that point and the metric contract's default-box cases (as
+    the validator and the reports read every metric of a spec on one loop). Read it only."""
+    return _nominal_search(config)[1]
 
 
 @lru_cache(maxsize=None)
@@ -498,10 +505,9 @@ def _metric_cases() -> tuple:
     cases = []
     for config in CONFIGS:
         try:
-            point = nominal(config)
+            loop = numeric_loop(config)  # the loop its cases are then evaluated on
         except AssertionError:
-            continue  # test_loop_is_stable_at_a_nominal_point reports it
-        loop = config.plant.loop(point, narrow_box(config, point))
+            continue  # no nominal point: test_loop_is_stable_at_a_nominal_point reports it
         for name, cls in METRICS.items():
             try:
                 variants = option_variants(cls)
