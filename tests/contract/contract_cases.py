@@ -355,6 +355,26 @@ def as_array(x) -> np.ndarray:
     return np.array(ca.evalf(ca.MX(x)), dtype=float)
 
 
+def assert_allclose_each(pairs, rtol: float, atol: float) -> None:
+    """``numpy.testing.assert_allclose(actual, desired, rtol=rtol, atol=atol,
+    err_msg=message)`` for each (actual, desired, message) of ``pairs`` (float arrays), in
+    order. Where every pair has one shape and finite numbers, all are first compared at
+    once by the same inequality (numpy's ``isclose`` on finite numbers, |actual − desired|
+    ≤ atol + rtol·|desired|); if that holds for every number, each assert_allclose would
+    pass, and none is called. Otherwise each is called in turn, so a failure is the same
+    failure with the same message (the plant contract compares ≈ 6 000 arrays, ≈ 35 µs
+    each in assert_allclose)."""
+    pairs = list(pairs)
+    if all(actual.shape == desired.shape for actual, desired, _ in pairs):
+        actual = np.concatenate([a.ravel() for a, _, _ in pairs] + [np.zeros(0)])
+        desired = np.concatenate([d.ravel() for _, d, _ in pairs] + [np.zeros(0)])
+        if (np.all(np.isfinite(actual)) and np.all(np.isfinite(desired))
+                and np.all(np.abs(actual - desired) <= atol + rtol * np.abs(desired))):
+            return
+    for actual, desired, message in pairs:
+        np.testing.assert_allclose(actual, desired, rtol=rtol, atol=atol, err_msg=message)
+
+
 def exact_expr(value):
     """The expression a metric's value reports: a Magnitude's signed expression, the refined
     ``exact`` of a value the tuner reformulates (a supremum or crossing over ω), or the
