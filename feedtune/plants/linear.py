@@ -520,6 +520,7 @@ class Linear(Plant):
         self.params = params
         self._bands: dict[tuple, tuple[float, float]] = {}  # frequency_band per box
         self._settle_times: dict[float, float] = {}  # _settle_time per T_min
+        self._sampled_drive = None  # the sampled loops' plant, built at the first loop's read
 
     @property
     def position_unit(self) -> str:
@@ -812,6 +813,25 @@ class Linear(Plant):
         states = scaling[:n] / scaling[n]  # S: the input/output keep their scale
         return a * states[None, :] / states[:, None], b / states[:, None], c * states[None, :]
 
+    def _sampled_plant(self) -> ContinuousPlant | DiscretePlant:
+        """The drive as the sampled loops' plant: a :class:`ContinuousPlant` behind the
+        hold, or a :class:`DiscretePlant` at its own period, of :meth:`sampled_state_space`.
+        It holds the spec's numbers only, so it is built once per plant, when the first
+        loop reads it, and shared by every loop of the plant (one is built at every point
+        of a robust search, a batch's reports and the contract tests' grids: the balancing
+        and the checks were repeated per loop). Its arrays are read-only."""
+        if self._sampled_drive is None:
+            p = self.params
+            if p.model.discrete:
+                drive = DiscretePlant(*self.sampled_state_space(), period=p.model.period,
+                                      dead_time_samples=self.dead_time_samples)
+            else:
+                drive = ContinuousPlant(*self.sampled_state_space(), dead_time=p.dead_time)
+            for matrix in (drive.a, drive.b, drive.c, drive.d):
+                matrix.flags.writeable = False
+            self._sampled_drive = drive
+        return self._sampled_drive
+
     def sampled_loop(self, values: Mapping[str, object],
                      box: Mapping[str, tuple[float, float]],
                      horizon_scale: float = 1.0) -> SampledLTILoop:
@@ -839,13 +859,10 @@ class Linear(Plant):
         position = controller("position", position_structure, values)
         if p.model.discrete:
             samples = self.dead_time_samples
-            plant = Deferred(_engine(lambda: DiscretePlant(
-                *self.sampled_state_space(), period=p.model.period, dead_time_samples=samples)),
-                discrete=True, period=p.model.period, dead_time_samples=samples)
+            plant = Deferred(_engine(self._sampled_plant), discrete=True,
+                             period=p.model.period, dead_time_samples=samples)
         else:
-            plant = Deferred(_engine(lambda: ContinuousPlant(*self.sampled_state_space(),
-                                                             dead_time=p.dead_time)),
-                             discrete=False)
+            plant = Deferred(_engine(self._sampled_plant), discrete=False)
         if velocity_structure is None:
             law = Deferred(_engine(lambda: error_controller(
                 linalg.poly_scale(position.numerator, position.gain), position.denominator,

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from contract_cases import (ALL_CONFIGS, CONFIG_IDS, CONFIGS, PLANT_EXAMPLES, as_array, as_float,
-                            default_symbolic_loop, eigenvalues_each, grid, literal_fields,
-                            log_point, nominal, nominal_loop, numpy_matrices_stable,
-                            stability_sample)
+                            assert_allclose_each, default_symbolic_loop, eigenvalues_each, grid,
+                            literal_fields, log_point, nominal, nominal_loop,
+                            numpy_matrices_stable, stability_sample)
 from feedtune.loops.loop import Drive
 from feedtune.loops.protocols import Capability
 from feedtune.plants import PLANTS
@@ -219,10 +219,12 @@ def test_symbolic_and_numeric_loops_agree(config, request):
     for point, num_loop in zip(points, loops):
         assert num_loop.discrete == sym_loop.discrete and num_loop.order == sym_loop.order
         symbolic = f(log_point(config, point))
-        for name, sym_value, num_value in zip(names, symbolic, _loop_numbers(num_loop).values()):
-            # exp(ln x) = x to one ulp; conditions are polynomials of degree ≤ 2n in it
-            np.testing.assert_allclose(np.array(sym_value, dtype=float), as_array(num_value),
-                                       rtol=1e-9, atol=1e-12, err_msg=f"{name} at {point}")
+        # exp(ln x) = x to one ulp; conditions are polynomials of degree ≤ 2n in it
+        assert_allclose_each(
+            [(np.array(sym_value, dtype=float), as_array(num_value), f"{name} at {point}")
+             for name, sym_value, num_value in zip(names, symbolic,
+                                                   _loop_numbers(num_loop).values())],
+            rtol=1e-9, atol=1e-12)
 
 
 @pytest.mark.parametrize("config", CONFIGS, ids=CONFIG_IDS)
