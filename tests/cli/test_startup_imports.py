@@ -4,8 +4,7 @@ the time: commands run through the real entry point (``feedtune.__main__.run``, 
 command runs before it exits) in a fresh interpreter, which lists after each command the
 heavy packages it then holds in ``sys.modules`` (a package loaded by one command stays listed
 after the later ones) and the garbage collections meanwhile. The tests of ``--help`` and
-``validate`` read one such interpreter's commands (``probed``), and the tuning's test what
-that interpreter loaded after them."""
+``validate`` read one such interpreter's commands (``probed``)."""
 
 from __future__ import annotations
 
@@ -23,8 +22,7 @@ EXAMPLES = sorted((REPO / "examples").glob("*.json"))
 
 #: run each ``feedtune ARGS`` of argv[1] in this interpreter; after each, print on stderr its
 #: exit status, which packages of argv[2] (or their submodules) are loaded, how many cyclic
-#: garbage collections started meanwhile and whether the collector is on; then run argv[3]
-#: (Python code)
+#: garbage collections started meanwhile and whether the collector is on
 _PROBE = """
 import gc, json, sys
 commands, packages = json.loads(sys.argv[1]), json.loads(sys.argv[2])
@@ -39,7 +37,6 @@ for args in commands:
     report = {"status": status, "heavy": heavy, "collections": len(collections),
               "enabled": gc.isenabled()}
     print("\\nloaded: " + json.dumps(report), file=sys.stderr)
-exec(sys.argv[3])
 """
 
 KOREN = REPO / "examples" / "koren-1979-sampled-data.json"
@@ -48,19 +45,17 @@ KOREN = REPO / "examples" / "koren-1979-sampled-data.json"
 HEAVY = ("pydantic", "numpy", "casadi", "scipy", "matplotlib", "feedtune.tuner")
 
 
-def loaded(commands: list[list[str]], packages: tuple[str, ...],
-           then: str) -> tuple[list[dict], list[str]]:
+def loaded(commands: list[list[str]], packages: tuple[str, ...]) -> list[dict]:
     """The report (exit status, which of ``packages`` are loaded, the collections and the
     collector's state) after each of ``feedtune ARGS...``, run one after the other in one
-    fresh interpreter, and then ``then`` (Python) run there: (the reports, stderr's lines)."""
+    fresh interpreter."""
     proc = subprocess.run([sys.executable, "-c", _PROBE, json.dumps(commands),
-                           json.dumps(packages), then],
+                           json.dumps(packages)],
                           capture_output=True, text=True, cwd=REPO, timeout=120, check=True)
-    lines = proc.stderr.splitlines()
     reports = [json.loads(line.removeprefix("loaded: "))
-               for line in lines if line.startswith("loaded: ")]
+               for line in proc.stderr.splitlines() if line.startswith("loaded: ")]
     assert len(reports) == len(commands), proc.stderr
-    return reports, lines
+    return reports
 
 
 def _registered_modules() -> dict[str, str]:
@@ -94,18 +89,12 @@ def probed() -> dict:
     """One fresh interpreter for the tests below (each was one of its own): ``--help``, then
     ``validate`` of Koren's sampled example, then of every bundled example one after the
     other. The lists are cumulative (a package loaded by one command stays listed after the
-    later ones), so the examples' lists hold what the first two loaded as well. Then what
-    a tuning loads (_TUNER_AND_VALIDATOR: "tuning", every module then loaded), on top of
-    what the commands loaded (neither numpy, CasADi nor scipy: the tests above)."""
+    later ones), so the examples' lists hold what the first two loaded as well."""
     commands = [["--help"], ["validate", str(KOREN)],
                 *(["validate", str(path)] for path in EXAMPLES)]
     registered = sorted(set(_registered_modules().values()))
-    (help_, koren, *examples), then = loaded(commands, (*HEAVY, *registered),
-                                             _TUNER_AND_VALIDATOR)
-    (tuning,) = [json.loads(line.removeprefix("modules: ")) for line in then
-                 if line.startswith("modules: ")]
-    return {"help": help_, "koren": koren, "examples": dict(zip(EXAMPLES, examples)),
-            "tuning": set(tuning)}
+    help_, koren, *examples = loaded(commands, (*HEAVY, *registered))
+    return {"help": help_, "koren": koren, "examples": dict(zip(EXAMPLES, examples))}
 
 
 def _of(report: dict, packages: tuple[str, ...]) -> tuple[int, list[str]]:
@@ -211,23 +200,25 @@ def test_validate_starts_no_garbage_collection_and_gives_the_collector_back(prob
 
 #: what ``feedtune tune`` and a batch's warm-up import to tune and validate a software servo:
 #: the tuner, the validator, and the validator's model of that plant; the modules loaded
-#: then, as JSON on stderr after "modules: "
+#: then, as JSON on stdout
 _TUNER_AND_VALIDATOR = """
+import json, sys
 import feedtune.problem, feedtune.validate
 from feedtune.batch.job import WARM_UP_SPEC
 from feedtune.validate.models import model_for
 model_for(WARM_UP_SPEC["plant"], {"position_gain": 20.0, "sampling_period": 0.015625})
-print("modules: " + json.dumps(sorted(sys.modules)), file=sys.stderr)
+print(json.dumps(sorted(sys.modules)))
 """
 
 
-def test_a_tuning_loads_only_its_own_plants_validator(probed):
+def test_a_tuning_loads_only_its_own_plants_validator():
     """Issue 15's start-up of ``tune`` and ``batch``: the validator imports a plant's model
     when a result of that plant is validated (``feedtune.validate.models.MODEL_PATHS``), and
     the measured-data validator (scipy.interpolate) only for measured data; before, every
-    tuning process imported all of them. In the probe's interpreter after its commands
-    (probed), which had loaded none of them: a module they loaded could only fail this."""
-    modules = probed["tuning"]
+    tuning process imported all of them."""
+    proc = subprocess.run([sys.executable, "-c", _TUNER_AND_VALIDATOR], capture_output=True,
+                          text=True, cwd=REPO, timeout=120, check=True)
+    modules = set(json.loads(proc.stdout))
     others = {f"feedtune.validate.{name}" for name in (
         "hydraulic_rotary", "cascade", "ward_leonard", "pulse_generator", "linear",
         "sampled_linear", "frequency_data")}
