@@ -539,28 +539,69 @@ def test_a_forked_worker_does_not_hold_the_batch_lock(tmp_path):
     assert [row["message"] for row in outcome.document["rows"]] == ["lock descriptors: 0"] * 2
 
 
-WARM_CHECK = """
+#: one fresh interpreter in which Dask's ``distributed`` cannot be imported, as without the
+#: `dask` extra. First the warm-up check: after ``warm_up``, each spec of argv[1] (JSON)
+#: solved, and the modules its solve loaded beyond those (a line "warm: STATUS [MODULES]");
+#: then each ``feedtune`` command of argv[2] (JSON argument lists) through the real entry
+#: point (tests/feedtune_cli.py, imported only after the check), its status and stderr (a
+#: line "command: " and their JSON)
+FRESH_WITHOUT_DASK = """
 import json, sys
+sys.modules["distributed"] = None  # not installed: importing it raises ImportError
 from feedtune.batch.job import solve, warm_up
 warm_up()
 for spec in json.loads(sys.argv[1]):
     before = set(sys.modules)
     outcome = solve(json.dumps(spec).encode())
-    print(outcome.status, sorted(set(sys.modules) - before))
+    print("warm:", outcome.status, sorted(set(sys.modules) - before))
+sys.path.insert(0, sys.argv[3])
+from feedtune_cli import run_cli
+for args in json.loads(sys.argv[2]):
+    done = run_cli(*args, text=True)
+    print("command: " + json.dumps([done.returncode, done.stderr]))
 """
 
+#: the batches run without Dask installed: the Dask executor, a scheduler's address, the
+#: local executor
+WITHOUT_DASK = {"dask": ["--executor", "dask"], "scheduler": ["--scheduler", "tcp://127.0.0.1:9"],
+                "local": ["-j", "1"]}
 
-def test_the_warm_up_loads_everything_a_software_servo_spec_loads():
-    """What the workers are forked with: after warm_up, tuning Koren's specs (another
-    technique, a free sampling period, more starts) imports no further module, so no
-    worker pays for imports on its first spec's clock."""
+
+@pytest.fixture(scope="module")
+def fresh_without_dask(tmp_path_factory):
+    """One fresh interpreter (``python -c FRESH_WITHOUT_DASK``) for the warm-up check and the
+    batches without Dask, each of which had an interpreter of its own (≈ 1.5 s of CPU
+    each in imports): {"warm": the check's lines, CASE: (the batch's status, its stderr,
+    its --out directory)} for each case of WITHOUT_DASK. The check comes first, so that
+    what a solve loads beyond the warm-up is a fresh interpreter's; the batches' command
+    line and executors are imported after it, with ``distributed`` still blocked."""
     pulse, sampled = example("koren-1979-reference-pulse"), example()
     sampled["tunables"]["sampling_period"] = {"min": 0.002, "max": 0.05}
     sampled["solver"] = {"multistart": 3}
-    done = subprocess.run([sys.executable, "-c", WARM_CHECK, json.dumps([pulse, sampled])],
+    root = tmp_path_factory.mktemp("without-dask")
+    commands, outs = [], {}
+    for case, args in WITHOUT_DASK.items():
+        specs, outs[case] = root / case / "specs", root / case / "out"
+        write_specs(specs, 1)
+        commands.append(["batch", str(specs), "--out", str(outs[case]), *args])
+    done = subprocess.run([sys.executable, "-c", FRESH_WITHOUT_DASK, json.dumps([pulse, sampled]),
+                           json.dumps(commands), str(REPO / "tests")],
                           capture_output=True, text=True, timeout=300, cwd=REPO)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.splitlines() == ["optimal []", "optimal []"]
+    lines = done.stdout.splitlines()
+    ran = [json.loads(line.removeprefix("command: ")) for line in lines
+           if line.startswith("command: ")]
+    assert len(ran) == len(WITHOUT_DASK), done.stdout
+    return {"warm": [line.removeprefix("warm: ") for line in lines if line.startswith("warm: ")],
+            **{case: (*outcome, outs[case]) for case, outcome in zip(WITHOUT_DASK, ran)}}
+
+
+def test_the_warm_up_loads_everything_a_software_servo_spec_loads(fresh_without_dask):
+    """What the workers are forked with: after warm_up, tuning Koren's specs (another
+    technique, a free sampling period, more starts) imports no further module, so no
+    worker pays for imports on its first spec's clock (in a fresh interpreter:
+    fresh_without_dask, before its batches)."""
+    assert fresh_without_dask["warm"] == ["optimal []", "optimal []"]
 
 
 def test_workers_are_spawned_while_another_thread_runs():
@@ -684,17 +725,50 @@ def test_sigkill_mid_run_then_rerun_gives_an_uninterrupted_runs_results(tmp_path
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
 
 
-@pytest.mark.usefixtures("distributed_loaded")
-def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path, uninterrupted):
+def _on_local_dask_clusters(specs: list[str], out: Path, crash_specs: Path,
+                            crash_out: Path):
+    """(``feedtune batch SPECS --out OUT --executor dask -j 2``, the outcome of a batch of
+    ``crash_specs`` on a local cluster of two workers whose job kills its worker on the
+    spec marked so): the two local Dask clusters of this file, one after the other in this
+    process, so that their worker processes come from one forkserver (it imports
+    distributed and warms the tuner up: ≈ 3 s of CPU, which a second child forked here
+    paid again; feedtune.batch.dask_cluster.warm_worker_processes)."""
+    import dask
+
+    from feedtune.batch.dask_cluster import DaskExecutor
+
+    proc = in_process("batch", *specs, "--out", str(out), "--executor", "dask", "-j", "2")
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        outcome = run_batch([str(crash_specs)], crash_out,
+                            DaskExecutor(workers=2, job=batch_jobs.crashing))
+    return proc, outcome
+
+
+@pytest.fixture(scope="module")
+def local_dask_clusters(tmp_path_factory, uninterrupted, distributed_loaded):
+    """The local Dask clusters' batches (_on_local_dask_clusters), run in one child forked
+    from this process (a Dask client would leave its threads in this process: in_a_fork):
+    {"all-cores": (out, process) of the first 6 specs of ``uninterrupted`` on two Dask
+    workers, "worker-died": the outcome of four good specs and one whose worker dies}."""
+    root = tmp_path_factory.mktemp("dask-local")
+    _, paths, _ = uninterrupted
+    _tasks(root / "crash-specs", {"axis-crash": batch_jobs.CRASH_MARK})
+    proc, outcome = in_a_fork(_on_local_dask_clusters, [str(path) for path in paths[:6]],
+                              root / "dask", root / "crash-specs", root / "crash-out")
+    return {"all-cores": (root / "dask", proc), "worker-died": outcome}
+
+
+def test_one_worker_all_cores_and_dask_give_identical_results(tmp_path, uninterrupted,
+                                                              local_dask_clusters):
     _, paths, reference = uninterrupted
     specs = [str(path) for path in paths[:6]]
     one, one_rows = first(6, reference, paths)  # one worker: `batch -j 1`
-    outs = {label: tmp_path / label for label in ("all", "dask")}
+    outs = {"all": tmp_path / "all"}
     # all cores: the local executor's workers, forked here; Dask's cluster from a child
-    # forked here (a Dask client would leave its threads in this process: in_a_fork)
+    # forked here (local_dask_clusters)
+    outs["dask"], dask_proc = local_dask_clusters["all-cores"]
     for label, proc in (("all", in_process("batch", *specs, "--out", str(outs["all"]))),
-                        ("dask", in_a_fork(in_process, "batch", *specs, "--out",
-                                           str(outs["dask"]), "--executor", "dask", "-j", "2"))):
+                        ("dask", dask_proc)):
         assert proc.returncode == 0, (label, proc.stderr)
     assert len(one) == 6
     assert one == results(outs["all"]) == results(outs["dask"])
@@ -774,16 +848,11 @@ def test_an_existing_dask_scheduler_by_address(tmp_path, uninterrupted):
     assert results(tmp_path / "remote") == local
 
 
-@pytest.mark.usefixtures("distributed_loaded")
-def test_a_dask_worker_that_dies_is_charged_to_its_spec(tmp_path):
-    import dask
-
-    from feedtune.batch.dask_cluster import DaskExecutor
-
-    _tasks(tmp_path / "specs", {"axis-crash": batch_jobs.CRASH_MARK})
-    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
-        outcome = in_a_fork(run_batch, [str(tmp_path / "specs")], tmp_path / "out",
-                            DaskExecutor(workers=2, job=batch_jobs.crashing))
+def test_a_dask_worker_that_dies_is_charged_to_its_spec(local_dask_clusters):
+    """A local Dask cluster of two workers (local_dask_clusters: after the executors'
+    comparison, on the same forkserver), its scheduler allowing no retry of a spec whose
+    worker died: that spec's row says so, the others are solved."""
+    outcome = local_dask_clusters["worker-died"]
     rows = {row["id"]: row for row in outcome.document["rows"]}
     assert rows["axis-crash"]["status"] == "worker_died"
     assert [rows[f"axis-00{i}"]["status"] for i in range(4)] == ["optimal"] * 4
@@ -891,24 +960,17 @@ def test_no_dask_workers_or_scheduler_is_exit_two_after_the_worker_timeout(tmp_p
     assert time.monotonic() - started < 60  # the timeout, not Dask's own waits
 
 
-@pytest.mark.parametrize("args", [["--executor", "dask"], ["--scheduler", "tcp://127.0.0.1:9"],
-                                  ["-j", "1"]], ids=["dask", "scheduler", "local"])
-def test_without_dask_installed_only_the_dask_executor_is_refused(tmp_path, args):
-    """Dask is the `dask` extra: without it (its import blocked here) the local executor
-    works and the Dask one says how to install it."""
-    specs, out = tmp_path / "specs", tmp_path / "out"
-    write_specs(specs, 1)
-    blocked = ("import sys; sys.modules['distributed'] = None; "
-               "from feedtune.cli import main; main(prog_name='feedtune')")
-    proc = subprocess.run([sys.executable, "-c", blocked, "batch", str(specs), "--out",
-                           str(out), *args], capture_output=True, text=True, cwd=REPO,
-                          timeout=300)
-    if args == ["-j", "1"]:
-        assert proc.returncode == 0, proc.stderr
+@pytest.mark.parametrize("case", list(WITHOUT_DASK))
+def test_without_dask_installed_only_the_dask_executor_is_refused(fresh_without_dask, case):
+    """Dask is the `dask` extra: without it (its import blocked in a fresh interpreter:
+    fresh_without_dask) the local executor works and the Dask one says how to install it."""
+    status, stderr, out = fresh_without_dask[case]
+    if case == "local":
+        assert status == 0, stderr
         assert rows_by_id(out)["axis-000"]["ok"]
         return
-    assert proc.returncode == 2, proc.stderr
-    (line,) = proc.stderr.splitlines()
+    assert status == 2, stderr
+    (line,) = stderr.splitlines()
     assert line.startswith("error: ") and "pip install 'feedtune[dask]'" in line, line
     assert not out.exists()
 
