@@ -115,7 +115,8 @@ class RootSearch:
     upper: float
     starts: np.ndarray
     grid_points: int = GRID_POINTS
-    evaluate_all: Callable | None = None  # points at an array of z, as [evaluate(z), ...]
+    evaluate_all: Callable | None = None  # the points at an array of z, as GridPoints
+    spaced: np.ndarray | None = None  # np.linspace(lower, upper, grid_points), when known
     grid: np.ndarray = field(init=False)
     errors: np.ndarray = field(init=False)  # the signed e at each grid point
     feasible: np.ndarray = field(init=False)
@@ -123,17 +124,21 @@ class RootSearch:
     _charged: int = field(init=False, default=0)  # by the start being solved
     _roots: dict = field(init=False, default_factory=dict)  # bracket → (root, evaluations)
     _points: dict = field(init=False, default_factory=dict)  # z → its point (:meth:`_at`)
+    _grid_points: "GridPoints" = field(init=False)  # the grid's, read into _points when used
+    _index: dict = field(init=False)  # z → its grid index
 
     def __post_init__(self):
         self.grid = np.unique(np.concatenate([
             [self.lower, self.upper], np.clip(self.starts, self.lower, self.upper),
+            self.spaced if self.spaced is not None else
             np.linspace(self.lower, self.upper, self.grid_points)]))
         points = (self.evaluate_all(self.grid) if self.evaluate_all is not None else
-                  [self.evaluate(z) for z in self.grid])
+                  GridPoints.of([self.evaluate(z) for z in self.grid]))
         self.evaluations = len(self.grid)
-        self.errors = np.array([p[0] for p in points], dtype=float)
-        self.feasible = np.array([_feasible(p) for p in points])
-        self._points = {(z, math.copysign(1.0, z)): p for z, p in zip(self.grid.tolist(), points)}
+        self.errors = points.errors
+        self.feasible = points.feasible()
+        self._grid_points = points
+        self._index = {_key(z): index for index, z in enumerate(self.grid.tolist())}
 
     @classmethod
     def for_problem(cls, problem, held: np.ndarray | None = None, axis: int = 0,
@@ -142,13 +147,16 @@ class RootSearch:
         None where :func:`applies` says it does not. ``held``: a start of a problem of
         several free tunables, searched along tunable ``axis`` with the others held at
         the start's values (a grid of that start alone); the search's z is that tunable's.
-        ``check``: the problem's :class:`ErrorCheck`, made here if not given."""
-        if not (applies(problem) if held is None else applies_along(problem)):
-            return None
+        ``check``: the problem's :class:`ErrorCheck` (made where the search applies), made
+        here if not given."""
+        if check is None:
+            if not (applies(problem) if held is None else applies_along(problem)):
+                return None
+            check = ErrorCheck(problem)
         at = np.asarray(held if held is not None else [0.0], dtype=float)
         starts = (np.asarray(problem.starts, dtype=float)[:, 0] if held is None else
                   at[axis:axis + 1])
-        check = check if check is not None else ErrorCheck(problem)
+        lower, upper = float(problem.lbw[axis]), float(problem.ubw[axis])
 
         def evaluate(z):
             full = at.copy()
@@ -160,8 +168,8 @@ class RootSearch:
             grid[axis] = zs
             return check.points(grid)
 
-        return cls(evaluate, float(problem.lbw[axis]), float(problem.ubw[axis]), starts,
-                   evaluate_all=evaluate_all)
+        return cls(evaluate, lower, upper, starts, evaluate_all=evaluate_all,
+                   spaced=check.spaced(lower, upper, GRID_POINTS))
 
     @property
     def solvable(self) -> bool:
@@ -179,7 +187,9 @@ class RootSearch:
         key = _key(z)
         point = self._points.get(key)
         if point is None:
-            point = self._points[key] = self.evaluate(z)
+            index = self._index.get(key)
+            point = self._points[key] = (self.evaluate(z) if index is None else
+                                         self._grid_points[index])
         return point
 
     def solve_from(self, z0: float) -> Found | None:
@@ -367,6 +377,8 @@ class ErrorCheck:
         # operation, as numpy's), without the arrays around three numbers
         self._sides = [(int(r), bool(m), float(b), float(s), float(n))
                        for r, m, b, s, n in sides]
+        self._tiled: dict[int, np.ndarray] = {}  # the parameters tiled for n points
+        self._spaced: dict[tuple, np.ndarray] = {}  # (lower, upper, n) → :meth:`spaced`
 
     def point(self, z: np.ndarray) -> tuple:
         """(e, bound rows, other) at the log tunables ``z``."""
@@ -382,19 +394,70 @@ class ErrorCheck:
                  math.inf if any(c != c for c in conditions) else -min(conditions))
         return float(terms.flat[0]), rows, other
 
-    def points(self, grid: np.ndarray) -> list[tuple]:
-        """:meth:`point` at each column of ``grid`` (n_z × n), from one call of the check
-        mapped over them (:func:`mapped`: the same bits)."""
+    def points(self, grid: np.ndarray) -> "GridPoints":
+        """The points at each column of ``grid`` (n_z × n), from one call of the check
+        mapped over them (:func:`mapped`: the same bits), as arrays; each column's
+        :meth:`point` is the :class:`GridPoints`' item."""
         n = grid.shape[1]
-        terms, bounds, stability, settling = mapped(self.check.function, n).outputs(
-            grid, np.tile(self.p, n))[:4]
+        call = mapped(self.check.function, n)
+        tiled = self._tiled.get(n)
+        if tiled is None:
+            tiled = self._tiled[n] = np.tile(self.p, n)
+        if self._dense:  # the result arrays themselves, read before the next call
+            terms, bounds, stability, settling = (
+                values.reshape(-1, n, order="F")
+                for values in call.nonzeros(grid.ravel(order="F"), tiled)[:4])
+        else:
+            terms, bounds, stability, settling = call.outputs(grid, tiled)[:4]
         values = bounds[self._row]
         rows = self._sign * (self._bound - np.where(self._magnitude, np.abs(values),
                                                     values)) / self._size
         conditions = np.vstack([stability, settling])
         other = -conditions.min(axis=0) if conditions.size else np.full(n, -math.inf)
         other = np.where(np.isnan(other), math.inf, other)
-        return list(zip(terms[0].tolist(), map(tuple, rows.T.tolist()), other.tolist()))
+        return GridPoints(terms[0].copy(), rows, other)
+
+    def spaced(self, lower: float, upper: float, n: int) -> np.ndarray:
+        """``np.linspace(lower, upper, n)``, made once per problem and box (every line
+        along one tunable has the same; read-only)."""
+        key = (lower, upper, n)
+        spaced = self._spaced.get(key)
+        if spaced is None:
+            spaced = self._spaced[key] = np.linspace(lower, upper, n)
+            spaced.flags.writeable = False
+        return spaced
+
+
+@dataclass
+class GridPoints:
+    """The points (e, bound rows, other) at a grid's z as arrays: ``errors`` (n),
+    ``rows`` (bound rows × n), ``other`` (n); item i is point i as a tuple of floats
+    (:meth:`ErrorCheck.point`'s form), or as ``listed`` gives it."""
+
+    errors: np.ndarray
+    rows: np.ndarray
+    other: np.ndarray
+    listed: list | None = None
+
+    @classmethod
+    def of(cls, points: list) -> "GridPoints":
+        """The points evaluated one by one (each (e, rows, other)), kept as they are."""
+        return cls(np.array([p[0] for p in points], dtype=float),
+                   np.array([list(p[1]) for p in points], dtype=float).T,
+                   np.array([p[2] for p in points], dtype=float), points)
+
+    def feasible(self) -> np.ndarray:
+        """Each point's :func:`_feasible` (e finite, other ≤ 0, every row ≤ 0; NaN fails)."""
+        return np.isfinite(self.errors) & (self.other <= 0) & np.all(self.rows <= 0, axis=0)
+
+    def __len__(self) -> int:
+        return len(self.errors)
+
+    def __getitem__(self, index: int) -> tuple:
+        if self.listed is not None:
+            return self.listed[index]
+        return (self.errors[index].item(), tuple(self.rows[:, index].tolist()),
+                self.other[index].item())
 
 
 #: the check Functions mapped over n points, by Function and n, kept while the Function is
