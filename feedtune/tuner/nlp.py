@@ -388,9 +388,10 @@ class Problem:
                                        run.method))
             if progress is not None:
                 progress(starts[-1], len(self.starts))
-            violation = self._violation(run.bounds, run.conditions)
             solved = status in SOLVED and feasible and objective is not None
-            key = (0, objective, index) if solved else (1, violation, index)
+            # an unsolved start is ranked by its violation (only then computed)
+            key = ((0, objective, index) if solved else
+                   (1, self._violation(run.bounds, run.conditions), index))
             if solved:
                 optima.append((index, objective, z_opt))
             if best is None or self._better(key, best[0]):
