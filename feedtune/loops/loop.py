@@ -26,7 +26,7 @@ from feedtune.expr import is_symbolic, to_float
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Capability, DeclaredCapabilities
-from feedtune.loops.twin import replayed_numbers
+from feedtune.loops.twin import replayed_expressions, replayed_numbers
 from feedtune.loops.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                                     second_order_error_integrals)
 
@@ -413,7 +413,15 @@ class _LoopBase(DeclaredCapabilities):
 
     @cached_property
     def characteristic_polynomial(self) -> list:
-        """Monic closed-loop characteristic polynomial, highest power first."""
+        """Monic closed-loop characteristic polynomial, highest power first.
+
+        A loop of numbers whose structure's Function of :attr:`_matrix_and_polynomial_numbers`
+        is built takes the coefficients from a call of it in the graph (issue 15: the
+        recursion's graph cost ≈ 0.5 ms a tuned design), the same operations, so the same
+        bits and the same simplifications above them."""
+        replayed = replayed_expressions(self, "matrix_and_polynomial")
+        if replayed is not None:
+            return replayed[1:]
         return linalg.characteristic_polynomial(self.state_matrix)
 
     @cached_property

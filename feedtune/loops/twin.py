@@ -254,6 +254,22 @@ def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
     return function.call([ca.DM(twin.values)])
 
 
+def replayed_expressions(loop, name: str) -> list | None:
+    """The outputs of :func:`replayed_numbers`' Function ``name`` for ``loop``'s structure,
+    called in a graph on the loop's numbers, or None while that Function is not built (it
+    is not asked for here). A call is a node of the graph, not a constant: what is built
+    on its outputs simplifies as on the graph it replaces (√c squared folds to c), and
+    evaluated it gives the same bits."""
+    twin = parametric_twin(loop)
+    if twin is None:
+        return None
+    with _twins_lock:
+        function = _numbers_functions.get((name, twin.structure))
+    if not isinstance(function, ca.Function):
+        return None
+    return function.call([ca.MX(ca.DM(twin.values))])
+
+
 class OfLoop:
     """ω ↦ ``factory(loop, *args)(ω)``: a function of a loop's frequency response that
     names its loop and how it was made, so that a loop of numbers can evaluate it through

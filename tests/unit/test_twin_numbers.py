@@ -87,3 +87,33 @@ def test_a_sampled_loops_reports_build_no_graph_of_its_matrices(monkeypatch):
         expected = [_reported(loop) for loop in example_loops("sampled", 8, seed=71)
                     if loop._numeric_spectral_radius < 1]
     assert replayed == expected
+
+
+def _reported_continuous(loop) -> list:
+    values = []
+    for name in ("iae", "ise", "itae"):
+        metric = METRICS[name]()
+        for time in ("absolute", "natural"):
+            values.append(metric.evaluate(loop, metric.Options(time=time)))
+    for name in ("damping_ratio", "natural_frequency", "velocity_constant"):
+        metric = METRICS[name]()
+        values.append(metric.evaluate(loop, metric.Options()))
+    for name in ("pole_damping", "decay_rate"):
+        metric = METRICS[name]()
+        values.append(metric.evaluate(loop, metric.Options()).exact)
+    values += list(loop.stability_conditions()) + [loop.stability_matrices()["closed_loop"]]
+    return [_bits(ca.evalf(v) if isinstance(v, ca.MX) else v) for v in values]
+
+
+def test_a_continuous_loops_reports_read_its_polynomial_from_the_twin(monkeypatch):
+    """A structure's later loops take the characteristic polynomial from a call of the
+    twin's Function in their graphs (before: the recursion's graph on their constants):
+    every report the same bits, ITAE in natural time too (√c0 squared folds to c0 on both)."""
+    loops = example_loops("pulse", 10, seed=73)
+    replayed = [_reported_continuous(loop) for loop in loops]
+    assert all(c.is_output() for loop in loops[2:] for c in loop.characteristic_polynomial)
+    with monkeypatch.context() as patch:  # the graph's path, on the same points
+        patch.setattr(loop_module, "replayed_numbers", lambda *args: None)
+        patch.setattr(loop_module, "replayed_expressions", lambda *args: None)
+        expected = [_reported_continuous(loop) for loop in example_loops("pulse", 10, seed=73)]
+    assert replayed == expected
