@@ -26,6 +26,7 @@ from feedtune.expr import is_symbolic, to_float
 from feedtune.lazy import ca, np
 from feedtune.loops import linalg
 from feedtune.loops.protocols import Capability, DeclaredCapabilities
+from feedtune.loops.twin import replayed_expressions, replayed_numbers
 from feedtune.loops.signals import (ErrorIntegrals, sample_error_integrals, sample_moments,
                                     second_order_error_integrals)
 
@@ -263,6 +264,21 @@ def _numbers(values: list) -> list | None:
     return function.call([])
 
 
+def _matrix_and_polynomial(loop) -> list:
+    """[state matrix, c_n, …, c_0] of ``loop`` (expressions)."""
+    return [loop.state_matrix, *loop.characteristic_polynomial]
+
+
+def _hold_values(loop) -> list:
+    """[Φ, Γ, k_x, k_r, T] of a :class:`SampledLoop`, and τ for a drive with a time
+    constant (expressions)."""
+    phi, gamma, kx, kr = loop._matrices
+    values = [phi, gamma, kx, kr, loop.period]
+    if loop.plant.time_constant is not None:
+        values.append(loop.plant.time_constant)
+    return values
+
+
 def _poly_on_circle(p: list, theta):
     """Re and Im of p(e^{jθ}), highest power first: Σ c_k (cos kθ + j sin kθ)."""
     degree = len(p) - 1
@@ -397,14 +413,23 @@ class _LoopBase(DeclaredCapabilities):
 
     @cached_property
     def characteristic_polynomial(self) -> list:
-        """Monic closed-loop characteristic polynomial, highest power first."""
+        """Monic closed-loop characteristic polynomial, highest power first.
+
+        A loop of numbers whose structure's Function of :attr:`_matrix_and_polynomial_numbers`
+        is built takes the coefficients from a call of it in the graph (issue 15: the
+        recursion's graph cost ≈ 0.5 ms a tuned design), the same operations, so the same
+        bits and the same simplifications above them."""
+        replayed = replayed_expressions(self, "matrix_and_polynomial")
+        if replayed is not None:
+            return replayed[1:]
         return linalg.characteristic_polynomial(self.state_matrix)
 
     @cached_property
     def _matrix_and_polynomial_numbers(self) -> list | None:
         """[state matrix, c_n, …, c_0] as DM numbers, evaluated together once per loop (one
         Function: the same operations, the same bits); None for a loop of symbols."""
-        return _numbers([self.state_matrix, *self.characteristic_polynomial])
+        return (replayed_numbers(self, "matrix_and_polynomial", _matrix_and_polynomial)
+                or _numbers(_matrix_and_polynomial(self)))
 
     @cached_property
     def _polynomial_numbers(self) -> list | None:
@@ -590,9 +615,8 @@ class _SampledLoopBase(_LoopBase):
         through Functions (:func:`_pole_pair`, the Hurwitz conditions of numbers) or as
         numbers, so every value keeps its bits. (A continuous loop keeps its graph: there
         ω_n = √c0 squared in natural-time ITAE folds to c0 on the graph, not on numbers.)"""
-        matrix = self.state_matrix
-        numbers = self._state_numbers if isinstance(matrix, ca.MX) else None
-        return linalg.characteristic_polynomial(matrix if numbers is None else numbers)
+        numbers = self._state_numbers  # (its graph not built for a loop of numbers)
+        return linalg.characteristic_polynomial(self.state_matrix if numbers is None else numbers)
 
     @cached_property
     def _state_numbers(self):
@@ -839,11 +863,7 @@ class SampledLoop(_SampledLoopBase):
         one Function once per loop (issue 15: the characteristic polynomial, the held
         command's response and the step integrals each evaluated Φ); None for a loop of
         symbols."""
-        phi, gamma, kx, kr = self._matrices
-        values = [phi, gamma, kx, kr, self.period]
-        if self.plant.time_constant is not None:
-            values.append(self.plant.time_constant)
-        return _numbers(values)
+        return replayed_numbers(self, "hold", _hold_values) or _numbers(_hold_values(self))
 
     @cached_property
     def _state_numbers(self):
@@ -892,8 +912,6 @@ class SampledLoop(_SampledLoopBase):
         if radius is not None and radius >= 1:
             return StepIntegrals(lambda name: math.inf)  # unstable: never settles
         samples = self.horizon_samples  # raises HorizonError before any metric is built
-        phi, gamma_cl, kx, kr = self._matrices
-        period, tau = self.period, self.plant.time_constant
         n = self.order
         if radius is not None:  # numbers: the small matrices evaluated once, as flat arrays
             numbers = [v.full().ravel(order="F") for v in self._hold_numbers]
@@ -920,6 +938,9 @@ class SampledLoop(_SampledLoopBase):
                 return summed[name]
 
             return StepIntegrals(integral)
+
+        phi, gamma_cl, kx, kr = self._matrices
+        period, tau = self.period, self.plant.time_constant
 
         def integral(name):  # symbols: one fold of the whole horizon in the graph
             final = _sample_fold(n, name, samples)(ca.DM.zeros(n + 2), phi, gamma_cl, kx,

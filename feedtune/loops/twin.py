@@ -34,6 +34,11 @@ from feedtune.lazy import ca, np
 _TWIN_CACHE_SIZE = 64
 _twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol, it)
 _twins_lock = threading.Lock()  # a Dask worker runs specs in threads
+#: Functions of a structure's twin numbers (:func:`replayed_numbers`), an LRU: (name, structure)
+#: → the Function, None (asked for once: not built yet) or False (not replayable)
+_NUMBERS_CACHE_SIZE = 256
+_numbers_functions: OrderedDict[tuple, object] = OrderedDict()
+_NEVER = object()  # a key not asked for before
 
 
 class NoTwin(Exception):
@@ -208,6 +213,61 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
             while len(_twins) > _TWIN_CACHE_SIZE:
                 _twins.popitem(last=False)
     return Twin(structure, twin_loop, numbers, values)
+
+
+def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
+    """``values_of(loop)`` (a list of the loop's expressions: matrices, coefficients) as DM
+    numbers, through one Function of the loop structure's twin numbers, called with this
+    loop's (issue 15: a loop of numbers otherwise builds the graph of its constants and a
+    Function of it for one evaluation, ≈ 0.3-0.5 ms a tuned design). The Function performs
+    the operations of that graph on the twin's entries (the module's docstring), so the
+    same bits; ``name`` with the structure is its key.
+
+    None where the caller evaluates the graph itself: a loop of symbols or without a
+    twin, an expression that is not a Function of the twin's numbers, and the first
+    request of a (name, structure) (the Function is built at the second, as the replayed
+    peaks' are: a single tuning sees one loop of a structure and would pay for a build)."""
+    twin = parametric_twin(loop)
+    if twin is None:
+        return None
+    key = (name, twin.structure)
+    with _twins_lock:
+        function = _numbers_functions.get(key, _NEVER)
+        if function is _NEVER:
+            _numbers_functions[key] = None
+            while len(_numbers_functions) > _NUMBERS_CACHE_SIZE:
+                _numbers_functions.popitem(last=False)
+            return None
+        _numbers_functions.move_to_end(key)
+    if function is None:
+        try:
+            function = ca.Function(name, [twin.numbers],
+                                   [ca.MX(v) for v in values_of(twin.loop)])
+        except RuntimeError as exc:  # a symbol besides the twin's numbers
+            if "are free" not in str(exc):
+                raise
+            function = False
+        with _twins_lock:
+            _numbers_functions[key] = function
+    if function is False:
+        return None
+    return function.call([ca.DM(twin.values)])
+
+
+def replayed_expressions(loop, name: str) -> list | None:
+    """The outputs of :func:`replayed_numbers`' Function ``name`` for ``loop``'s structure,
+    called in a graph on the loop's numbers, or None while that Function is not built (it
+    is not asked for here). A call is a node of the graph, not a constant: what is built
+    on its outputs simplifies as on the graph it replaces (√c squared folds to c), and
+    evaluated it gives the same bits."""
+    twin = parametric_twin(loop)
+    if twin is None:
+        return None
+    with _twins_lock:
+        function = _numbers_functions.get((name, twin.structure))
+    if not isinstance(function, ca.Function):
+        return None
+    return function.call([ca.MX(ca.DM(twin.values))])
 
 
 class OfLoop:

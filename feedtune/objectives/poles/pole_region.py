@@ -37,15 +37,16 @@ def pole_region(loop: Loop, measure, conditions, lower: float, upper: float,
     The value comes from the numeric poles of the loop's state matrix (and period), so it
     agrees with the result's ``stability.poles``.
     """
-    matrix = loop.state_matrix
-    n = matrix.shape[0]
     discrete = bool(loop.discrete)
     period = loop.period if discrete else 0.0
     numbers = loop.numeric_state_matrix()  # None for a loop of symbols
     if numbers is not None and not is_symbolic(period):  # each loop's numbers evaluated once
+        n = numbers.shape[0]  # (the matrix's graph not read: a loop of numbers may not build it)
         numbers = np.append(numbers.ravel(order="F"), to_float(period))
         inputs = ca.DM(numbers)  # the column of numbers itself: no MX graph of constants
     else:
+        matrix = loop.state_matrix
+        n = matrix.shape[0]
         numbers = None
         inputs = ca.veccat(ca.vec(ca.MX(matrix)), ca.MX(period))
 
