@@ -44,10 +44,11 @@ POLL_SECONDS = 0.2
 #: what the batch's process handles itself (Ctrl-C, and SIGTERM: how CI cancels)
 STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
 #: a worker's young-generation threshold (``gc.set_threshold``'s first; CPython's is 700):
-#: a batch spec leaves ≈ 300 objects in reference cycles (CasADi wrappers, closures), and
+#: a batch spec leaves ≈ 200 objects in reference cycles (CasADi wrappers, closures), and
 #: at 700 a worker ran ≈ 0.7 young collections a spec, each walking the young objects and
-#: every tenth the middle generation again; at 5000 ≈ 0.1 a spec, the same garbage freed a
-#: few specs later, ≈ 1 MB more resident (benchmarks/README.md, "Branch h-bval6")
+#: every tenth the middle generation again; at 5000 under 0.1 a spec, the same garbage
+#: freed a few specs later, ≈ 1 MB more resident: the collections' time 0.45–1.2 → 0.25–0.36
+#: ms a spec (benchmarks/README.md, "Branch h-bval6")
 WORKER_GC_THRESHOLD = 5000
 
 
