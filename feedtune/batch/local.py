@@ -43,6 +43,13 @@ CHUNK_SECONDS = 0.5
 POLL_SECONDS = 0.2
 #: what the batch's process handles itself (Ctrl-C, and SIGTERM: how CI cancels)
 STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
+#: a worker's young-generation threshold (``gc.set_threshold``'s first; CPython's is 700):
+#: a batch spec leaves ≈ 200 objects in reference cycles (CasADi wrappers, closures), and
+#: at 700 a worker ran ≈ 0.7 young collections a spec, each walking the young objects and
+#: every tenth the middle generation again; at 5000 under 0.1 a spec, the same garbage
+#: freed a few specs later, ≈ 1 MB more resident: the collections' time 0.45–1.2 → 0.25–0.36
+#: ms a spec (benchmarks/README.md, "Branch h-bval6")
+WORKER_GC_THRESHOLD = 5000
 
 
 def default_workers() -> int:
@@ -118,8 +125,10 @@ def _worker_main(connection, job: Callable, mask: frozenset) -> None:
     # objects) out of the garbage collector's scans: its full collections walked them all
     # and, in a forked worker, wrote to pages it shares with the batch (copy on write):
     # 0.44 → 0.19 ms of collections a spec, 76 → 48 page faults (benchmarks/README.md,
-    # "Branch h-bx1"). The spec's own objects are collected as before.
+    # "Branch h-bx1"). The spec's own objects are collected as before, in fewer young
+    # collections (WORKER_GC_THRESHOLD).
     gc.freeze()
+    gc.set_threshold(WORKER_GC_THRESHOLD, *gc.get_threshold()[1:])
     while True:
         try:
             chunk = connection.recv()

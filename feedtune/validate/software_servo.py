@@ -181,6 +181,12 @@ class ServoModel:
     def context(self) -> Context:
         """The physical scales: the BLU [m] and the slowest time constant 1/min|s| [s]
         (s = ln z / T for a sampled loop; z = 0 poles, the delay buffer, have none)."""
+        return self._context
+
+    @functools.cached_property
+    def _context(self) -> Context:
+        """:meth:`context`, once per model (a frozen Context): the model's table and its
+        pole rows each judge on it."""
         p = self.poles().astype(complex)
         if self.sampled:
             p = np.log(p[np.abs(p) > 1e-12]) / self.period
@@ -660,6 +666,11 @@ class ServoModel:
         """
         if self.sampled:
             raise NotCovered("closed forms of the continuous loop only")
+        return dict(self._frequency_metrics)
+
+    @functools.cached_property
+    def _frequency_metrics(self) -> dict[str, float]:
+        """:meth:`frequency_metrics`, once per model (its table reads one value a metric)."""
         k, tau = self.gain, self.time_constant
         omega_n, zeta = math.sqrt(k / tau), 1 / (2 * math.sqrt(k * tau))
         m_peak = 1 / (2 * zeta * math.sqrt(1 - zeta**2)) if zeta < math.sqrt(0.5) else 1.0
@@ -930,11 +941,12 @@ def _free_zero(x0, v0, u, tau: float, lower, upper) -> np.ndarray:
     u − v0), whose iterates then approach the zero from one side without overshoot."""
     at_lower = _free_position(x0, v0, u, tau, lower) * (u - v0) > 0
     s = np.where(at_lower, lower, upper)
+    converged = 4 * np.finfo(float).eps * upper
     for _ in range(NEWTON_STEPS):
         speed = u + (v0 - u) * np.exp(-s / tau)
         step = _free_position(x0, v0, u, tau, s) / speed
         s = np.clip(s - step, lower, upper)
-        if np.all(np.abs(step) <= 4 * np.finfo(float).eps * upper):
+        if np.all(np.abs(step) <= converged):
             break
     return s
 

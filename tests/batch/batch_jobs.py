@@ -34,7 +34,8 @@ def sleeping(data: bytes, existing):
 def first_spec_facts(data: bytes, existing):
     """Say what the worker had before this spec's clock started: whether its objects from
     before (the imports, the warm-up's) were out of the garbage collector's scans
-    (``gc.freeze``), and whether it had loaded the tuner and tuned its warm-up spec."""
+    (``gc.freeze``), whether it had loaded the tuner and tuned its warm-up spec, and the
+    collector's young-generation threshold."""
     import gc
 
     frozen = gc.get_freeze_count() > 10_000
@@ -42,7 +43,7 @@ def first_spec_facts(data: bytes, existing):
 
     return Outcome("error", f"tuner loaded before the spec: {'feedtune.problem' in sys.modules}"
                             f", warmed up: {job._warmed}; objects frozen before the spec: "
-                            f"{frozen}")
+                            f"{frozen}; young-generation threshold: {gc.get_threshold()[0]}")
 
 
 #: set by a test in its own process; a worker forked from it sees the value, a spawned one
