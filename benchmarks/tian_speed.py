@@ -50,7 +50,10 @@ CHILD = r"""
 import json, sys, time
 started = time.perf_counter()
 from feedtune.problem import tune
-from feedtune.schema.spec import parse_spec
+try:
+    from feedtune.schema.spec import parse_spec
+except ModuleNotFoundError:  # a tree from before the package layout (issue 16)
+    from feedtune.spec import parse_spec
 import scipy.optimize, scipy.stats  # the search's (DE, its QMC population): imported at
                                     # load by the old tree, when first used by the new
 imported = time.perf_counter()
@@ -70,7 +73,10 @@ print(json.dumps({"imports": imported - started, "tune": done - begun, "cpu": cp
 PROFILE = r"""
 import cProfile, json, pstats, sys
 from feedtune.problem import tune
-from feedtune.schema.spec import parse_spec
+try:
+    from feedtune.schema.spec import parse_spec
+except ModuleNotFoundError:  # a tree from before the package layout (issue 16)
+    from feedtune.spec import parse_spec
 spec = parse_spec(json.loads(open(sys.argv[1]).read()))
 profile = cProfile.Profile()
 profile.runcall(tune, spec)
