@@ -20,7 +20,7 @@ from collections import OrderedDict
 
 from feedtune.buffers import ThreadBuffers
 from feedtune.lazy import ca, np
-from feedtune.loops.twin import OfLoop, parametric_twin
+from feedtune.loops.twin import OfLoop, asked_before, parametric_twin
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
@@ -704,9 +704,6 @@ def _jet_columns(f, slope, curvature, u) -> list[np.ndarray]:
 _REPLAY_CACHE_SIZE = 256
 _replays: "OrderedDict[tuple, tuple]" = OrderedDict()
 _replays_lock = threading.Lock()
-#: (name, the function's key, the loop's structure) of every value :func:`replayed_at`
-#: was asked for (oldest first, as many as replays kept)
-_asked_at: dict[tuple, None] = {}
 
 
 def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True,
@@ -765,13 +762,7 @@ def replayed_at(name: str, fn, x) -> float | None:
     twin = parametric_twin(fn.loop)
     if twin is None:
         return None
-    key = (name, fn.key, twin.structure)
-    with _replays_lock:  # built from a structure's second value on: one is cheaper as a graph
-        first = key not in _asked_at
-        _asked_at[key] = None
-        while len(_asked_at) > _REPLAY_CACHE_SIZE:
-            del _asked_at[next(iter(_asked_at))]
-    if first:
+    if not asked_before(("at", name, fn.key, twin.structure)):  # one is cheaper as a graph
         return None
     replay = replayed(name, fn, 0, log_omega=False)
     return None if replay is None else float(replay[0][0](x)[0])

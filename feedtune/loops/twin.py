@@ -35,10 +35,13 @@ _TWIN_CACHE_SIZE = 64
 _twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol, it)
 _twins_lock = threading.Lock()  # a Dask worker runs specs in threads
 #: Functions of a structure's twin numbers (:func:`replayed_numbers`), an LRU: (name, structure)
-#: → the Function, None (asked for once: not built yet) or False (not replayable)
+#: → the Function, or False (not replayable)
 _NUMBERS_CACHE_SIZE = 256
 _numbers_functions: OrderedDict[tuple, object] = OrderedDict()
-_NEVER = object()  # a key not asked for before
+#: keys (a name, the loop's structure, …) of every Function asked for by :func:`asked_before`
+#: (oldest first, as many as Functions kept)
+_ASKED_SIZE = 256
+_asked: dict[tuple, None] = {}
 
 
 class NoTwin(Exception):
@@ -215,6 +218,19 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
     return Twin(structure, twin_loop, numbers, values)
 
 
+def asked_before(key: tuple) -> bool:
+    """Whether a Function of ``key`` (its name, the loop's structure, …) was asked for
+    before, recording that it is now. A Function replayed on a structure's twin is built
+    from its second request on: building it costs a few graphs, which a single tuning,
+    seeing one loop of a structure, would pay for one value (issue 15)."""
+    with _twins_lock:
+        before = key in _asked
+        _asked[key] = None
+        while len(_asked) > _ASKED_SIZE:
+            del _asked[next(iter(_asked))]
+    return before
+
+
 def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
     """``values_of(loop)`` (a list of the loop's expressions: matrices, coefficients) as DM
     numbers, through one Function of the loop structure's twin numbers, called with this
@@ -225,21 +241,18 @@ def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
 
     None where the caller evaluates the graph itself: a loop of symbols or without a
     twin, an expression that is not a Function of the twin's numbers, and the first
-    request of a (name, structure) (the Function is built at the second, as the replayed
-    peaks' are: a single tuning sees one loop of a structure and would pay for a build)."""
+    request of a (name, structure) (:func:`asked_before`)."""
     twin = parametric_twin(loop)
     if twin is None:
         return None
     key = (name, twin.structure)
     with _twins_lock:
-        function = _numbers_functions.get(key, _NEVER)
-        if function is _NEVER:
-            _numbers_functions[key] = None
-            while len(_numbers_functions) > _NUMBERS_CACHE_SIZE:
-                _numbers_functions.popitem(last=False)
-            return None
-        _numbers_functions.move_to_end(key)
+        function = _numbers_functions.get(key)
+        if function is not None:
+            _numbers_functions.move_to_end(key)
     if function is None:
+        if not asked_before(("numbers", *key)):
+            return None
         try:
             function = ca.Function(name, [twin.numbers],
                                    [ca.MX(v) for v in values_of(twin.loop)])
@@ -249,6 +262,8 @@ def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
             function = False
         with _twins_lock:
             _numbers_functions[key] = function
+            while len(_numbers_functions) > _NUMBERS_CACHE_SIZE:
+                _numbers_functions.popitem(last=False)
     if function is False:
         return None
     return function.call([ca.DM(twin.values)])

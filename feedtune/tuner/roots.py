@@ -133,7 +133,7 @@ class RootSearch:
         self.evaluations = len(self.grid)
         self.errors = np.array([p[0] for p in points], dtype=float)
         self.feasible = np.array([_feasible(p) for p in points])
-        self._points = {(z, math.copysign(1.0, z)): p for z, p in zip(self.grid.tolist(), points)}
+        self._points = {_key(z): p for z, p in zip(self.grid.tolist(), points)}
 
     @classmethod
     def for_problem(cls, problem, held: np.ndarray | None = None, axis: int = 0,
