@@ -37,6 +37,9 @@ from feedtune.tuner.types import (Bound, Outcome, Settings, StartOutcome, Term, 
 PENALTY = 1e9
 #: population per free tunable (scipy's popsize)
 POPULATION = 8
+#: the initial population: scipy's own Latin hypercube, its default ("sobol" imports
+#: ``scipy.stats``, 0.25–0.5 s of a process; benchmarks/tian_population.py compares them)
+INITIAL_POPULATION = "latinhypercube"
 #: generations per start at most (also bounded by Settings.max_iter and time_limit)
 GENERATIONS = 40
 
@@ -144,7 +147,7 @@ class SearchProblem:
         result = optimize.differential_evolution(
             self._score, list(zip(lower, upper)), seed=seed, popsize=POPULATION,
             maxiter=min(GENERATIONS, self.settings.max_iter), tol=1e-6, atol=0.0, polish=False,
-            init="sobol" if len(self.variables) > 1 else "latinhypercube", x0=x0,
+            init=INITIAL_POPULATION, x0=x0,
             callback=callback, updating="immediate")
         if stopped["time"]:
             return result.x, "Maximum_WallTime_Exceeded", TIME_LIMIT, int(result.nit)
