@@ -17,6 +17,7 @@ from __future__ import annotations
 import ast
 import inspect
 import json
+import os
 import subprocess
 import sys
 import typing
@@ -228,9 +229,10 @@ def imported_by_package(tmp_path_factory) -> dict[str, list[str]]:
     times (≈ 0.4 s of CPU; benchmarks/README.md "Branch h-tcli5")."""
     out = tmp_path_factory.mktemp("imported")
     packages = {package: _modules_under(package) for package, _ in RULES}
+    # BLAS on one thread: numpy starts no thread pool, so the interpreter forks with none
     subprocess.run([sys.executable, "-c", _IMPORTED_BY_PACKAGE, json.dumps(packages), str(out),
                     json.dumps(THIRD_PARTY)], capture_output=True, text=True, check=True,
-                   timeout=120)
+                   timeout=120, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
     return {package: (out / package).read_text(encoding="utf-8").split() for package in packages}
 
 
