@@ -61,13 +61,23 @@ class PulseModel:
         value = self.value / self.delta
         limit = None if self.ratio is None else value / self.ratio
         constant = self.plant.get("input", "step") == "step"
+        step = round(self._command(0.0) / self.delta) if constant else None
+        command, period, delta = self._command, self.period, self.delta
         reference, pulses, errors = [], [], []
         n, total, previous, at_rest = 0, 0.0, 0.0, False
+        # the clips as comparisons, each what min(max(x, lo), hi) returns, bit for bit
         for i in range(count):
-            r = round(self._command(i * self.period) / self.delta)
-            e = min(max(float(r - n), -value), value)
+            r = step if constant else round(command(i * period) / delta)
+            e = float(r - n)
+            if -value > e:
+                e = -value
+            if value < e:
+                e = value
             if limit is not None:
-                e = min(max(e, previous - limit), previous + limit)
+                if previous - limit > e:
+                    e = previous - limit
+                if previous + limit < e:
+                    e = previous + limit
             if constant and r == n and e == 0.0:
                 at_rest = True
                 break

@@ -12,4 +12,13 @@ def as_number(x) -> float:
 
 
 def as_numbers(xs) -> np.ndarray:
-    return np.array([as_number(x) for x in xs])
+    """:func:`as_number` of each of ``xs`` (scalars), in one evaluation of their column:
+    one CasADi Function for the list instead of one a number (the same operations on each
+    entry; the unit tests read hundreds of such lists)."""
+    xs = [getattr(x, "expr", x) for x in xs]
+    if all(isinstance(x, (int, float)) for x in xs):
+        return np.array([float(x) for x in xs])
+    column = ca.vertcat(*(ca.MX(x) for x in xs))
+    if column.numel() != len(xs):  # an entry that is not a scalar: each as as_number reads it
+        return np.array([as_number(x) for x in xs])
+    return np.array(ca.evalf(column)).ravel()

@@ -9,6 +9,7 @@ e_r/r = 1 − 1/√(1 + (2ζω/ω_n)² − 2(ω/ω_n)² + (ω/ω_n)⁴); eq 38 e
 
 from __future__ import annotations
 
+import functools
 import math
 
 import casadi as ca
@@ -57,10 +58,17 @@ def _h_continuous(gain, omega):
     return gain / (TAU * s**2 + s + gain)
 
 
+@functools.lru_cache(maxsize=None)
+def _van_loan(period: float) -> np.ndarray:
+    """expm([[A, B], [0, 0]] T) of Koren's plant: Φ = e[:2, :2], Γ = e[:2, 2]; once per
+    period (the radius scans below evaluate H at thousands of ω). Read only."""
+    augmented = np.array([[0.0, 1.0, 0.0], [0.0, -1 / TAU, 1 / TAU], [0.0, 0.0, 0.0]])
+    return expm(augmented * period)
+
+
 def _h_sampled(gain, period, delay, omega):
     """H(e^{jωT}) = G/(1 + G), G(z) = K z^{−d}[1 0](zI − Φ)⁻¹Γ, (Φ, Γ) by Van Loan expm."""
-    augmented = np.array([[0.0, 1.0, 0.0], [0.0, -1 / TAU, 1 / TAU], [0.0, 0.0, 0.0]])
-    e = expm(augmented * period)
+    e = _van_loan(period)
     z = np.exp(1j * omega * period)
     g = gain * (np.array([1.0, 0.0]) @ np.linalg.solve(z * np.eye(2) - e[:2, :2], e[:2, 2])) * z ** (-delay)
     return g / (1 + g)

@@ -15,6 +15,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from expression_values import as_numbers
 from feedtune.expr import PoleRegion, Supremum
 from feedtune.loops import linalg
 from feedtune.loops.loop import ContinuousLoop, Drive, IntegratorLag, SampledLoop
@@ -124,7 +125,8 @@ def random_roots(rng, n: int, stable: bool = True) -> np.ndarray:
 
 
 def numbers(values) -> np.ndarray:
-    return np.array([float(ca.evalf(ca.MX(v))) for v in values])
+    """Scalar expressions as floats, in one evaluation of their column (as_numbers)."""
+    return as_numbers(values)
 
 
 def test_factor_start_rebuilds_the_polynomial():

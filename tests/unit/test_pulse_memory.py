@@ -65,6 +65,7 @@ def test_the_search_keeps_no_loop_it_visited():
         [Bound("motor_acceleration_margin", lambda loop: margin().evaluate(loop, None), 0.0, None)],
         {}, Settings(multistart=1, max_iter=3))
     outcome = problem.solve()
-    gc.collect()
+    if any(r() is not None for r in made):  # a full collection of the worker's heap
+        gc.collect()  # (≈ 1 s in a full run) only where reference counting left a loop
     assert outcome.success and len(made) >= problem.evaluations > 10
     assert [r for r in made if r() is not None] == []

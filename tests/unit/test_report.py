@@ -48,6 +48,17 @@ def test_a_sampled_bode_ends_at_the_nyquist_frequency():
     assert high == pytest.approx(math.pi / 0.015625, rel=1e-5) and low < high / 100
 
 
+@pytest.fixture
+def without_layout(monkeypatch):
+    """Bode figures drawn without their final ``tight_layout``, which moves the axes on the
+    canvas by measuring every text and never the arrows' data coordinates these tests read
+    (as tests/unit/test_report_margins.py); the laid-out figure is
+    :func:`test_a_figure_is_laid_out_and_saved_by_one_renderer`'s."""
+    from matplotlib.figure import Figure
+
+    monkeypatch.setattr(Figure, "tight_layout", lambda self, *args, **kwargs: None)
+
+
 def _arrows(figure) -> dict[str, tuple]:
     """Label → (head (ω, value), tail (ω, value)) of the margin arrows on a Bode figure."""
     arrows, labels = [], {}
@@ -69,7 +80,7 @@ def _margins_result(gm, pm, crossover) -> dict:
 @pytest.mark.parametrize("gain, tau, period, delay", [(40.0, 0.02, 0.005, 1),
                                                       (18.0, 0.02, 1 / 64, 0)])
 def test_a_sampled_bode_draws_its_margins_where_python_control_finds_them(gain, tau, period,
-                                                                          delay):
+                                                                          delay, without_layout):
     """The GM arrow rises from −GM dB to 0 dB at the phase crossover, the PM arrow from
     −180° to −180° + PM at the gain crossover; python-control (c2d ZOH, margin) places
     both crossovers (1e-9 relative: Brent on both sides)."""
@@ -89,7 +100,7 @@ def test_a_sampled_bode_draws_its_margins_where_python_control_finds_them(gain, 
     assert (head, tail) == pytest.approx((-180.0 + pm, -180.0), abs=1e-12)
 
 
-def test_a_gain_margin_at_the_nyquist_frequency_is_marked_there():
+def test_a_gain_margin_at_the_nyquist_frequency_is_marked_there(without_layout):
     """K/s behind a ZOH: the phase reaches −180° at π/T (GM = 2/(KT)); the arrow stands at
     the Bode plot's end, π/T."""
     gain, period = 30.0, 0.01

@@ -100,7 +100,8 @@ def test_a_numeric_call_does_not_keep_its_function_alive():
     call = weakref.ref(numeric(f))
     function = weakref.ref(f)
     del f
-    gc.collect()
+    if function() is not None or call() is not None:  # a full collection of the
+        gc.collect()  # worker's heap only where reference counting left them
     assert function() is None and call() is None
 
 

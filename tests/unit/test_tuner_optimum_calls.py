@@ -59,5 +59,6 @@ def test_the_derivatives_do_not_keep_their_solver():
     optimum._derivative(solver, "nlp_jac_g")(s.x, s.p)
     gone = weakref.ref(solver)
     del solver
-    gc.collect()
+    if gone() is not None:  # a full collection of the worker's heap only where
+        gc.collect()  # reference counting left it
     assert gone() is None

@@ -142,11 +142,15 @@ def _graded_steps_loop(model):
     growth, last = continuous.GROWTH, len(order) - 1
     steps, t, h = [], 0.0, fine[0]
     k = 0
+    step, append = fine[0], steps.append  # fine[k], read once per k (the loop is long)
     while t < end:
         while k < last and dies[k] <= t:
             k += 1
-        h = min(h * growth, fine[k])
-        steps.append(h)
+            step = fine[k]
+        h = h * growth
+        if step < h:  # min(h·growth, fine[k]), as min() picks: the same number
+            h = step
+        append(h)
         t += h
     return np.asarray(steps)
 
