@@ -26,7 +26,6 @@ G. A. Baker, P. Graves-Morris, "Padé Approximants", 2nd ed., 1996, §1.2.
 from __future__ import annotations
 
 import cmath
-import functools
 import math
 from dataclasses import replace
 
@@ -377,23 +376,10 @@ class LinearModel(ContinuousModel):
         included), the dead time exact."""
         return self._open(omega), self._closed(omega)
 
-    def _grid(self) -> np.ndarray:
-        """ContinuousModel's frequency grid, once per model (every frequency measure reads
-        it; it takes the loop's eigenvalues)."""
-        grid = self.__dict__.get("_frequency_grid")
-        if grid is None:
-            grid = self.__dict__["_frequency_grid"] = super()._grid()
-        return grid
-
     def _gain(self, omega) -> np.ndarray:
         """|H(jω)/H(0)|, H(0) = 1 − (the ramp-free) C A⁻¹ B from the state space (once per
-        model: Brent's refinement of M_peak asks for one ω at a time)."""
+        model: ContinuousModel's ``_static_gain``)."""
         return np.abs(self._closed(omega) / self._static_gain)
-
-    @functools.cached_property
-    def _static_gain(self) -> float:
-        """H(0) [1] of :meth:`_gain`, −C A⁻¹ B on the reference's column."""
-        return -self.c @ np.linalg.solve(self.a, self.b[:, 0])
 
     # -- time responses: the transient about the steady solution -------------------------
 
