@@ -34,6 +34,15 @@ _GOLDEN_STEPS = 20
 #: hold the peak go on (:func:`_peak_of_numbers`); the bracket is then 5.6 % of a window
 _SCREEN_STEPS = 6
 _NEWTON_STEPS = 2
+#: requests of a Function derived from a replayed one (:meth:`Mapped.derived`: a peak's
+#: golden-section steps, its finish and jet, a crossing's bisections) answered by the float
+#: steps before it is built. A build costs ≈ 2–5 ms of CPU (golden 2.1, jet 3.5, crossing
+#: 3.9, finish 5.0) and saves ≈ 0.3 ms a crossing, ≈ 2 ms a peak's refinement
+#: (benchmarks/README.md, branches h-bev2 and h-tcon7): it pays back after several loops
+#: of a structure, not after one more. Built at the third request, a Function that two
+#: loops ask for once each builds nothing; a batch builds it at its third spec of a
+#: structure instead of its second (the same bits either way).
+DERIVED_AFTER = 2
 
 
 def _refine_windows(f, slope, curvature, free, centres, h, lower, upper):
@@ -631,20 +640,22 @@ class Mapped:
         """A :class:`Mapped` of ``build(self.fn, *sources)`` (a Function of the same
         inputs after the first, used as it is built), kept with this Function per ``key``
         and ``sources`` (Functions, compared by identity) and bound to this view's
-        ``fixed``; None at the first request, which builds nothing.
+        ``fixed``; None at the first :data:`DERIVED_AFTER` requests, which build nothing
+        (the caller takes the float steps, the same bits).
 
         Building takes milliseconds, which pay back only when the same Function serves
         several loops (a structure's replayed Functions, :func:`replayed`): the first
-        request finds out whether a second comes; a Function made for one loop sees one.
+        requests find out whether more come; a Function made for one loop sees few.
         """
         kept = self._derived.get(key)
         if kept is not None and (len(kept[0]) != len(sources) or any(
                 a is not b for a, b in zip(kept[0], sources))):
             kept = None
-        if kept is None:
-            self._derived[key] = (sources, 1)
-            return None
-        if not isinstance(kept[1], Mapped):
+        requests = 0 if kept is None else kept[1]
+        if not isinstance(requests, Mapped):
+            if requests < DERIVED_AFTER:
+                self._derived[key] = (sources, requests + 1)
+                return None
             kept = self._derived[key] = (sources, Mapped(build(self.fn, *sources), expand=False))
         return kept[1].bound(*self.fixed)
 

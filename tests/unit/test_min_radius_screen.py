@@ -19,6 +19,7 @@ import pytest
 from scipy.optimize import brentq
 
 import feedtune.objectives.contour.min_radius as min_radius
+from feedtune.loops.frequency import DERIVED_AFTER
 from feedtune.objectives import METRICS
 from feedtune.plants.software_servo import SoftwareServo, SoftwareServoParams
 from feedtune.validate.software_servo import ServoModel
@@ -60,7 +61,8 @@ LOOPS = [(KOREN, "reference_pulse", gain, None, 0) for gain in (0.1, 1.0, 12.5, 
 def _values(loop, monkeypatch) -> tuple[float, float, list]:
     """(r_min screened, r_min of the full scan, the screen's value rows) [m]."""
     metric = METRICS["min_radius"]()
-    metric.evaluate(loop, None)  # a structure's jet is built at its second request
+    for _ in range(DERIVED_AFTER):  # a structure's jet is built at the next request
+        metric.evaluate(loop, None)
     rows, screened = [], min_radius._screened
 
     def kept(*args):

@@ -96,7 +96,7 @@ def test_a_structures_crossing_is_one_call_with_the_float_steps_bits(kind, monke
             (f, slope), _ = frequency.replayed("test_calls_x", fn, 1)
             grid = np.log(frequency.log_grid(loop.frequency_band))
             values = f(grid)
-            for _ in range(2):  # the second request builds the Function
+            for _ in range(frequency.DERIVED_AFTER):  # floats; the next request builds it
                 frequency._first_crossing_of_numbers(f, slope, grid, values)
             with monkeypatch.context() as patch:
                 calls = _counting(patch)

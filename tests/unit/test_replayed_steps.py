@@ -1,6 +1,6 @@
 """The refinements of a structure's replayed Functions in a few calls (issue 15, branch h-bev2).
 
-From a structure's second peak or crossing on, the golden-section steps of every window and
+From a structure's third peak or crossing on (``frequency.DERIVED_AFTER``), the golden-section steps of every window and
 the 32 bisection steps run as folded CasADi Functions and f, f′, f″ as one jet
 (``feedtune.loops.frequency.Mapped.derived``), and the radial error and the margins read
 the loop's response at one ω through a Function replayed on the loop's twin
@@ -54,6 +54,8 @@ def test_folded_golden_steps_give_the_bits_of_the_float_steps(kind):
         seen = f(grid)
         for steps in (frequency._SCREEN_STEPS, frequency._GOLDEN_STEPS):
             floats = frequency._golden_steps_of_numbers(f, steps, a, b, seen)  # first: floats
+            for _ in range(frequency.DERIVED_AFTER - 1):  # floats until the build
+                frequency._golden_steps_of_numbers(f, steps, a, b, seen)
             folded = frequency._golden_steps_of_numbers(f, steps, a, b, seen)  # then built
             assert isinstance(f._derived["golden", steps][1], frequency.Mapped)
             for x, y in zip(floats[:3], folded[:3]):
@@ -81,6 +83,8 @@ def test_the_jet_gives_the_bits_of_f_and_its_derivatives(kind):
         grid = np.log(frequency.log_grid(loop.frequency_band))
         points = np.concatenate([grid, (grid[1:] + grid[:-1]) / 2])
         separate = frequency._jet_columns(f, slope, curvature, points)  # first: three calls
+        for _ in range(frequency.DERIVED_AFTER - 1):  # three calls until the build
+            frequency._jet_columns(f, slope, curvature, points)
         jet = frequency._jet_columns(f, slope, curvature, points)  # then the CSE'd jet
         assert f._derived["jet",][1].fn.is_a("SXFunction")
         for x, y, g in zip(separate, jet, (f, slope, curvature)):
@@ -98,19 +102,23 @@ def test_folded_bisections_give_the_bits_of_the_float_steps(kind):
         below = np.flatnonzero(f(grid)[1:] < 0)
         k = int(below[0]) + 1 if below.size else 1
         floats = frequency._bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
+        for _ in range(frequency.DERIVED_AFTER - 1):  # floats until the build
+            frequency._bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
         folded = frequency._bisections_of_numbers(f, float(grid[k - 1]), float(grid[k]))
         assert isinstance(f._derived["bisection", frequency._BISECTIONS][1], frequency.Mapped)
         assert floats == folded
 
 
-def test_a_structures_second_peak_takes_a_few_calls(monkeypatch):
-    """The point of it: the first loop of a structure refines in floats (≈ 100 calls of
-    f, f′, f″); from the second on a peak is a few calls of Functions kept with its
-    structure's, with the same result as the floats' steps on that loop."""
+def test_a_structures_third_peak_takes_a_few_calls(monkeypatch):
+    """The point of it: the first loops of a structure refine in floats (≈ 100 calls of
+    f, f′, f″; ``frequency.DERIVED_AFTER`` of them); from then on a peak is a few calls of
+    Functions kept with its structure's, with the same result as the floats' steps on that
+    loop."""
     frequency._replays.clear()
-    first, second = _loops("sampled", 2)
+    *first, second = _loops("sampled", frequency.DERIVED_AFTER + 1)
     fn = frequency_domain.normalised_gain_squared
-    frequency.peak(fn(first), first.frequency_band, "test_calls")  # floats; asks once
+    for loop in first:  # floats; each asks once
+        frequency.peak(fn(loop), loop.frequency_band, "test_calls")
     calls = []
     trigger = frequency.Buffered.__call__
     monkeypatch.setattr(frequency.Buffered, "__call__",

@@ -62,7 +62,7 @@ class MinRadius(Metric):
         low = ca.log(loop.drive.max_velocity / loop.velocity_constant)
         replay = replayed("min_radius_excess", OfLoop(_excess, loop), 0, log_omega=False)
         if replay is not None:  # a loop of numbers whose structure's Function is built
-            excess = replay[0][0]  # the jet: from a structure's second loop on
+            excess = replay[0][0]  # the jet: from a structure's third loop on
             jet = excess.derived(("jet",), lambda _: _jet_function(loop))
             return ca.DM(_exact(_vectorised(excess), to_float(low), jet))
         log_r = ca.MX.sym("log_r")
