@@ -72,7 +72,8 @@ def main() -> None:
             elapsed = time.perf_counter() - begun
             value = result.metrics["pulse_settling_time"].value
             valid = result.success and result.validation["ok"]
-            cells.append(f"{value * 1e3:9.4f} ms {'valid' if valid else 'NOT valid':>9} {elapsed:5.2f} s")
+            verdict = "valid" if valid else "NOT valid"
+            cells.append(f"{value * 1e3:9.4f} ms {verdict:>9} {elapsed:5.2f} s")
             values.append(value)
             times[side].append(elapsed)
         gaps.append(values[0] / values[1] - 1.0)

@@ -153,7 +153,8 @@ def main() -> None:
         print(f"  new - old objective: {gap * 1e6:+.2f} us = {gap / period:+.2f} of the baseline's "
               f"sampling period ({period * 1e6:.2f} us): "
               f"{'within one period' if abs(gap) <= period else 'NOT within one period'}")
-        print(f"  2 starts identical to 1 start: {new_r['tuned'] == two_r['tuned'] and new_r['objective'] == two_r['objective']}")
+        same = new_r["tuned"] == two_r["tuned"] and new_r["objective"] == two_r["objective"]
+        print(f"  2 starts identical to 1 start: {same}")
         print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
         if args.profile:
             print("\nprofile of the new side (one tuning):")

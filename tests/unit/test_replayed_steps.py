@@ -1,7 +1,8 @@
 """The refinements of a structure's replayed Functions in a few calls (issue 15, branch h-bev2).
 
-From a structure's third peak or crossing on (``frequency.DERIVED_AFTER``), the golden-section steps of every window and
-the 32 bisection steps run as folded CasADi Functions and f, f′, f″ as one jet
+From a structure's third peak or crossing on (``frequency.DERIVED_AFTER``), the
+golden-section steps of every window and the 32 bisection steps run as folded CasADi
+Functions and f, f′, f″ as one jet
 (``feedtune.loops.frequency.Mapped.derived``), and the radial error and the margins read
 the loop's response at one ω through a Function replayed on the loop's twin
 (``frequency.replayed_at``). Each must give the bits of the float steps and of the graph
