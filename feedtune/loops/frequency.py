@@ -15,12 +15,11 @@ from __future__ import annotations
 
 import functools
 import math
-import threading
-from collections import OrderedDict
 
 from feedtune.buffers import ThreadBuffers
 from feedtune.lazy import ca, np
 from feedtune.loops.twin import OfLoop, asked_before, parametric_twin
+from feedtune.lru import Lru
 
 #: grid density [points per decade]: 5.9 % spacing, enough to bracket peaks with ζ ≳ 0.02
 POINTS_PER_DECADE = 40
@@ -713,8 +712,7 @@ def _jet_columns(f, slope, curvature, u) -> list[np.ndarray]:
 #: replayed Functions kept (an LRU): (name, the function's key, derivatives, level,
 #: the loop's structure) → (Mapped of f and its derivatives, Mapped of the value at ω = 0)
 _REPLAY_CACHE_SIZE = 256
-_replays: "OrderedDict[tuple, tuple]" = OrderedDict()
-_replays_lock = threading.Lock()
+_replays = Lru(_REPLAY_CACHE_SIZE)
 
 
 def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: bool = True,
@@ -737,19 +735,13 @@ def replayed(name: str, fn, derivatives: int, level: float = 0.0, log_omega: boo
     if twin is None:
         return None
     key = (name, fn.key, derivatives, level, log_omega, at_zero, twin.structure)
-    with _replays_lock:
-        built = _replays.get(key)
-        if built is not None:
-            _replays.move_to_end(key)
+    built = _replays.get(key)
     if built is None:
         try:
             built = _replay_functions(name, fn, derivatives, level, log_omega, at_zero, twin)
         except (TypeError, NotImplementedError, RuntimeError, ValueError, ArithmeticError):
             built = False  # a number used as more than arithmetic: not replayed
-        with _replays_lock:
-            _replays[key] = built
-            while len(_replays) > _REPLAY_CACHE_SIZE:
-                _replays.popitem(last=False)
+        _replays.put(key, built)
     if built is False:
         return None
     rows, zero = built

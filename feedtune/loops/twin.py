@@ -23,25 +23,24 @@ then builds on the loop of numbers as before.
 from __future__ import annotations
 
 import dataclasses
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Callable
 
 from feedtune.lazy import ca, np
+from feedtune.lru import Lru
 
-#: twins kept (an LRU): one per loop structure, a batch holds a few
+#: twins kept: one per loop structure, a batch holds a few; structure → (twin loop, numbers
+#: symbol, the structure)
 _TWIN_CACHE_SIZE = 64
-_twins: OrderedDict[tuple, tuple] = OrderedDict()  # structure → (twin loop, numbers symbol, it)
-_twins_lock = threading.Lock()  # a Dask worker runs specs in threads
-#: Functions of a structure's twin numbers (:func:`replayed_numbers`), an LRU: (name, structure)
-#: → the Function, or False (not replayable)
+_twins = Lru(_TWIN_CACHE_SIZE)
+#: Functions of a structure's twin numbers (:func:`replayed_numbers`): (name, structure) →
+#: the Function, or False (not replayable)
 _NUMBERS_CACHE_SIZE = 256
-_numbers_functions: OrderedDict[tuple, object] = OrderedDict()
-#: keys (a name, the loop's structure, …) of every Function asked for by :func:`asked_before`
-#: (oldest first, as many as Functions kept)
+_numbers_functions = Lru(_NUMBERS_CACHE_SIZE)
+#: keys (a name, the loop's structure, …) of the Functions asked for (:func:`asked_before`),
+#: as many as Functions kept
 _ASKED_SIZE = 256
-_asked: dict[tuple, None] = {}
+_asked = Lru(_ASKED_SIZE)
 
 
 class NoTwin(Exception):
@@ -183,10 +182,7 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
     kept = tuple(tuple(x if x in CONSTANTS else None for x in leaf) for leaf in entries)
     values = np.array([x for leaf in entries for x in leaf if x not in CONSTANTS], float)
     structure = (structure, kept)
-    with _twins_lock:
-        kept_twin = _twins.get(structure)
-        if kept_twin is not None:
-            _twins.move_to_end(structure)
+    kept_twin = _twins.get(structure)
     if kept_twin is not None:
         # the structure kept with the twin, not this loop's equal copy: the keys of the
         # Functions replayed on it (``frequency.replayed``: ≈ 10 look-ups a tuned design)
@@ -211,10 +207,7 @@ def _twin_of(loop, structure: tuple, items: list) -> Twin:
             return ca.MX(value.sparsity(), ca.vertcat(*parts))
 
         twin_loop = _rebuild(loop, take)
-        with _twins_lock:
-            _twins[structure] = (twin_loop, numbers, structure)
-            while len(_twins) > _TWIN_CACHE_SIZE:
-                _twins.popitem(last=False)
+        _twins.put(structure, (twin_loop, numbers, structure))
     return Twin(structure, twin_loop, numbers, values)
 
 
@@ -223,11 +216,8 @@ def asked_before(key: tuple) -> bool:
     before, recording that it is now. A Function replayed on a structure's twin is built
     from its second request on: building it costs a few graphs, which a single tuning,
     seeing one loop of a structure, would pay for one value (issue 15)."""
-    with _twins_lock:
-        before = key in _asked
-        _asked[key] = None
-        while len(_asked) > _ASKED_SIZE:
-            del _asked[next(iter(_asked))]
+    before = _asked.get(key, False)
+    _asked.put(key, True)
     return before
 
 
@@ -246,10 +236,7 @@ def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
     if twin is None:
         return None
     key = (name, twin.structure)
-    with _twins_lock:
-        function = _numbers_functions.get(key)
-        if function is not None:
-            _numbers_functions.move_to_end(key)
+    function = _numbers_functions.get(key)
     if function is None:
         if not asked_before(("numbers", *key)):
             return None
@@ -260,10 +247,7 @@ def replayed_numbers(loop, name: str, values_of: Callable) -> list | None:
             if "are free" not in str(exc):
                 raise
             function = False
-        with _twins_lock:
-            _numbers_functions[key] = function
-            while len(_numbers_functions) > _NUMBERS_CACHE_SIZE:
-                _numbers_functions.popitem(last=False)
+        _numbers_functions.put(key, function)
     if function is False:
         return None
     return function.call([ca.DM(twin.values)])
@@ -278,8 +262,7 @@ def replayed_expressions(loop, name: str) -> list | None:
     twin = parametric_twin(loop)
     if twin is None:
         return None
-    with _twins_lock:
-        function = _numbers_functions.get((name, twin.structure))
+    function = _numbers_functions.get((name, twin.structure))
     if not isinstance(function, ca.Function):
         return None
     return function.call([ca.MX(ca.DM(twin.values))])
